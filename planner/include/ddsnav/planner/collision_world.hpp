@@ -1,0 +1,80 @@
+#pragma once
+// What a planner (or smoother) may ask of the world. Three implementations sit behind it:
+// exact scenario geometry, a set of obstacle ellipses/ellipsoids (perception), and an OctoMap (mapper).
+// The robot radius is part of the world: isFree(p) means "a disc/ball of robot_radius at p is inside the
+// bounds and touches no obstacle".
+
+#include "ddsnav/planner/scenario.hpp"
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace ddsnav::planner {
+
+// An obstacle seen from a query point, for planners that use contact information (GART, RRRT, APGD).
+struct NearbyObstacle {
+  int id = -1;                 // stable within one world
+  Vec3 nearest_point;          // closest point of the obstacle's surface to the query point
+  double distance = 0.0;       // from the query point to nearest_point (0 when inside)
+};
+
+class CollisionWorld {
+ public:
+  virtual ~CollisionWorld() = default;
+
+  virtual int dimensions() const = 0;
+  virtual Vec3 boundsMin() const = 0;
+  virtual Vec3 boundsMax() const = 0;
+  virtual double robotRadius() const = 0;
+
+  // A robot-sized disc/ball centred at p is inside the bounds and collision free.
+  virtual bool isFree(const Vec3& p) const = 0;
+
+  // Every state on the straight segment a-b is free. Implementations check at a step no larger than
+  // checkResolution(), and always check both ends.
+  virtual bool isSegmentFree(const Vec3& a, const Vec3& b) const;
+
+  // Distance from the robot's boundary to the nearest obstacle (negative when penetrating);
+  // bounds are not obstacles here.
+  virtual double clearance(const Vec3& p) const = 0;
+
+  // Obstacles whose surface is within `range` of p, nearest first.
+  virtual std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const = 0;
+
+  // Step used by isSegmentFree; small enough for the narrowest shipped passage (0.3 m tunnel).
+  virtual double checkResolution() const { return check_resolution_; }
+  void setCheckResolution(double r) { check_resolution_ = r; }
+
+  // Count of isFree evaluations (segment checks count each sampled state): the "validity checks" metric.
+  std::uint64_t validityChecks() const { return checks_.load(std::memory_order_relaxed); }
+  void resetValidityChecks() { checks_.store(0, std::memory_order_relaxed); }
+
+ protected:
+  void countCheck(std::uint64_t n = 1) const { checks_.fetch_add(n, std::memory_order_relaxed); }
+
+ private:
+  double check_resolution_ = 0.05;
+  mutable std::atomic<std::uint64_t> checks_{0};
+};
+
+// Exact geometry of a scenario's obstacles.
+std::unique_ptr<CollisionWorld> makeScenarioWorld(const Scenario& scenario);
+
+// An ellipse/ellipsoid per obstacle (what perception publishes), inside the given bounds.
+struct EllipsoidObstacle {
+  int id = -1;
+  Vec3 center = Vec3::Zero();
+  Vec3 semi_axes = Vec3::Zero();                     // along the columns of `axes`
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  // orthonormal, columns are the principal axes
+};
+std::unique_ptr<CollisionWorld> makeEllipsoidWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
+                                                   double robot_radius, std::vector<EllipsoidObstacle> obstacles);
+
+// An OctoMap octree serialised with OcTree::writeBinary (the map/octomap message's bytes).
+// Throws std::runtime_error when the bytes are not a binary octree.
+std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
+                                                 double robot_radius, const std::vector<std::uint8_t>& octree_binary);
+
+}  // namespace ddsnav::planner
