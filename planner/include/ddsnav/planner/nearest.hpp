@@ -1,0 +1,113 @@
+#pragma once
+// Nearest-neighbour index over tree positions (2-D or 3-D) with incremental insertion: nanoflann's
+// dynamic k-d tree (a logarithmic set of static trees, rebuilt in powers of two), so insertion is
+// amortised O(log^2 n) and queries O(log^2 n). Every planner uses it; none scans its nodes linearly.
+//
+// Not thread-safe: query buffers are reused so the planners' inner loops do not allocate.
+
+#include "ddsnav/planner/scenario.hpp"
+
+#include <nanoflann.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+namespace ddsnav::planner {
+
+class NearestIndex {
+ public:
+  explicit NearestIndex(int dimensions) : dims_(dimensions), cloud_(std::make_unique<Cloud>()) {
+    if (dims_ != 2 && dims_ != 3) throw std::invalid_argument("NearestIndex: dimensions must be 2 or 3");
+    if (dims_ == 2) tree2_ = std::make_unique<Tree<2>>(2, *cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(8), kMaxPoints);
+    else tree3_ = std::make_unique<Tree<3>>(3, *cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(8), kMaxPoints);
+  }
+
+  int dimensions() const { return dims_; }
+  std::size_t size() const { return cloud_->points.size(); }
+  bool empty() const { return cloud_->points.empty(); }
+  Vec3 point(int i) const {
+    const auto& p = cloud_->points[static_cast<std::size_t>(i)];
+    return Vec3(p[0], p[1], p[2]);
+  }
+
+  // Adds a position; returns its index (0, 1, 2, ... in insertion order).
+  int add(const Vec3& p) {
+    const auto index = static_cast<std::uint32_t>(cloud_->points.size());
+    cloud_->points.push_back({p.x(), p.y(), dims_ == 3 ? p.z() : 0.0});
+    if (tree2_) tree2_->addPoints(index, index);
+    else tree3_->addPoints(index, index);
+    return static_cast<int>(index);
+  }
+
+  // Index of the nearest stored position, -1 when empty.
+  int nearest(const Vec3& q) const {
+    if (empty()) return -1;
+    std::uint32_t index = 0;
+    double dist2 = 0.0;
+    nanoflann::KNNResultSet<double, std::uint32_t> result(1);
+    result.init(&index, &dist2);
+    search(result, q);
+    return static_cast<int>(index);
+  }
+
+  // The k nearest, nearest first (fewer when the index holds fewer).
+  void kNearest(const Vec3& q, std::size_t k, std::vector<int>& out) const {
+    out.clear();
+    k = std::min(k, size());
+    if (k == 0) return;
+    knn_index_.resize(k);
+    knn_dist_.resize(k);
+    nanoflann::KNNResultSet<double, std::uint32_t> result(k);
+    result.init(knn_index_.data(), knn_dist_.data());
+    search(result, q);
+    for (std::size_t i = 0; i < result.size(); ++i) out.push_back(static_cast<int>(knn_index_[i]));
+  }
+
+  // Every position strictly within distance r, nearest first (ties by index, so results are deterministic).
+  void withinRadius(const Vec3& q, double r, std::vector<int>& out) const {
+    out.clear();
+    if (empty() || !(r > 0.0)) return;
+    nanoflann::RadiusResultSet<double, std::uint32_t> result(r * r, radius_hits_);
+    search(result, q);
+    std::sort(radius_hits_.begin(), radius_hits_.end(), [](const auto& a, const auto& b) {
+      return a.second != b.second ? a.second < b.second : a.first < b.first;
+    });
+    for (const auto& hit : radius_hits_) out.push_back(static_cast<int>(hit.first));
+  }
+
+ private:
+  static constexpr std::size_t kMaxPoints = std::size_t{1} << 26;
+
+  struct Cloud {
+    std::vector<std::array<double, 3>> points;
+    std::size_t kdtree_get_point_count() const { return points.size(); }
+    double kdtree_get_pt(std::size_t i, std::size_t d) const { return points[i][d]; }
+    template <class Box>
+    bool kdtree_get_bbox(Box&) const { return false; }
+  };
+  template <int D>
+  using Tree = nanoflann::KDTreeSingleIndexDynamicAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, D,
+                                                          std::uint32_t>;
+
+  template <class Result>
+  void search(Result& result, const Vec3& q) const {
+    const double query[3] = {q.x(), q.y(), dims_ == 3 ? q.z() : 0.0};
+    if (tree2_) tree2_->findNeighbors(result, query, nanoflann::SearchParams());
+    else tree3_->findNeighbors(result, query, nanoflann::SearchParams());
+  }
+
+  int dims_;
+  std::unique_ptr<Cloud> cloud_;  // on the heap: the trees keep a reference, so moves stay safe
+  std::unique_ptr<Tree<2>> tree2_;
+  std::unique_ptr<Tree<3>> tree3_;
+  mutable std::vector<std::uint32_t> knn_index_;
+  mutable std::vector<double> knn_dist_;
+  mutable std::vector<std::pair<std::uint32_t, double>> radius_hits_;
+};
+
+}  // namespace ddsnav::planner
