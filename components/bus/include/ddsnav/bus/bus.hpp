@@ -1,0 +1,292 @@
+// ddsnav bus: publish/subscribe of the generated message classes over Fast DDS or Cyclone DDS, the vendor
+// chosen at run time per process. No vendor header is included here; both vendors are linked in.
+//
+//   #include <ddsnav/bus/bus.hpp>
+//   #include <ddsnav/msg/messages.hpp>
+//   using namespace ddsnav;
+//
+//   bus::Participant bus({.vendor = bus::parseVendor("cyclonedds"), .domain_id = 7, .name = "mapper"});
+//   auto pub = bus.publisher<msg::OccupancyMap>("map/octomap", bus::Qos::state());
+//   bus::Subscription sub = bus.subscribe<msg::PointCloud>("sensors/points", bus::Qos::sensorData(),
+//       [&](const msg::PointCloud& cloud) { /* runs on a bus thread */ });
+//   msg::OccupancyMap map;  ...  pub.publish(map);
+//
+//   // Tests and simple loops: a queue instead of a callback.
+//   bus::Inbox<msg::Path> paths = bus.inbox<msg::Path>("planning/path", bus::Qos::state());
+//   std::optional<msg::Path> p = paths.wait(std::chrono::seconds(5));
+//
+//   // Raw (serialized) data, for record/replay: find what is published, take and give bytes.
+//   std::optional<bus::TopicInfo> t = bus.waitForTopic("sensors/points", std::chrono::seconds(2));
+//   bus::Subscription rec = bus.subscribeRaw(*t, bus::Qos::sensorData(), [](const bus::RawSample& s) {});
+//   bus::RawPublisher out = bus.rawPublisher(*t, bus::Qos::sensorData());
+//   out.publish(bytes);  // 4-byte encapsulation + XCDR1 body, as RawSample::payload
+//
+// Threads: callbacks run on the vendor's receive/listener threads. One subscription's callbacks never
+// overlap, different subscriptions' callbacks may run concurrently. Keep them short; publishing from a
+// callback is fine. A Subscription (or Inbox) stops its callbacks when destroyed; destroy subscriptions
+// before the state their callbacks use.
+//
+// Network: every participant is loopback-only with no multicast unless an override is given
+// (docs/bus.md): DDSNAV_FASTDDS_PROFILES (Fast DDS XML file whose default participant profile is used)
+// or DDSNAV_CYCLONEDDS_CONFIG (Cyclone XML / file:// URI).
+#pragma once
+
+#include <ddsnav/msg/type_support.hpp>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace ddsnav::bus {
+
+// Every error the bus reports: unknown vendor, domain out of range, topic type mismatch, failed write...
+class BusError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class Vendor { FastDDS, CycloneDDS };
+
+// "fastdds" or "cyclonedds" (also "fast", "cyclone"); throws BusError naming the accepted values.
+Vendor parseVendor(std::string_view name);
+std::string_view vendorName(Vendor vendor);  // "fastdds" | "cyclonedds"
+// DDSNAV_DDS from the environment, or fallback when unset. Throws BusError when set to something unknown.
+Vendor vendorFromEnvironment(Vendor fallback = Vendor::FastDDS);
+
+// RTPS port mapping (7400 + 250 * domain + ...) keeps a domain id within [0, 232].
+inline constexpr int kMaxDomainId = 232;
+
+enum class Reliability { BestEffort, Reliable };
+enum class Durability { Volatile, TransientLocal };
+
+// QoS by intent. History is always KEEP_LAST `depth` (per instance for keyed types); for transient-local
+// topics the same depth is what late joiners receive on both vendors (Cyclone's durability service
+// history is set to it explicitly). Writer and reader of a topic should use the same profile.
+struct Qos {
+  Reliability reliability = Reliability::Reliable;
+  Durability durability = Durability::Volatile;
+  int depth = 10;
+
+  // Best effort, volatile: newest data matters, old data is useless (clouds, vehicle state, clock).
+  static Qos sensorData(int depth = 5) { return {Reliability::BestEffort, Durability::Volatile, depth}; }
+  // Reliable, volatile: commands and requests that must arrive (plan requests, velocity commands).
+  static Qos commands(int depth = 10) { return {Reliability::Reliable, Durability::Volatile, depth}; }
+  // Reliable, transient local: latched state a late joiner needs (map, obstacles, path, status).
+  static Qos state(int depth = 1) { return {Reliability::Reliable, Durability::TransientLocal, depth}; }
+};
+
+struct ParticipantOptions {
+  Vendor vendor = Vendor::FastDDS;
+  int domain_id = 0;            // [0, kMaxDomainId]
+  std::string name = "ddsnav";  // participant name, shown by DDS tools
+  // Fast DDS only: false leaves only UDPv4 on loopback (benchmarks compare SHM against UDP).
+  bool fast_shared_memory = true;
+};
+
+// What a subscriber learns besides the sample itself.
+struct SampleInfo {
+  std::int64_t source_timestamp_ns = 0;  // writer's clock when the sample was written
+};
+
+// One serialized sample as carried on the wire.
+struct RawSample {
+  std::string topic;
+  std::string type_name;
+  std::span<const std::uint8_t> payload;  // encapsulation (4 bytes) + XCDR1 body; valid during the callback
+  std::int64_t source_timestamp_ns = 0;
+};
+
+// A topic seen on the bus (from discovery of publishers, local ones included).
+struct TopicInfo {
+  std::string topic;
+  std::string type_name;
+  bool keyed = false;
+  bool operator==(const TopicInfo&) const = default;
+};
+
+namespace detail {
+class ParticipantImpl;
+class WriterImpl;
+class ReaderImpl;
+using SampleCallback = std::function<void(const void* sample, const SampleInfo& info)>;
+using RawCallback = std::function<void(const RawSample& sample)>;
+void write(WriterImpl& writer, const void* sample);
+std::size_t matchedReaders(const WriterImpl& writer);
+std::size_t matchedWriters(const ReaderImpl& reader);
+// Polls the matched count every few ms until it is >= count; false on timeout.
+bool waitMatched(const std::function<std::size_t()>& matched, std::size_t count,
+                 std::chrono::milliseconds timeout);
+}  // namespace detail
+
+// Ends the subscription when destroyed: after the destructor returns, no callback runs.
+class Subscription {
+ public:
+  Subscription() = default;
+  explicit Subscription(std::shared_ptr<detail::ReaderImpl> impl) : impl_(std::move(impl)) {}
+  std::size_t matchedPublishers() const { return impl_ ? detail::matchedWriters(*impl_) : 0; }
+  bool waitForPublishers(std::size_t count, std::chrono::milliseconds timeout) const {
+    return detail::waitMatched([this] { return matchedPublishers(); }, count, timeout);
+  }
+  explicit operator bool() const { return impl_ != nullptr; }
+
+ private:
+  std::shared_ptr<detail::ReaderImpl> impl_;
+};
+
+template <class T>
+class Publisher {
+ public:
+  Publisher() = default;
+  explicit Publisher(std::shared_ptr<detail::WriterImpl> impl) : impl_(std::move(impl)) {}
+  // Serializes once and hands the bytes to the vendor. Throws BusError when the vendor refuses.
+  void publish(const T& sample) { detail::write(*impl_, &sample); }
+  std::size_t matchedSubscribers() const { return detail::matchedReaders(*impl_); }
+  bool waitForSubscribers(std::size_t count, std::chrono::milliseconds timeout) const {
+    return detail::waitMatched([this] { return matchedSubscribers(); }, count, timeout);
+  }
+
+ private:
+  std::shared_ptr<detail::WriterImpl> impl_;
+};
+
+// Publishes serialized samples of one topic/type (replay, bridges).
+class RawPublisher {
+ public:
+  RawPublisher() = default;
+  explicit RawPublisher(std::shared_ptr<detail::WriterImpl> impl) : impl_(std::move(impl)) {}
+  // payload: encapsulation + XCDR1 body, e.g. a RawSample::payload. Throws BusError when rejected
+  // (Cyclone checks the bytes against the type).
+  void publish(std::span<const std::uint8_t> payload);
+  std::size_t matchedSubscribers() const { return detail::matchedReaders(*impl_); }
+  bool waitForSubscribers(std::size_t count, std::chrono::milliseconds timeout) const {
+    return detail::waitMatched([this] { return matchedSubscribers(); }, count, timeout);
+  }
+
+ private:
+  std::shared_ptr<detail::WriterImpl> impl_;
+};
+
+// A bounded queue of received samples (oldest dropped when full), for tests and simple loops.
+template <class T>
+class Inbox {
+ public:
+  struct State {
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::deque<T> samples;
+    std::size_t capacity = 0;
+    std::size_t received = 0;
+  };
+
+  Inbox() = default;
+  Inbox(std::shared_ptr<State> state, Subscription subscription)
+      : state_(std::move(state)), subscription_(std::move(subscription)) {}
+
+  // The oldest queued sample, waiting up to timeout for one.
+  std::optional<T> wait(std::chrono::milliseconds timeout) {
+    std::unique_lock lock(state_->mutex);
+    if (!state_->changed.wait_for(lock, timeout, [&] { return !state_->samples.empty(); })) return std::nullopt;
+    T sample = std::move(state_->samples.front());
+    state_->samples.pop_front();
+    return sample;
+  }
+  std::optional<T> tryTake() { return wait(std::chrono::milliseconds(0)); }
+  std::size_t size() const {
+    std::lock_guard lock(state_->mutex);
+    return state_->samples.size();
+  }
+  std::size_t received() const {  // all samples delivered so far, dropped ones included
+    std::lock_guard lock(state_->mutex);
+    return state_->received;
+  }
+  const Subscription& subscription() const { return subscription_; }
+
+ private:
+  std::shared_ptr<State> state_;
+  Subscription subscription_;
+};
+
+class Participant {
+ public:
+  // Throws BusError for a domain out of range or when the vendor cannot create the participant.
+  explicit Participant(const ParticipantOptions& options);
+  ~Participant();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  Vendor vendor() const;
+  int domainId() const;
+  const std::string& name() const;
+
+  template <class T>
+  Publisher<T> publisher(const std::string& topic, const Qos& qos) {
+    static_assert(msg::IsMessage<T>::value, "publisher<T>: T must be a generated ddsnav::msg class");
+    return Publisher<T>(createWriter(msg::type_support<T>(), topic, qos));
+  }
+
+  template <class T, class Callback>
+  Subscription subscribe(const std::string& topic, const Qos& qos, Callback callback) {
+    static_assert(msg::IsMessage<T>::value, "subscribe<T>: T must be a generated ddsnav::msg class");
+    detail::SampleCallback erased;
+    if constexpr (std::is_invocable_v<Callback&, const T&, const SampleInfo&>) {
+      erased = [cb = std::move(callback)](const void* s, const SampleInfo& info) mutable {
+        cb(*static_cast<const T*>(s), info);
+      };
+    } else {
+      static_assert(std::is_invocable_v<Callback&, const T&>,
+                    "subscribe<T>: callback must take (const T&) or (const T&, const SampleInfo&)");
+      erased = [cb = std::move(callback)](const void* s, const SampleInfo&) mutable {
+        cb(*static_cast<const T*>(s));
+      };
+    }
+    return Subscription(createReader(msg::type_support<T>(), topic, qos, std::move(erased)));
+  }
+
+  template <class T>
+  Inbox<T> inbox(const std::string& topic, const Qos& qos, std::size_t capacity = 1000) {
+    auto state = std::make_shared<typename Inbox<T>::State>();
+    state->capacity = capacity;
+    Subscription sub = subscribe<T>(topic, qos, [state](const T& sample) {
+      {
+        std::lock_guard lock(state->mutex);
+        if (state->samples.size() >= state->capacity) state->samples.pop_front();
+        state->samples.push_back(sample);
+        ++state->received;
+      }
+      state->changed.notify_all();
+    });
+    return Inbox<T>(std::move(state), std::move(sub));
+  }
+
+  // Raw API. The type must be known to this build for Cyclone (and for keyed topics on Fast DDS, to
+  // compute key hashes); Fast DDS carries unknown unkeyed types as opaque bytes.
+  RawPublisher rawPublisher(const TopicInfo& topic, const Qos& qos);
+  Subscription subscribeRaw(const TopicInfo& topic, const Qos& qos, detail::RawCallback callback);
+
+  // Topics with at least one publisher seen so far (remote and local), sorted by name.
+  std::vector<TopicInfo> discoveredTopics() const;
+  std::optional<TopicInfo> waitForTopic(const std::string& topic, std::chrono::milliseconds timeout) const;
+  // Called for every newly seen (topic, type) pair, on a bus thread; replaces any previous callback.
+  void onTopicDiscovered(std::function<void(const TopicInfo&)> callback);
+
+ private:
+  std::shared_ptr<detail::WriterImpl> createWriter(const msg::TypeSupport& type, const std::string& topic,
+                                                   const Qos& qos);
+  std::shared_ptr<detail::ReaderImpl> createReader(const msg::TypeSupport& type, const std::string& topic,
+                                                   const Qos& qos, detail::SampleCallback callback);
+
+  std::unique_ptr<detail::ParticipantImpl> impl_;
+};
+
+}  // namespace ddsnav::bus
