@@ -1,0 +1,118 @@
+#pragma once
+// The mapper library: an OctoMap OcTree built from range scans, exported as OcTree::writeBinary bytes
+// (what the map/octomap message carries and the planner's OctoMap collision world reads).
+//
+// Insertion gives exactly the tree OctoMap's OcTree::insertPointCloud(cloud, origin, max_range) builds
+// (same log-odds in every voxel, same pruned structure), only faster: ray keys are computed on several
+// threads, de-duplicated in a flat brick bitmap instead of a std::unordered_set, and applied to the
+// tree in Morton order in one walk that shares the path between neighbouring voxels. docs/mapper.md
+// explains why the result is identical.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace octomap {
+class OcTree;
+}
+
+namespace ddsnav::mapper {
+
+struct Point3f {
+  float x = 0.0f, y = 0.0f, z = 0.0f;
+};
+
+// One scan in the world (map) frame: the measured end points and the sensor origin they were seen from.
+struct Scan {
+  std::vector<Point3f> points;
+  Point3f origin;
+  // Points farther than this from the origin only clear space up to max_range (a "no return" beam).
+  // Must be > 0; +infinity means no limit.
+  double max_range = 20.0;
+};
+
+enum class InsertMethod {
+  kFast,     // ours: parallel ray keys + brick bitmap de-duplication + one Morton-ordered tree walk
+  kOctoMap,  // OcTree::insertPointCloud itself (the reference; lazy_eval = false)
+};
+
+struct MapperConfig {
+  double resolution = 0.1;  // m, edge of the finest voxel
+  int dimensions = 3;       // 2: every point and the origin are put on one z slab at slab_z
+  double slab_z = 0.0;      // 2-D: height of the single voxel layer
+  // OctoMap's sensor model (its defaults).
+  double prob_hit = 0.7;
+  double prob_miss = 0.4;
+  double occupancy_threshold = 0.5;
+  double clamping_min = 0.1192;
+  double clamping_max = 0.971;
+  // Use the voxel centres of the end points instead of the points (OctoMap's `discretize` flag): faster
+  // for dense clouds, slightly different free space. The reference is insertPointCloud(..., discretize).
+  bool discretize = false;
+  InsertMethod method = InsertMethod::kFast;
+  int threads = 2;                     // for the ray key computation
+  std::size_t max_points = 4'000'000;  // larger scans are rejected, not truncated
+};
+
+// Empty when the config is valid, else one message naming the parameter and what was expected.
+std::string validateConfig(const MapperConfig& config);
+
+struct InsertResult {
+  bool inserted = false;      // false: the scan was rejected (see message), the map is unchanged
+  std::string message;        // why it was rejected, or what was cleaned (empty when nothing to say)
+  std::size_t points_used = 0;
+  std::size_t dropped_non_finite = 0;
+  std::size_t free_cells = 0;      // distinct voxels updated as free
+  std::size_t occupied_cells = 0;  // distinct voxels updated as occupied
+  double seconds = 0.0;
+};
+
+// What the map/octomap message carries.
+struct ExportedMap {
+  std::vector<std::uint8_t> octree_binary;  // OcTree::writeBinaryConst bytes
+  double resolution = 0.0;
+  int dimensions = 3;
+  std::array<double, 3> bounds_min{0, 0, 0};  // metric bounds of the known voxels (zero when empty)
+  std::array<double, 3> bounds_max{0, 0, 0};
+  std::size_t leaf_count = 0;
+};
+
+class OccupancyMapper {
+ public:
+  // Throws std::invalid_argument with validateConfig's message.
+  explicit OccupancyMapper(const MapperConfig& config);
+  ~OccupancyMapper();
+  OccupancyMapper(const OccupancyMapper&) = delete;
+  OccupancyMapper& operator=(const OccupancyMapper&) = delete;
+
+  // Never throws for bad scans: rejects them (NaN/inf origin, origin outside the map, max_range <= 0 or
+  // NaN, more than max_points) or cleans them (non-finite points dropped) and says so in the result.
+  InsertResult insert(const Scan& scan);
+
+  // True when an insertion changed the map since the last exportMap().
+  bool changedSinceExport() const { return changed_; }
+  ExportedMap exportMap();  // clears the changed flag
+
+  // Writes the map as a .bt file (OcTree::writeBinaryConst). Throws std::runtime_error naming the path.
+  void writeBt(const std::string& path) const;
+
+  const octomap::OcTree& octree() const;
+  const MapperConfig& config() const { return config_; }
+  // Bytes held: the octree (OcTree::memoryUsage) plus the insertion scratch buffers kept between scans.
+  std::size_t memoryUsage() const;
+  std::size_t scratchMemoryUsage() const;
+
+ private:
+  struct Impl;
+  MapperConfig config_;
+  std::unique_ptr<Impl> impl_;
+  bool changed_ = false;
+};
+
+// Sets prob_hit/miss, occupancy threshold and clamping on a tree the way MapperConfig describes.
+void applySensorModel(octomap::OcTree& tree, const MapperConfig& config);
+
+}  // namespace ddsnav::mapper

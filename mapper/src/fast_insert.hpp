@@ -1,0 +1,79 @@
+#pragma once
+// Exactly OcTree::insertPointCloud(cloud, origin, max_range, lazy_eval = false, discretize), faster.
+//
+// OctoMap's insertion spends its time in two places: inserting every ray cell into a std::unordered_set
+// (KeySet), and descending the tree from the root for every distinct voxel (twice: search() then
+// updateNodeRecurs()). Here:
+//   1. Ray keys come from OcTree::computeRayKeys itself (so the traversal is OctoMap's, bit for bit),
+//      called from several threads (it is const and touches only the caller's KeyRay).
+//   2. Each thread marks the keys in its own BrickMap: a flat open-addressing hash of 8x8x8-voxel bricks,
+//      each holding a free and an occupied bitmask. Neighbouring ray cells land in the same brick, so most
+//      marks are one cached pointer and one OR.
+//   3. The thread maps are OR-ed together, free &= ~occupied (OctoMap: occupied wins within a scan), and
+//      the bricks sorted by Morton code. Iterating the bits of Morton-sorted bricks visits voxels in the
+//      octree's depth-first order, so one walk keeps the current root-to-leaf path and only re-descends
+//      below the deepest ancestor shared with the previous voxel. A node is finished (pruned when its 8
+//      children are equal leaves, else given the max of its children) when the walk leaves its subtree,
+//      i.e. after its last update — which is the state OctoMap's non-lazy insertion leaves behind.
+// Each voxel receives exactly one update per scan in both, so the visiting order does not change any
+// log-odds value; docs/mapper.md has the full argument and the tests compare whole trees byte for byte.
+
+#include <octomap/OcTree.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace ddsnav::mapper::detail {
+
+// The voxels one scan updates, as bitmasks over 8x8x8 bricks.
+class BrickMap {
+ public:
+  struct Brick {
+    std::uint64_t free[8];
+    std::uint64_t occupied[8];
+    std::uint64_t morton;  // Morton code of the brick coordinates (key >> 3 on each axis)
+  };
+
+  void clear();
+  void markFree(const octomap::OcTreeKey& key) { bitsFor(key, false); }
+  void markOccupied(const octomap::OcTreeKey& key) { bitsFor(key, true); }
+  void mergeFrom(const BrickMap& other);
+
+  const std::vector<Brick>& bricks() const { return bricks_; }
+  std::vector<Brick>& bricks() { return bricks_; }
+  std::size_t memoryUsage() const;
+
+ private:
+  void bitsFor(const octomap::OcTreeKey& key, bool occupied);
+  std::uint32_t findOrAdd(std::uint64_t packed);
+  void grow();
+
+  std::vector<std::uint64_t> slot_keys_;     // packed brick coordinates, kEmpty when unused
+  std::vector<std::uint32_t> slot_bricks_;   // index into bricks_
+  std::vector<Brick> bricks_;
+  std::uint64_t cached_packed_ = ~0ull;
+  std::uint32_t cached_brick_ = 0;
+};
+
+struct InsertCounts {
+  std::size_t free_cells = 0;
+  std::size_t occupied_cells = 0;
+};
+
+class FastInserter {
+ public:
+  // points: already finite. max_range < 0 means unlimited (OctoMap's convention).
+  InsertCounts insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
+                      const octomap::point3d& origin, double max_range, bool discretize, int threads);
+  std::size_t memoryUsage() const;
+  // Drops the scratch buffers (they are kept between scans to avoid re-allocating them).
+  void releaseScratch();
+
+ private:
+  std::vector<BrickMap> maps_;
+  std::vector<octomap::point3d> discrete_points_;
+  std::vector<std::uint64_t> sort_buffer_;
+};
+
+}  // namespace ddsnav::mapper::detail

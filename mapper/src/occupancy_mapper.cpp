@@ -1,0 +1,178 @@
+#include "ddsnav/mapper/occupancy_mapper.hpp"
+
+#include "fast_insert.hpp"
+
+#include <octomap/OcTree.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace ddsnav::mapper {
+namespace {
+
+bool isProbability(double p) { return std::isfinite(p) && p > 0.0 && p < 1.0; }
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// The farthest a clipped ray may reach, in voxels: OctoMap's KeyRay holds at most 100000 keys, and a ray
+// of length L crosses at most sqrt(3) * L / resolution + 3 of them.
+constexpr double kMaxRangeVoxels = 30000.0;
+
+}  // namespace
+
+std::string validateConfig(const MapperConfig& c) {
+  if (!std::isfinite(c.resolution) || c.resolution < 0.001 || c.resolution > 100.0)
+    return "mapper parameter 'resolution' must be a finite number in [0.001, 100] m, got " + fmt(c.resolution);
+  if (c.dimensions != 2 && c.dimensions != 3)
+    return "mapper parameter 'dimensions' must be 2 or 3, got " + std::to_string(c.dimensions);
+  if (!std::isfinite(c.slab_z)) return "mapper parameter 'slab_z' must be finite, got " + fmt(c.slab_z);
+  if (!isProbability(c.prob_hit) || c.prob_hit <= 0.5)
+    return "mapper parameter 'prob_hit' must be in (0.5, 1), got " + fmt(c.prob_hit);
+  if (!isProbability(c.prob_miss) || c.prob_miss >= 0.5)
+    return "mapper parameter 'prob_miss' must be in (0, 0.5), got " + fmt(c.prob_miss);
+  if (!isProbability(c.occupancy_threshold))
+    return "mapper parameter 'occupancy_threshold' must be in (0, 1), got " + fmt(c.occupancy_threshold);
+  if (!isProbability(c.clamping_min) || !isProbability(c.clamping_max) || !(c.clamping_min < c.clamping_max))
+    return "mapper parameters 'clamping_min' < 'clamping_max' must both be in (0, 1), got " + fmt(c.clamping_min) +
+           " and " + fmt(c.clamping_max);
+  if (c.threads < 1 || c.threads > 64)
+    return "mapper parameter 'threads' must be in [1, 64], got " + std::to_string(c.threads);
+  if (c.max_points < 1) return "mapper parameter 'max_points' must be at least 1";
+  return {};
+}
+
+void applySensorModel(octomap::OcTree& tree, const MapperConfig& c) {
+  tree.setProbHit(c.prob_hit);
+  tree.setProbMiss(c.prob_miss);
+  tree.setOccupancyThres(c.occupancy_threshold);
+  tree.setClampingThresMin(c.clamping_min);
+  tree.setClampingThresMax(c.clamping_max);
+}
+
+struct OccupancyMapper::Impl {
+  explicit Impl(double resolution) : tree(resolution) {}
+  octomap::OcTree tree;
+  detail::FastInserter inserter;
+  std::vector<octomap::point3d> cleaned;
+};
+
+OccupancyMapper::OccupancyMapper(const MapperConfig& config) : config_(config) {
+  if (std::string error = validateConfig(config); !error.empty()) throw std::invalid_argument(error);
+  impl_ = std::make_unique<Impl>(config.resolution);
+  applySensorModel(impl_->tree, config);
+}
+
+OccupancyMapper::~OccupancyMapper() = default;
+
+InsertResult OccupancyMapper::insert(const Scan& scan) {
+  const auto started = std::chrono::steady_clock::now();
+  InsertResult result;
+  octomap::OcTree& tree = impl_->tree;
+  const double max_range_limit = kMaxRangeVoxels * config_.resolution;
+
+  // Checked once here, at the boundary; the insertion below trusts its input.
+  if (!(scan.max_range > 0.0) || !(scan.max_range <= max_range_limit)) {
+    result.message = "scan max_range must be in (0, " + fmt(max_range_limit) + "] m at resolution " +
+                     fmt(config_.resolution) + ", got " + fmt(scan.max_range) + "; scan skipped";
+    return result;
+  }
+  octomap::point3d origin(scan.origin.x, scan.origin.y, scan.origin.z);
+  if (config_.dimensions == 2) origin.z() = static_cast<float>(config_.slab_z);
+  octomap::OcTreeKey origin_key;
+  if (!std::isfinite(origin.x()) || !std::isfinite(origin.y()) || !std::isfinite(origin.z()) ||
+      !tree.coordToKeyChecked(origin, origin_key)) {
+    result.message = "scan sensor origin (" + fmt(scan.origin.x) + ", " + fmt(scan.origin.y) + ", " +
+                     fmt(scan.origin.z) + ") is not finite or outside the map (|coordinate| < " +
+                     fmt(32768.0 * config_.resolution) + " m); scan skipped";
+    return result;
+  }
+  if (scan.points.size() > config_.max_points) {
+    result.message = "scan has " + std::to_string(scan.points.size()) + " points, more than max_points = " +
+                     std::to_string(config_.max_points) + "; scan skipped";
+    return result;
+  }
+
+  std::vector<octomap::point3d>& cleaned = impl_->cleaned;
+  cleaned.clear();
+  cleaned.reserve(scan.points.size());
+  const float slab = static_cast<float>(config_.slab_z);
+  for (const Point3f& p : scan.points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      ++result.dropped_non_finite;
+      continue;
+    }
+    cleaned.emplace_back(p.x, p.y, config_.dimensions == 2 ? slab : p.z);
+  }
+  result.points_used = cleaned.size();
+  if (result.dropped_non_finite > 0) {
+    result.message = "dropped " + std::to_string(result.dropped_non_finite) + " non-finite points of " +
+                     std::to_string(scan.points.size());
+  }
+  if (cleaned.empty()) {
+    result.message += result.message.empty() ? "scan has no points; nothing inserted" : "; nothing inserted";
+    result.inserted = true;  // a valid, empty scan
+    return result;
+  }
+
+  if (config_.method == InsertMethod::kFast) {
+    const detail::InsertCounts counts =
+        impl_->inserter.insert(tree, cleaned, origin, scan.max_range, config_.discretize, config_.threads);
+    result.free_cells = counts.free_cells;
+    result.occupied_cells = counts.occupied_cells;
+  } else {
+    octomap::Pointcloud cloud;
+    cloud.reserve(cleaned.size());
+    for (const octomap::point3d& p : cleaned) cloud.push_back(p);
+    tree.insertPointCloud(cloud, origin, scan.max_range, /*lazy_eval=*/false, config_.discretize);
+  }
+  result.inserted = true;
+  changed_ = true;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  return result;
+}
+
+ExportedMap OccupancyMapper::exportMap() {
+  ExportedMap map;
+  const octomap::OcTree& tree = impl_->tree;
+  std::ostringstream bytes(std::ios::out | std::ios::binary);
+  tree.writeBinaryConst(bytes);
+  const std::string s = bytes.str();
+  map.octree_binary.assign(s.begin(), s.end());
+  map.resolution = tree.getResolution();
+  map.dimensions = config_.dimensions;
+  if (tree.size() > 0) {
+    double x0, y0, z0, x1, y1, z1;
+    impl_->tree.getMetricMin(x0, y0, z0);
+    impl_->tree.getMetricMax(x1, y1, z1);
+    map.bounds_min = {x0, y0, z0};
+    map.bounds_max = {x1, y1, z1};
+  }
+  map.leaf_count = tree.getNumLeafNodes();
+  changed_ = false;
+  return map;
+}
+
+void OccupancyMapper::writeBt(const std::string& path) const {
+  std::ofstream out(path, std::ios::binary);
+  if (!out || !impl_->tree.writeBinaryConst(out) || !out.flush()) {
+    throw std::runtime_error("cannot write the octree to '" + path + "'");
+  }
+}
+
+const octomap::OcTree& OccupancyMapper::octree() const { return impl_->tree; }
+
+std::size_t OccupancyMapper::scratchMemoryUsage() const {
+  return impl_->inserter.memoryUsage() + impl_->cleaned.capacity() * sizeof(octomap::point3d);
+}
+
+std::size_t OccupancyMapper::memoryUsage() const { return impl_->tree.memoryUsage() + scratchMemoryUsage(); }
+
+}  // namespace ddsnav::mapper

@@ -1,0 +1,177 @@
+// The fast insertion builds exactly the tree OcTree::insertPointCloud builds.
+#include "ddsnav/mapper/occupancy_mapper.hpp"
+#include "ddsnav/mapper/synthetic_scan.hpp"
+#include "mapper_test_util.hpp"
+
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace ddsnav::mapper {
+namespace {
+
+using testing::compareQueries;
+using testing::fullBytes;
+using testing::toOctomapCloud;
+using testing::toOrigin;
+
+struct Case {
+  const char* name;
+  MapperConfig config;
+  LidarPattern lidar;
+  double max_range;
+  std::vector<Point3f> poses;
+};
+
+// Inserts the same scans with ours and with OcTree::insertPointCloud, then compares everything.
+void expectIdentical(const Case& c, bool lazy_reference = false) {
+  const CityBlock city = makeCityBlock(7);
+  OccupancyMapper mapper(c.config);
+  octomap::OcTree reference(c.config.resolution);
+  applySensorModel(reference, c.config);
+  std::uint32_t seed = 1;
+  for (const Point3f& pose : c.poses) {
+    Scan scan = simulateScan(city, c.lidar, pose, seed++);
+    scan.max_range = c.max_range;
+    const InsertResult r = mapper.insert(scan);
+    ASSERT_TRUE(r.inserted) << r.message;
+    EXPECT_GT(r.free_cells, 0u);
+    EXPECT_GT(r.occupied_cells, 0u);
+    reference.insertPointCloud(toOctomapCloud(scan, c.config), toOrigin(scan, c.config), c.max_range, lazy_reference,
+                               c.config.discretize);
+  }
+  if (lazy_reference) {
+    reference.updateInnerOccupancy();
+  } else {
+    // Same structure (pruning included) and the same log-odds in every node.
+    EXPECT_EQ(fullBytes(mapper.octree()), fullBytes(reference)) << c.name;
+    EXPECT_EQ(mapper.octree().memoryUsage(), reference.memoryUsage());
+  }
+  const bool flat = c.config.dimensions == 2;
+  const float z = static_cast<float>(c.config.slab_z);
+  const octomap::point3d lo(-25, -25, flat ? z : -1.0f), hi(25, 25, flat ? z : 12.0f);
+  const testing::QueryMismatch m = compareQueries(mapper.octree(), reference, lo, hi, 100000, 10000, 42);
+  EXPECT_EQ(m.point_mismatches, 0) << c.name;
+  EXPECT_EQ(m.ray_mismatches, 0) << c.name;
+}
+
+LidarPattern lidar3d(int rings, int columns) {
+  LidarPattern l;
+  l.rings = rings;
+  l.columns = columns;
+  l.range_noise = 0.02;
+  return l;
+}
+
+TEST(MapperIdentical, ThreeDimensionalScansAt02) {
+  Case c{"3-D 0.2 m", {}, lidar3d(16, 600), 15.0, {{0, 0, 1.8f}, {1.5f, 0.4f, 1.8f}, {3.1f, 0.9f, 1.9f}}};
+  c.config.resolution = 0.2;
+  expectIdentical(c);
+}
+
+TEST(MapperIdentical, ThreeDimensionalDenseScanAt01) {
+  Case c{"3-D 0.1 m", {}, lidar3d(8, 900), 10.0, {{0.3f, -0.2f, 1.7f}, {0.9f, 0.1f, 1.7f}}};
+  expectIdentical(c);
+}
+
+TEST(MapperIdentical, SingleThreadMatchesToo) {
+  Case c{"3-D one thread", {}, lidar3d(8, 400), 12.0, {{0, 0, 1.8f}, {-2.0f, 1.0f, 1.8f}}};
+  c.config.resolution = 0.15;
+  c.config.threads = 1;
+  expectIdentical(c);
+}
+
+TEST(MapperIdentical, DiscretizeMatchesOctoMapDiscretize) {
+  Case c{"3-D discretize", {}, lidar3d(16, 600), 15.0, {{0, 0, 1.8f}, {2.0f, 0.5f, 1.8f}}};
+  c.config.resolution = 0.2;
+  c.config.discretize = true;
+  expectIdentical(c);
+}
+
+TEST(MapperIdentical, TwoDimensionalSlabWithClampingAndPruning) {
+  // Repeated scans from nearby poses drive voxels to the clamping bounds, so the early-abort and the
+  // prune/expand paths of the update are all exercised.
+  LidarPattern planar;
+  planar.rings = 1;
+  planar.columns = 720;
+  planar.range_noise = 0.01;
+  Case c{"2-D slab", {}, planar, 18.0, {}};
+  c.config.dimensions = 2;
+  c.config.slab_z = 0.5;
+  c.config.resolution = 0.05;
+  for (int i = 0; i < 12; ++i) c.poses.push_back({0.05f * (i % 4), 0.03f * (i % 3), 0.5f});
+  expectIdentical(c);
+}
+
+TEST(MapperIdentical, ThreeDimensionalRepeatedScansPruneAndExpand) {
+  // Free space near the sensor clamps and prunes into coarse leaves after a few scans; later scans from
+  // shifted poses hit those pruned leaves (early abort when clamped, expansion otherwise).
+  Case c{"3-D repeated", {}, lidar3d(16, 240), 8.0, {}};
+  c.config.resolution = 0.2;
+  for (int i = 0; i < 10; ++i) c.poses.push_back({0.1f * (i % 3), 0.07f * (i % 5), 1.8f});
+  c.poses.push_back({2.0f, 1.0f, 1.8f});
+  expectIdentical(c);
+}
+
+TEST(MapperIdentical, AnswersEqualLazyEvalReference) {
+  Case c{"3-D vs lazy", {}, lidar3d(16, 500), 15.0, {{0, 0, 1.8f}, {1.0f, 1.0f, 1.8f}}};
+  c.config.resolution = 0.2;
+  expectIdentical(c, /*lazy_reference=*/true);
+}
+
+TEST(MapperIdentical, OctoMapMethodIsTheReference) {
+  // The InsertMethod::kOctoMap path calls insertPointCloud itself: both methods give the same tree.
+  const CityBlock city = makeCityBlock(3);
+  MapperConfig fast_config, ref_config;
+  fast_config.resolution = ref_config.resolution = 0.25;
+  ref_config.method = InsertMethod::kOctoMap;
+  OccupancyMapper fast(fast_config), ref(ref_config);
+  Scan scan = simulateScan(city, lidar3d(8, 300), {0, 0, 1.8f});
+  ASSERT_TRUE(fast.insert(scan).inserted);
+  ASSERT_TRUE(ref.insert(scan).inserted);
+  EXPECT_EQ(fullBytes(fast.octree()), fullBytes(ref.octree()));
+}
+
+TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
+  MapperConfig config;
+  config.resolution = 0.2;
+  OccupancyMapper mapper(config);
+  EXPECT_FALSE(mapper.changedSinceExport());
+  const ExportedMap empty = mapper.exportMap();
+  EXPECT_EQ(empty.leaf_count, 0u);
+  Scan scan = simulateScan(makeCityBlock(5), lidar3d(8, 300), {0, 0, 1.8f});
+  ASSERT_TRUE(mapper.insert(scan).inserted);
+  EXPECT_TRUE(mapper.changedSinceExport());
+  const ExportedMap map = mapper.exportMap();
+  EXPECT_FALSE(mapper.changedSinceExport());
+  EXPECT_DOUBLE_EQ(map.resolution, 0.2);
+  EXPECT_GT(map.leaf_count, 100u);
+  for (int i = 0; i < 3; ++i) EXPECT_LT(map.bounds_min[i], map.bounds_max[i]);
+
+  std::istringstream in(std::string(map.octree_binary.begin(), map.octree_binary.end()));
+  octomap::OcTree read(0.1);
+  ASSERT_TRUE(read.readBinary(in));
+  EXPECT_DOUBLE_EQ(read.getResolution(), 0.2);
+  // The binary format keeps occupancy (max likelihood), so compare the occupancy of every leaf.
+  std::size_t leaves = 0;
+  for (auto it = mapper.octree().begin_leafs(), end = mapper.octree().end_leafs(); it != end; ++it, ++leaves) {
+    const octomap::OcTreeNode* n = read.search(it.getKey(), it.getDepth());
+    ASSERT_NE(n, nullptr);
+    EXPECT_EQ(read.isNodeOccupied(n), mapper.octree().isNodeOccupied(*it));
+  }
+  EXPECT_EQ(leaves, map.leaf_count);
+
+  const std::string path = ::testing::TempDir() + "ddsnav_mapper_roundtrip.bt";
+  mapper.writeBt(path);
+  octomap::OcTree from_file(0.1);
+  ASSERT_TRUE(from_file.readBinary(path));
+  EXPECT_EQ(from_file.getNumLeafNodes(), read.getNumLeafNodes());
+  std::remove(path.c_str());
+  EXPECT_THROW(mapper.writeBt("/nonexistent-dir/x.bt"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace ddsnav::mapper
