@@ -1,0 +1,81 @@
+#include "ddsnav/launch/launch_config.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace ddsnav::launch;
+
+namespace {
+
+std::string errorOf(const std::string& yaml) {
+  try {
+    parseLaunchConfig(yaml, "set.yaml");
+  } catch (const LaunchError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(LaunchConfig, ParsesProcessesVariablesAndOrdersByDependencies) {
+  const auto config = parseLaunchConfig(R"(
+name: demo
+domain: 17
+dds: cyclonedds
+variables: {scenario: worlds/a.yaml}
+processes:
+  - name: planner
+    command: ddsnav-planner
+    after: [sim]
+    params: {world: "${scenario}", budget: 2}
+    restart: on-failure
+    max_restarts: 2
+  - name: sim
+    command: ddsnav-sim
+    args: [--scenario, "${scenario}"]
+    dds: fastdds
+)", "set.yaml", {{"scenario", "worlds/b.yaml"}});
+  EXPECT_EQ(config.name, "demo");
+  ASSERT_TRUE(config.domain.has_value());
+  EXPECT_EQ(*config.domain, 17);
+  EXPECT_EQ(config.dds, "cyclonedds");
+  ASSERT_EQ(config.processes.size(), 2u);
+  EXPECT_EQ(config.processes[0].name, "sim");  // moved before planner, which waits for it
+  EXPECT_EQ(config.processes[0].args, (std::vector<std::string>{"--scenario", "worlds/b.yaml"}));
+  EXPECT_EQ(config.processes[0].dds.value_or(""), "fastdds");
+  EXPECT_EQ(config.processes[1].params.at("world"), "worlds/b.yaml");
+  EXPECT_EQ(config.processes[1].restart, RestartPolicy::OnFailure);
+  EXPECT_EQ(config.processes[1].max_restarts, 2);
+}
+
+TEST(LaunchConfig, ErrorsNameFileLineAndKey) {
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    colour: red\n"),
+            "set.yaml:4: key 'colour': unknown key (expected one of: after, args, command, dds, max_restarts, name, "
+            "params, ready_timeout_s, required, restart, wait_ready)");
+  EXPECT_NE(errorOf("processes:\n  - name: a\n    command: x\n    restart: sometimes\n").find("set.yaml:4: key 'restart'"),
+            std::string::npos);
+  EXPECT_NE(errorOf("domain: 900\nprocesses: [{name: a, command: x}]\n").find("key 'domain': must be in 0..232"),
+            std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - {name: a, command: x}\n  - {name: a, command: y}\n").find("duplicate process name 'a'"),
+            std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - {command: x}\n").find("every process needs a name"), std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - {name: a, command: \"${nope}\"}\n").find("unknown variable ${nope}"), std::string::npos);
+  EXPECT_NE(errorOf("processes: []\n").find("non-empty list"), std::string::npos);
+  EXPECT_NE(errorOf("processes: [\n").find("invalid YAML"), std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - {name: a, command: x, max_restarts: -1}\n").find("must be >= 0"), std::string::npos);
+}
+
+TEST(LaunchConfig, RejectsUnknownDependenciesAndCycles) {
+  EXPECT_NE(errorOf("processes:\n  - {name: a, command: x, after: [ghost]}\n").find("unknown process 'ghost'"),
+            std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - {name: a, command: x, after: [b]}\n  - {name: b, command: y, after: [a]}\n")
+                .find("cycle among: a, b"),
+            std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - {name: a, command: x, wait_ready: false}\n  - {name: b, command: y, after: [a]}\n")
+                .find("wait_ready: false"),
+            std::string::npos);
+}
+
+TEST(LaunchConfig, CommandLineOverridesMustNameDeclaredVariables) {
+  EXPECT_THROW(parseLaunchConfig("processes: [{name: a, command: x}]\n", "set.yaml", {{"typo", "1"}}), LaunchError);
+}
