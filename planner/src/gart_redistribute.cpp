@@ -1,0 +1,152 @@
+// GART's dynamic cost metric and bidirectional potential field redistribution (Algorithm 1, lines 4-13).
+#include "ddsnav/planner/gart.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+namespace ddsnav::planner {
+
+namespace {
+
+// Cap a displacement's length.
+Vec3 capped(const Vec3& v, double max_length) {
+  const double n = v.norm();
+  return n > max_length && n > 0.0 ? Vec3(v * (max_length / n)) : v;
+}
+
+Vec3 flatten(Vec3 v, int dimensions) {
+  if (dimensions == 2) v.z() = 0.0;
+  return v;
+}
+
+// Obstacles within range, with those the robot could not pass between merged into one: the paper's
+// obstacle counting sees one obstacle per continuous edge, so primitives that touch or overlap (a wall
+// built from several boxes) must not count as "several obstacles" with a gap between them. Two margin
+// nodes closer than the robot's diameter leave no passable gap; the nearer one represents both.
+std::vector<NearbyObstacle> distinctObstacles(const Vec3& p, const CollisionWorld& world, double range) {
+  std::vector<NearbyObstacle> seen = world.obstaclesNear(p, range);  // nearest first
+  const double min_gap = 2.0 * world.robotRadius();
+  std::vector<NearbyObstacle> distinct;
+  for (const NearbyObstacle& o : seen) {
+    const Vec3 m = flatten(o.nearest_point, world.dimensions());
+    bool merged = false;
+    for (const NearbyObstacle& d : distinct) {
+      if ((flatten(d.nearest_point, world.dimensions()) - m).norm() <= min_gap) {
+        merged = true;
+        break;
+      }
+    }
+    if (!merged) distinct.push_back(o);
+  }
+  return distinct;
+}
+
+bool sameState(const Vec3& a, const Vec3& b) { return (a - b).norm() < 1e-9; }
+
+}  // namespace
+
+double gartControlEffort(const State& from, const Vec3& target, const ForwardRegion& region,
+                         double turn_weight) {
+  const double turn = std::abs(turnTowards(from, target));
+  if (turn > region.max_turn) return std::numeric_limits<double>::infinity();
+  const Vec3 d = target - from.position;
+  const double distance = region.dimensions == 3 ? d.norm() : std::hypot(d.x(), d.y());
+  const double normalised_turn = region.max_turn > 0.0 ? turn / region.max_turn : 0.0;
+  return turn_weight * normalised_turn + distance / region.reach;
+}
+
+GartForce gartObstacleForce(const Vec3& p, const CollisionWorld& world, const ForwardRegion& region,
+                            const GartOptions& options) {
+  GartForce force;
+  const double range = options.detection_range * region.reach;
+  const std::vector<NearbyObstacle> obstacles = distinctObstacles(p, world, range);
+  force.obstacles = static_cast<int>(obstacles.size());
+  const double max_push = options.max_push * region.reach;
+  if (obstacles.size() >= 2) {
+    // Event 2, attraction: a_f = k1 * sum_i (O_i - a), k1 = attraction_gain / N. With gain 1 the candidate
+    // moves to the centroid of the nearest margin nodes: between two walls, onto the middle of the gap.
+    Vec3 sum = Vec3::Zero();
+    for (const NearbyObstacle& o : obstacles) sum += flatten(o.nearest_point - p, world.dimensions());
+    force.displacement = capped(sum * (options.attraction_gain / obstacles.size()), max_push);
+    force.event = GartEvent::kAttraction;
+  } else if (obstacles.size() == 1) {
+    // Event 3, repulsion: r_f = k2 / |a - O| along (a - O)/|a - O|, k2 = repulsion_gain * J_dm^2.
+    const Vec3 away = flatten(p - obstacles.front().nearest_point, world.dimensions());
+    const double distance = away.norm();
+    if (distance > 1e-9) {
+      const double k2 = options.repulsion_gain * range * range;
+      force.displacement = capped(away * (k2 / (distance * distance)), max_push);
+    }
+    force.event = GartEvent::kRepulsion;
+  }
+  return force;
+}
+
+std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sample, const Vec3& goal,
+                                            const CollisionWorld& world, const ForwardRegion& region,
+                                            const GartOptions& options) {
+  // Raw candidates: the sample projected into R+(parent), or event 1's two max-turn states.
+  std::vector<GartCandidate> raw;
+  const State projected = steerUnicycle(parent, sample, region);
+  if (!sameState(projected.position, parent.position) && world.isSegmentFree(parent.position, projected.position)) {
+    GartCandidate c;
+    c.state = projected;
+    raw.push_back(c);
+  } else if (!sameState(projected.position, parent.position)) {
+    // Event 1: turn away from the blocked direction, one candidate per side. Directions are tried from the
+    // sample's towards the maximum turn at full reach J; the first free one is taken. When none is, the
+    // maximum turn is kept and the edge shortened (3/4, 1/2, 1/4 of J) until free.
+    const double blocked_turn = turnTowards(parent, projected.position);
+    const double climb = projected.position.z() - parent.position.z();
+    const int steps = std::max(1, options.event1_turn_steps);
+    for (int side : {-1, +1}) {
+      const double limit = side * region.max_turn;
+      std::optional<State> found;
+      for (int k = 1; k <= steps && !found; ++k) {
+        const double turn = blocked_turn + (limit - blocked_turn) * k / steps;
+        const State s = driveUnicycle(parent, turn, region.reach, climb, region);
+        if (world.isSegmentFree(parent.position, s.position)) found = s;
+      }
+      for (double fraction : {0.75, 0.5, 0.25}) {
+        if (found) break;
+        const State s = driveUnicycle(parent, limit, fraction * region.reach, climb * fraction, region);
+        if (world.isSegmentFree(parent.position, s.position)) found = s;
+      }
+      if (!found) continue;
+      if (!raw.empty() && sameState(raw.front().state.position, found->position)) continue;
+      GartCandidate c;
+      c.state = *found;
+      c.from_collision = true;
+      raw.push_back(c);
+    }
+  }
+
+  // Events 2 / 3 and goal attraction on every raw candidate; each result is projected back into R+(parent)
+  // and kept only when its edge is free, else the raw (already free) candidate stands.
+  std::vector<GartCandidate> out;
+  for (GartCandidate c : raw) {
+    const Vec3 p = c.state.position;
+    const GartForce force = gartObstacleForce(p, world, region, options);
+    c.field = force.event;
+    Vec3 to_goal = flatten(goal - p, world.dimensions());
+    const double goal_distance = to_goal.norm();
+    const double goal_step = std::min(goal_distance, options.goal_gain * region.reach);
+    const Vec3 goal_pull = goal_distance > 1e-9 ? Vec3(to_goal * (goal_step / goal_distance)) : Vec3::Zero();
+    const Vec3 target = p + force.displacement + goal_pull;
+    if (!sameState(target, p)) {
+      const State moved = steerUnicycle(parent, target, region);
+      if (!sameState(moved.position, parent.position) && world.isSegmentFree(parent.position, moved.position)) {
+        c.state = moved;
+        c.redistributed = true;
+      }
+    }
+    bool duplicate = false;
+    for (const GartCandidate& o : out) duplicate = duplicate || sameState(o.state.position, c.state.position);
+    if (!duplicate) out.push_back(c);
+  }
+  return out;
+}
+
+}  // namespace ddsnav::planner
