@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -173,6 +174,12 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
   if (const auto vars = root["variables"]) {
     if (!vars.IsMap()) reader.fail(vars, "variables", "expected a mapping of name: value");
     for (const auto& entry : vars) config.variables[entry.first.as<std::string>()] = reader.scalar(entry.second, entry.first.as<std::string>());
+  }
+  // Built in: the launch file's own folder, so a launch file can name files beside it.
+  if (!config.variables.count("launch_dir")) {
+    std::error_code error;
+    const auto dir = std::filesystem::absolute(std::filesystem::path(source_name), error).parent_path();
+    config.variables["launch_dir"] = error ? std::string(".") : dir.lexically_normal().string();
   }
   for (const auto& [key, value] : overrides) {
     if (!config.variables.count(key))

@@ -1,0 +1,113 @@
+// ddsnav launch FILE [--set name=value]... [--domain N] [--dds VENDOR]
+// Starts a component set from a YAML launch file and supervises it (see docs/launch.md).
+
+#include "ddsnav/launch/launch_config.hpp"
+#include "ddsnav/launch/supervisor.hpp"
+
+#include <ddsnav/bus/bus.hpp>
+#include <ddsnav/msg/messages.hpp>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <climits>
+#include <condition_variable>
+#include <map>
+#include <mutex>
+
+namespace {
+
+using namespace ddsnav;
+
+// Readiness from the system/status topic: every component publishes a ComponentStatus (keyed by name,
+// transient local) and sets `ready` once it serves. The pid must match, so a stale status from an
+// earlier run of the same name never counts.
+class StatusReadiness : public launch::ReadinessSource {
+ public:
+  explicit StatusReadiness(bus::Participant& bus)
+      : subscription_(bus.subscribe<msg::ComponentStatus>("system/status", bus::Qos::state(1),
+                                                          [this](const msg::ComponentStatus& s) { onStatus(s); })) {}
+
+  bool waitUntilReady(const std::string& name, pid_t pid, std::chrono::steady_clock::time_point deadline) override {
+    std::unique_lock lock(mutex_);
+    return changed_.wait_until(lock, deadline, [&] {
+      const auto it = ready_pid_.find(name);
+      return it != ready_pid_.end() && it->second == pid;
+    });
+  }
+
+ private:
+  void onStatus(const msg::ComponentStatus& status) {
+    {
+      std::lock_guard lock(mutex_);
+      if (status.ready())
+        ready_pid_[status.name()] = status.pid();
+      else if (ready_pid_.count(status.name()) && ready_pid_[status.name()] == status.pid())
+        ready_pid_.erase(status.name());
+    }
+    changed_.notify_all();
+  }
+
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::map<std::string, pid_t> ready_pid_;
+  bus::Subscription subscription_;
+};
+
+std::string executableDirectory() {
+  char buffer[PATH_MAX];
+  const ssize_t n = ::readlink("/proc/self/exe", buffer, sizeof(buffer) - 1);
+  if (n <= 0) return ".";
+  std::string path(buffer, static_cast<size_t>(n));
+  return path.substr(0, path.rfind('/'));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Before any thread exists, so DDS threads inherit the mask and the supervisor gets every signal.
+  launch::blockSupervisorSignals();
+
+  CLI::App app{"Start a set of ddsnav components from a YAML launch file and supervise it."};
+  std::string file;
+  std::vector<std::string> sets;
+  int domain = -1;
+  std::string dds;
+  app.add_option("file", file, "launch file (YAML, see docs/launch.md)")->required();
+  app.add_option("--set", sets, "override a variable of the launch file: name=value")->take_all();
+  app.add_option("--domain", domain, "DDS domain id for every process (default: the file's, else DDSNAV_DOMAIN, else 0)");
+  app.add_option("--dds", dds, "default vendor for processes that do not name one: fastdds | cyclonedds");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    std::map<std::string, std::string> overrides;
+    for (const auto& s : sets) {
+      const auto eq = s.find('=');
+      if (eq == std::string::npos || eq == 0) throw launch::LaunchError("--set '" + s + "': expected name=value");
+      overrides[s.substr(0, eq)] = s.substr(eq + 1);
+    }
+    auto config = launch::loadLaunchConfig(file, overrides);
+    if (!dds.empty()) config.dds = dds;
+    if (domain < 0) domain = config.domain.value_or(-1);
+    if (domain < 0) {
+      const char* env = std::getenv("DDSNAV_DOMAIN");
+      domain = env ? std::atoi(env) : 0;
+    }
+    const auto vendor = bus::parseVendor(config.dds);
+    for (const auto& p : config.processes)
+      if (p.dds) bus::parseVendor(*p.dds);  // reject a typo before anything starts
+
+    bus::Participant participant({.vendor = vendor, .domain_id = domain, .name = "launch"});
+    StatusReadiness readiness(participant);
+    launch::SupervisorOptions options;
+    options.bin_dir = executableDirectory();
+    options.domain = domain;
+    options.dds = std::string(bus::vendorName(vendor));
+    options.log = [](const std::string& line) { spdlog::info("{}", line); };
+    return launch::Supervisor(std::move(config), options, readiness).run();
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+}
