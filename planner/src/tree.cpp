@@ -1,5 +1,7 @@
 #include "ddsnav/planner/tree.hpp"
 
+#include "ddsnav/planner/unicycle.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -27,8 +29,7 @@ void SearchTree::reparent(int node, int new_parent, double new_cost) {
   }
   n.parent = new_parent;
   nodes_[static_cast<std::size_t>(new_parent)].children.push_back(node);
-  const Vec3 d = n.state.position - nodes_[static_cast<std::size_t>(new_parent)].state.position;
-  n.state.heading = std::atan2(d.y(), d.x());
+  n.state.heading = edgeHeading(nodes_[static_cast<std::size_t>(new_parent)].state.position, n.state.position, n.state.heading);
   const double delta = new_cost - n.cost;
   // Every descendant's cost-to-come changes by the same amount.
   stack_.assign(1, node);

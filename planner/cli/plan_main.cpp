@@ -1,0 +1,140 @@
+// ddsnav plan: solve one scenario with one planner, print statistics (or one JSON line), draw an SVG.
+#include "ddsnav/planner/collision_world.hpp"
+#include "ddsnav/planner/planner.hpp"
+#include "ddsnav/planner/scenario.hpp"
+#include "ddsnav/planner/svg.hpp"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <limits>
+#include <string>
+
+namespace {
+
+using namespace ddsnav::planner;
+
+nlohmann::json toJson(const std::string& scenario_file, const Scenario& scenario, const PlanResult& r,
+                      std::uint64_t seed) {
+  auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+  nlohmann::json path = nlohmann::json::array();
+  for (const State& s : r.path) {
+    if (scenario.dimensions == 3) path.push_back({s.position.x(), s.position.y(), s.position.z(), s.heading});
+    else path.push_back({s.position.x(), s.position.y(), s.heading});
+  }
+  const PlanStats& st = r.stats;
+  return {{"scenario", scenario.name},
+          {"scenario_file", scenario_file},
+          {"planner", r.planner},
+          {"seed", seed},
+          {"solved", r.solved},
+          {"exact", r.exact},
+          {"kinodynamic", r.kinodynamic},
+          {"time_s", st.time_s},
+          {"time_to_first_solution_s", number(st.time_to_first_solution_s >= 0 ? st.time_to_first_solution_s : NAN)},
+          {"iterations", st.iterations},
+          {"iterations_to_first_solution", st.iterations_to_first_solution},
+          {"vertices", st.vertices},
+          {"validity_checks", st.validity_checks},
+          {"rewires", st.rewires},
+          {"cost", number(r.cost)},
+          {"pous", st.pous},
+          {"por", st.por},
+          {"fdc", st.first_directive_connect},
+          {"fgc", st.first_glance_connect},
+          {"coverage", st.coverage},
+          {"growth", st.growth},
+          {"path", path}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Plan a path through a scenario with one planner"};
+  std::string scenario_file, planner_name, svg_file;
+  std::uint64_t seed = 1;
+  double time_limit = 10.0;
+  std::uint64_t max_iterations = std::numeric_limits<std::uint64_t>::max();
+  bool anytime = false, json = false, kinodynamic = false;
+  app.add_option("--scenario", scenario_file, "scenario YAML file")->required();
+  app.add_option("--planner", planner_name, "planner: rrt, rrtstar, lirrt, gart, apgd-rrtstar, rrrt, ddrrt")->required();
+  app.add_option("--seed", seed, "random seed (same seed, same result)");
+  app.add_option("--time-limit", time_limit, "seconds, > 0");
+  app.add_option("--max-iterations", max_iterations, "iteration cap, > 0");
+  app.add_flag("--anytime", anytime, "keep improving until a limit instead of stopping at the first solution");
+  app.add_option("--svg", svg_file, "write a picture of the world, tree and path");
+  app.add_flag("--json", json, "print exactly one JSON object on one line");
+  app.add_flag("--kinodynamic", kinodynamic, "rrt/rrtstar: grow unicycle edges (needs the scenario's vehicle block)");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (!std::isfinite(time_limit) || time_limit <= 0.0) {
+      throw std::invalid_argument("--time-limit must be a positive number of seconds, got " + std::to_string(time_limit));
+    }
+    if (max_iterations == 0) throw std::invalid_argument("--max-iterations must be positive");
+    auto planner = makePlanner(planner_name);  // unknown names fail before the scenario is read
+    const Scenario scenario = loadScenario(scenario_file);
+    const auto world = makeScenarioWorld(scenario);
+
+    PlanProblem problem;
+    problem.world = world.get();
+    problem.start.position = scenario.start;
+    // Without a heading in the scenario the vehicle starts facing the goal.
+    const ddsnav::planner::Vec3 to_goal = scenario.goal - scenario.start;
+    problem.start.heading = scenario.start_heading.value_or(std::atan2(to_goal.y(), to_goal.x()));
+    problem.goal = scenario.goal;
+    problem.goal_radius = scenario.goal_radius;
+    problem.vehicle = scenario.vehicle;
+    problem.kinodynamic = kinodynamic;
+    problem.seed = seed;
+    problem.time_limit_s = time_limit;
+    problem.max_iterations = max_iterations;
+    problem.anytime = anytime;
+    if (kinodynamic && !scenario.vehicle) {
+      throw std::invalid_argument("--kinodynamic needs a 'vehicle' block in " + scenario_file);
+    }
+
+    const PlanResult result = planner->solve(problem);
+
+    if (!svg_file.empty()) {
+      SvgScene scene;
+      scene.scenario = &scenario;
+      scene.tree = result.tree;
+      scene.path = result.path;
+      char title[256];
+      std::snprintf(title, sizeof title, "%s - %s, seed %llu: %s, cost %.2f m, %llu iterations, %.3f s",
+                    scenario.name.c_str(), result.planner.c_str(), static_cast<unsigned long long>(seed),
+                    result.solved ? "solved" : "not solved", result.solved ? result.cost : 0.0,
+                    static_cast<unsigned long long>(result.stats.iterations), result.stats.time_s);
+      scene.title = title;
+      writeSvg(svg_file, scene);
+    }
+
+    if (json) {
+      std::cout << toJson(scenario_file, scenario, result, seed).dump() << std::endl;
+    } else {
+      const PlanStats& s = result.stats;
+      std::printf("scenario %s, planner %s, seed %llu%s\n", scenario.name.c_str(), result.planner.c_str(),
+                  static_cast<unsigned long long>(seed), result.kinodynamic ? " (unicycle edges)" : " (geometric)");
+      std::printf("solved: %s (exact: %s)\n", result.solved ? "yes" : "no", result.exact ? "yes" : "no");
+      if (result.solved) {
+        std::printf("cost %.3f m, %zu states, first solution after %.6f s / %lld iterations\n", result.cost,
+                    result.path.size(), s.time_to_first_solution_s, static_cast<long long>(s.iterations_to_first_solution));
+      }
+      std::printf("time %.6f s, iterations %llu, vertices %llu, validity checks %llu, rewires %llu\n", s.time_s,
+                  static_cast<unsigned long long>(s.iterations), static_cast<unsigned long long>(s.vertices),
+                  static_cast<unsigned long long>(s.validity_checks), static_cast<unsigned long long>(s.rewires));
+      std::printf("POUS %.3f, POR %.3f, FDC %lld, FGC %lld, c(G) %.4f, g(G) %.3g\n", s.pous, s.por,
+                  static_cast<long long>(s.first_directive_connect), static_cast<long long>(s.first_glance_connect),
+                  s.coverage, s.growth);
+    }
+    return 0;  // an unsolved run is a result (solved: false), not an error
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ddsnav plan: error: %s\n", e.what());
+    return 2;
+  }
+}

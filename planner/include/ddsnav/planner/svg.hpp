@@ -1,0 +1,26 @@
+#pragma once
+// Pictures of a planning run as SVG: the scenario's obstacles (exact shapes), the search tree, the path,
+// start and goal. 2-D: one top view. 3-D: a top view (x-y) beside a side view (x-z).
+
+#include "ddsnav/planner/planner.hpp"
+#include "ddsnav/planner/scenario.hpp"
+
+#include <string>
+#include <vector>
+
+namespace ddsnav::planner {
+
+struct SvgScene {
+  const Scenario* scenario = nullptr;  // world geometry, start, goal (required)
+  std::vector<TreeEdge> tree;          // drawn thin and grey
+  std::vector<State> path;             // drawn thick
+  std::string title;                   // printed on top
+};
+
+// The SVG document as text.
+std::string renderSvg(const SvgScene& scene, int width_px = 900);
+
+// Writes renderSvg(scene) to `path`; throws std::runtime_error naming the file when it cannot.
+void writeSvg(const std::string& path, const SvgScene& scene, int width_px = 900);
+
+}  // namespace ddsnav::planner

@@ -1,0 +1,93 @@
+// RRRT, retraction-based RRT (after Zhang & Manocha 2008). A plain RRT extension that hits an obstacle
+// is not thrown away: the tree grows up to the contact state q_c (the last free state on the edge) and
+// then retracts the sample onto the obstacle's boundary: it repeatedly moves along the tangent plane at
+// the contact, towards the sample,
+//   q' = q + s * t/|t|,   t = (q_rand - q) - ((q_rand - q) . n) n,   n = (q - p)/|q - p|,
+// p the nearest obstacle surface point (obstaclesNear), s <= range/4, and projects q' back to clearance
+// `margin` from that surface: q' <- p' + (robot_radius + margin) (q' - p')/|q' - p'|. Each free step is a
+// tree edge. The tree thus slides along obstacle boundaries, which is what finds narrow passages.
+// Geometric only.
+#include "ddsnav/planner/planners.hpp"
+#include "ddsnav/planner/run.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ddsnav::planner {
+namespace {
+
+class RrrtPlanner final : public Planner {
+ public:
+  std::string name() const override { return "rrrt"; }
+
+  PlanResult solve(const PlanProblem& problem) override {
+    PlannerRun run(problem, name(), false);
+    const CollisionWorld& world = run.world;
+    const Steering steering = Steering::geometric(defaultRange(world));
+    const double resolution = world.checkResolution();
+    const double margin = 2.0 * resolution;
+    while (run.nextIteration()) {
+      const Vec3 target = run.sample(kGoalBias);
+      const int nearest = run.tree.nearest(target);
+      const State from = run.tree.node(nearest).state;
+      const State to = steering.steer(from, target);
+      const double length = (to.position - from.position).norm();
+      if (length < 1e-9) continue;
+      if (world.isSegmentFree(from.position, to.position)) {
+        run.addNode(to, nearest, run.tree.node(nearest).cost + length);
+        continue;
+      }
+      // Contact: march from the tree towards the sample to the last free state.
+      const int steps = std::max(1, static_cast<int>(std::ceil(length / resolution)));
+      int last_free = 0;
+      for (int i = 1; i <= steps && world.isFree(from.position + (to.position - from.position) * (double(i) / steps)); ++i) last_free = i;
+      Vec3 q = from.position + (to.position - from.position) * (double(last_free) / steps);
+      int node = nearest;
+      if ((q - from.position).norm() > margin) {
+        node = run.addNode(State{q, edgeHeading(from.position, q, from.heading)}, nearest, run.tree.node(nearest).cost + (q - from.position).norm());
+      } else {
+        q = from.position;
+      }
+      retract(run, node, target, steering.range() / 4.0, margin);
+    }
+    return run.finish();
+  }
+
+ private:
+  static constexpr double kGoalBias = 0.05;
+  static constexpr int kRetractionSteps = 4;
+
+  void retract(PlannerRun& run, int node, const Vec3& target, double max_step, double margin) {
+    const CollisionWorld& world = run.world;
+    const double r = world.robotRadius();
+    for (int k = 0; k < kRetractionSteps; ++k) {
+      const State at = run.tree.node(node).state;
+      const auto contact = world.obstaclesNear(at.position, r + 4.0 * margin);
+      if (contact.empty() || contact.front().distance <= 0.0) return;  // touching the bounds, not an obstacle
+      const Vec3 normal = (at.position - contact.front().nearest_point) / contact.front().distance;
+      const Vec3 v = target - at.position;
+      Vec3 tangent = v - v.dot(normal) * normal;
+      if (world.dimensions() == 2) tangent.z() = 0.0;
+      const double t = tangent.norm();
+      if (t < margin) return;  // the sample is straight behind the obstacle: nothing to slide towards
+      Vec3 next = at.position + tangent * (std::min(max_step, t) / t);
+      // Back onto the boundary offset by the robot radius plus a margin.
+      const auto surface = world.obstaclesNear(next, std::max(max_step, r + 4.0 * margin) + r);
+      if (!surface.empty() && surface.front().distance > 0.0) {
+        const Vec3 out = (next - surface.front().nearest_point) / surface.front().distance;
+        if (surface.front().distance < r + margin || surface.front().distance > r + 4.0 * margin) {
+          next = surface.front().nearest_point + out * (r + 2.0 * margin);
+        }
+      }
+      const double length = (next - at.position).norm();
+      if (length < margin || !world.isSegmentFree(at.position, next)) return;
+      node = run.addNode(State{next, edgeHeading(at.position, next, at.heading)}, node, run.tree.node(node).cost + length);
+    }
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<Planner> makeRrrtPlanner() { return std::make_unique<RrrtPlanner>(); }
+
+}  // namespace ddsnav::planner

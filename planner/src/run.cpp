@@ -1,0 +1,80 @@
+#include "ddsnav/planner/run.hpp"
+
+#include <algorithm>
+
+namespace ddsnav::planner {
+namespace {
+
+const PlanProblem& validated(const PlanProblem& problem, bool kinodynamic) {
+  validateProblem(problem, kinodynamic);
+  return problem;
+}
+
+}  // namespace
+
+double defaultRange(const CollisionWorld& world) {
+  Vec3 extent = world.boundsMax() - world.boundsMin();
+  if (world.dimensions() == 2) extent.z() = 0.0;
+  return 0.2 * extent.norm();
+}
+
+Steering steeringFor(const PlanProblem& problem) {
+  if (problem.kinodynamic) return Steering::unicycle(forwardRegion(*problem.vehicle, problem.world->dimensions()));
+  return Steering::geometric(defaultRange(*problem.world));
+}
+
+PlannerRun::PlannerRun(const PlanProblem& p, std::string planner_name, bool kinodynamic)
+    : problem(validated(p, kinodynamic)),
+      world(*p.world),
+      tree(p.world->dimensions()),
+      rng(p.seed),
+      clock_(p) {
+  result.planner = std::move(planner_name);
+  result.kinodynamic = kinodynamic;
+  checks_at_start_ = world.validityChecks();
+  State root = problem.start;
+  if (world.dimensions() == 2) root.position.z() = 0.0;
+  addNode(root, -1, 0.0);
+}
+
+Vec3 PlannerRun::sample(double goal_bias) {
+  if (rng.uniform() < goal_bias) return problem.goal;
+  return rng.position(world);
+}
+
+bool PlannerRun::nextIteration(bool stop_at_first) {
+  PlanStats& s = result.stats;
+  if (solved() && (stop_at_first || !problem.anytime)) return false;
+  if (s.iterations >= problem.max_iterations) return false;
+  // The clock is read every iteration: cheap next to one collision check, and the limit stays tight.
+  if (clock_.expired()) return false;
+  ++s.iterations;
+  if (problem.on_progress && (s.iterations & 1023) == 0) problem.on_progress(s.iterations);
+  return true;
+}
+
+int PlannerRun::addNode(const State& state, int parent, double cost) {
+  const int id = tree.add(state, parent, cost);
+  node_iteration_.push_back(static_cast<std::int64_t>(result.stats.iterations));
+  if (inGoal(state.position)) {
+    if (goal_nodes_.empty()) {
+      result.stats.time_to_first_solution_s = clock_.elapsed();
+      result.stats.iterations_to_first_solution = static_cast<std::int64_t>(result.stats.iterations);
+    }
+    goal_nodes_.push_back(id);
+  }
+  return id;
+}
+
+PlanResult PlannerRun::finish() {
+  int best = -1;
+  for (int g : goal_nodes_) {
+    if (best < 0 || tree.node(g).cost < tree.node(best).cost) best = g;
+  }
+  result.solved = best >= 0;
+  if (best >= 0) result.path = tree.pathTo(best);
+  finishResult(result, tree, problem, node_iteration_, checks_at_start_, clock_);
+  return std::move(result);
+}
+
+}  // namespace ddsnav::planner
