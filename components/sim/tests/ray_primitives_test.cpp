@@ -1,0 +1,116 @@
+// Hand-computed ray / primitive intersections for every obstacle type.
+#include "ddsnav/sim/ray_primitives.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace ddsnav::sim {
+namespace {
+
+using Eigen::Vector3d;
+constexpr double kPi = std::numbers::pi;
+
+Ray makeRay(Vector3d origin, Vector3d direction) { return {origin, direction.normalized()}; }
+
+TEST(RayBox, AxisAlignedFrontFace) {
+  EXPECT_NEAR(intersectBox(makeRay({0, 0, 0}, {1, 0, 0}), {5, 0, 0}, {2, 2, 2}, 0.0, false), 4.0, 1e-12);
+}
+
+TEST(RayBox, RotatedBoxPresentsItsCorner) {
+  // Yawed 45 deg, the corner of a 2x2 box points at the origin: it is sqrt(2) closer than the centre.
+  EXPECT_NEAR(intersectBox(makeRay({0, 0, 0}, {1, 0, 0}), {5, 0, 0}, {2, 2, 2}, kPi / 4, false),
+              5.0 - std::sqrt(2.0), 1e-12);
+}
+
+TEST(RayBox, DiagonalRayHitsTopFace) {
+  // From (0,0,3) towards (4,0,1): the top face z = 1 of the box centred (5,0,0) is reached at x = 4.
+  const Vector3d d = Vector3d(4, 0, -2).normalized();
+  EXPECT_NEAR(intersectBox({{0, 0, 3}, d}, {5, 0, 0}, {2, 2, 2}, 0.0, false), std::sqrt(20.0), 1e-12);
+}
+
+TEST(RayBox, MissesAndInside) {
+  EXPECT_EQ(intersectBox(makeRay({0, 0, 0}, {0, 1, 0}), {5, 0, 0}, {2, 2, 2}, 0.0, false), kNoHit);
+  EXPECT_EQ(intersectBox(makeRay({0, 0, 0}, {-1, 0, 0}), {5, 0, 0}, {2, 2, 2}, 0.0, false), kNoHit);
+  EXPECT_EQ(intersectBox(makeRay({5, 0, 0}, {1, 0, 0}), {5, 0, 0}, {2, 2, 2}, 0.0, false), 0.0);
+  // Above the box in 3-D, but the planar footprint is hit.
+  EXPECT_EQ(intersectBox(makeRay({0, 0, 5}, {1, 0, 0}), {5, 0, 0}, {2, 2, 2}, 0.0, false), kNoHit);
+  EXPECT_NEAR(intersectBox(makeRay({0, 0, 5}, {1, 0, 0}), {5, 0, 0}, {2, 2, 0}, 0.0, true), 4.0, 1e-12);
+}
+
+TEST(RaySphere, CentralAndOffsetHits) {
+  EXPECT_NEAR(intersectSphere(makeRay({0, 0, 0}, {1, 0, 0}), {10, 0, 0}, 2.0, false), 8.0, 1e-12);
+  EXPECT_NEAR(intersectSphere(makeRay({0, 1, 0}, {1, 0, 0}), {10, 0, 0}, 2.0, false), 10.0 - std::sqrt(3.0), 1e-12);
+  EXPECT_EQ(intersectSphere(makeRay({0, 3, 0}, {1, 0, 0}), {10, 0, 0}, 2.0, false), kNoHit);
+  EXPECT_EQ(intersectSphere(makeRay({0, 0, 0}, {-1, 0, 0}), {10, 0, 0}, 2.0, false), kNoHit);
+  EXPECT_EQ(intersectSphere(makeRay({10, 0, 0}, {1, 0, 0}), {10, 0, 0}, 2.0, false), 0.0);
+}
+
+TEST(RaySphere, PlanarCircleIgnoresZ) {
+  EXPECT_NEAR(intersectSphere(makeRay({0, 0, 0}, {1, 0, 0}), {10, 0, 7}, 2.0, true), 8.0, 1e-12);
+  EXPECT_EQ(intersectSphere(makeRay({0, 0, 0}, {1, 0, 0}), {10, 0, 7}, 2.0, false), kNoHit);
+}
+
+TEST(RayEllipsoid, AxisAlignedAndRotated) {
+  EXPECT_NEAR(intersectEllipsoid(makeRay({0, 0, 0}, {1, 0, 0}), {10, 0, 0}, {3, 1, 1}, 0.0, false), 7.0, 1e-12);
+  // Rotated by 90 deg the long axis lies along y: along x only the semi-axis 1 remains.
+  EXPECT_NEAR(intersectEllipsoid(makeRay({0, 0, 0}, {1, 0, 0}), {10, 0, 0}, {3, 1, 1}, kPi / 2, false), 9.0, 1e-12);
+  EXPECT_NEAR(intersectEllipsoid(makeRay({10, -10, 0}, {0, 1, 0}), {10, 0, 0}, {3, 1, 1}, kPi / 2, false), 7.0, 1e-12);
+  // Vertical ray onto the top: z semi-axis 2.
+  EXPECT_NEAR(intersectEllipsoid(makeRay({10, 0, 10}, {0, 0, -1}), {10, 0, 0}, {3, 1, 2}, 0.3, false), 8.0, 1e-12);
+}
+
+TEST(RayEllipsoid, ObliqueRayMatchesImplicitSurface) {
+  // Yaw 30 deg, semi-axes (4, 2, 1): the hit must lie on the surface, and the ray just before it outside.
+  const Vector3d c(3, -2, 1), a(4, 2, 1);
+  const double yaw = kPi / 6;
+  const Ray ray = makeRay({-8, 5, 3}, Vector3d(3, -2, 1) - Vector3d(-8, 5, 3) + Vector3d(0.5, 0.3, -0.2));
+  const double t = intersectEllipsoid(ray, c, a, yaw, false);
+  ASSERT_NE(t, kNoHit);
+  auto implicit = [&](const Vector3d& p) {
+    const Vector3d q = p - c;
+    const double x = std::cos(yaw) * q.x() + std::sin(yaw) * q.y();
+    const double y = -std::sin(yaw) * q.x() + std::cos(yaw) * q.y();
+    return x * x / (a.x() * a.x()) + y * y / (a.y() * a.y()) + q.z() * q.z() / (a.z() * a.z());
+  };
+  EXPECT_NEAR(implicit(ray.origin + t * ray.direction), 1.0, 1e-9);
+  EXPECT_GT(implicit(ray.origin + (t - 1e-3) * ray.direction), 1.0);
+}
+
+TEST(RayEllipsoid, PlanarEllipse) {
+  EXPECT_NEAR(intersectEllipsoid(makeRay({0, 0, 0}, {1, 0, 0}), {10, 0, 0}, {3, 1, 0}, 0.0, true), 7.0, 1e-12);
+}
+
+TEST(RayHill, VerticalRayHitsPeak) {
+  EXPECT_NEAR(intersectHill(makeRay({0, 0, 20}, {0, 0, -1}), {0, 0, 0}, 10.0, 5.0, 100.0), 10.0, 1e-5);
+}
+
+TEST(RayHill, HorizontalRayHitsHalfHeightContour) {
+  // 10 exp(-x^2/50) = 5  ->  x = -sqrt(50 ln 2)
+  EXPECT_NEAR(intersectHill(makeRay({-30, 0, 5}, {1, 0, 0}), {0, 0, 0}, 10.0, 5.0, 100.0),
+              30.0 - std::sqrt(50.0 * std::log(2.0)), 1e-5);
+}
+
+TEST(RayHill, SlantedRayLandsOnSurfaceAndMissesAbove) {
+  const Ray ray = makeRay({-20, 3, 12}, {1, 0.1, -0.4});
+  const double t = intersectHill(ray, {2, 1, 0}, 10.0, 5.0, 100.0);
+  ASSERT_NE(t, kNoHit);
+  const Vector3d p = ray.origin + t * ray.direction;
+  const double d2 = (p.x() - 2) * (p.x() - 2) + (p.y() - 1) * (p.y() - 1);
+  EXPECT_NEAR(p.z(), 10.0 * std::exp(-d2 / 50.0), 1e-5);
+  EXPECT_EQ(intersectHill(makeRay({-30, 0, 11}, {1, 0, 0}), {0, 0, 0}, 10.0, 5.0, 100.0), kNoHit);
+  EXPECT_EQ(intersectHill(makeRay({-30, 0, 5}, {1, 0, 0}), {0, 0, 0}, 10.0, 5.0, 10.0), kNoHit);  // beyond t_max
+}
+
+TEST(RayBounds, ExitsThroughEnabledFaces) {
+  const Vector3d lo(0, 0, 0), hi(10, 10, 10);
+  EXPECT_NEAR(exitBounds(makeRay({1, 1, 1}, {1, 0, 0}), lo, hi, true, true, false, false), 9.0, 1e-12);
+  EXPECT_NEAR(exitBounds(makeRay({1, 1, 1}, {0, 0, -1}), lo, hi, true, true, false, false), 1.0, 1e-12);
+  EXPECT_EQ(exitBounds(makeRay({1, 1, 1}, {0, 0, 1}), lo, hi, true, true, false, false), kNoHit);
+  EXPECT_NEAR(exitBounds(makeRay({1, 1, 1}, {0, 0, 1}), lo, hi, true, true, true, false), 9.0, 1e-12);
+  EXPECT_EQ(exitBounds(makeRay({1, 1, 1}, {1, 0, 0}), lo, hi, false, true, false, false), kNoHit);
+}
+
+}  // namespace
+}  // namespace ddsnav::sim
