@@ -1,0 +1,54 @@
+#pragma once
+// Turns a planner path (straight edges between states) into a smooth, time-parametrised trajectory that
+// the unicycle can drive: shortcut, round the corners with a clamped cubic B-spline, time-parametrise under
+// the vehicle limits, collision-check every sample and tighten corners that collide.
+// See docs/smoothing.md for the method and why.
+
+#include "ddsnav/planner/collision_world.hpp"
+#include "ddsnav/planner/planner.hpp"
+#include "ddsnav/tracker/trajectory.hpp"
+
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <vector>
+
+namespace ddsnav::tracker {
+
+// Thrown for input the smoother cannot use and for paths it cannot make safe. what() says which state or
+// edge and what was expected. No trajectory is returned in that case.
+class SmoothingError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct SmootherConfig {
+  double sample_dt = 0.05;       // s between trajectory samples
+  // The trajectory uses this fraction of v_max, omega_max and vz_max; the rest is left to the tracker's
+  // feedback so that it can correct errors without saturating.
+  double limit_fraction = 0.85;
+  double max_accel = 1.0;        // m/s^2 along the path
+  double max_lateral_accel = std::numeric_limits<double>::infinity();  // m/s^2, v^2 * curvature
+  bool shortcut = true;          // collision-checked shortcutting before smoothing
+  // Shortcuts must keep at least this clearance (m) from obstacles; the planner's own edges are kept
+  // as they are even when closer.
+  double shortcut_clearance = 0.1;
+  // Target turn radius at corners, m: < 0 means v_max / omega_max (corners at full speed when there is
+  // room); 0 means no rounding: the polyline itself, stopping and turning in place at every corner.
+  double corner_radius = -1.0;
+  int max_fallback_iterations = 24;  // each halves the corner size near a collision
+  // Heading the vehicle has at the start; when set, the trajectory starts by turning in place from it.
+  std::optional<double> initial_heading;
+  bool compute_clearance = true;     // fill report.min_clearance (one clearance query per sample)
+};
+
+// Throws SmoothingError (bad path, bad limits, start in collision, cannot be made collision free).
+Trajectory smoothPath(const std::vector<planner::State>& path, const planner::CollisionWorld& world,
+                      const planner::VehicleLimits& limits, const SmootherConfig& config = {});
+
+// The collision-checked shortcutting step on its own: the returned polyline keeps the first and last
+// point, and each of its edges is either an edge of the input or free with `min_clearance`.
+std::vector<Vec3> shortcutPolyline(const std::vector<Vec3>& points, const planner::CollisionWorld& world,
+                                   double min_clearance);
+
+}  // namespace ddsnav::tracker

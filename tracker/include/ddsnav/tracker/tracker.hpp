@@ -1,0 +1,102 @@
+#pragma once
+// Follows a time-parametrised trajectory with the unicycle: computes velocity commands from the vehicle
+// state, keeps tracking statistics, and says when a new plan is needed. See docs/tracking.md.
+
+#include "ddsnav/planner/collision_world.hpp"
+#include "ddsnav/tracker/trajectory.hpp"
+#include "ddsnav/tracker/vehicle.hpp"
+
+#include <cstddef>
+#include <limits>
+#include <string>
+
+namespace ddsnav::tracker {
+
+enum class ControllerType {
+  // Trajectory feedforward (v_r, omega_r) plus nonlinear feedback on the error in the vehicle frame
+  // (Kanayama / de Luca-Oriolo form, gains scheduled on the reference). The default.
+  FeedforwardFeedback,
+  // Geometric pure pursuit on the path with the trajectory's speed profile; kept as the comparison.
+  PurePursuit,
+};
+
+struct TrackerConfig {
+  ControllerType controller = ControllerType::FeedforwardFeedback;
+  // Feedback: k_along = k_heading = 2 zeta sqrt(omega_r^2 + b v_r^2), k_lateral = b v_r.
+  double zeta = 0.7;             // damping ratio of the linearised error dynamics
+  double b = 6.0;                // 1/m^2, lateral stiffness
+  double min_gain = 0.5;         // 1/s floor for k_along and k_heading when the reference is (nearly) at rest
+  // The reference time stops advancing while the reference is more than max_lead metres (along the path)
+  // ahead of the vehicle, so a vehicle held back (saturation, disturbance) is not left behind for good.
+  double max_lead = 0.5;
+  double lookahead_min = 0.6;    // m, pure pursuit
+  double lookahead_time = 0.4;   // s of reference speed added to the pure pursuit lookahead
+  double goal_tolerance = 0.1;   // m: goal reached when the reference is finished and the vehicle this close
+  double replan_deviation = 1.0;      // m of cross-track error that asks for a new plan
+  double replan_horizon = std::numeric_limits<double>::infinity();  // s of the remaining trajectory checked
+};
+
+struct TrackingStatus {
+  double time = 0.0;                 // s since the trajectory started (vehicle clock)
+  double reference_time = 0.0;       // s, where on the trajectory the reference is
+  double cross_track_error = 0.0;    // m, signed, left of the path positive
+  double along_track_error = 0.0;    // m, signed, vehicle ahead of the reference positive
+  double heading_error = 0.0;        // rad, vehicle minus reference, wrapped
+  double position_error = 0.0;       // m, distance to the reference point
+  double mean_cross_track_error = 0.0;  // m, running mean of |cross_track_error|
+  double max_cross_track_error = 0.0;   // m, running max of |cross_track_error|
+  double mean_position_error = 0.0;     // m, running mean of position_error
+  double progress = 0.0;             // fraction of the trajectory length covered, 0..1
+  bool goal_reached = false;
+  std::size_t updates = 0;
+};
+
+enum class ReplanReason { None, Deviation, TrajectoryBlocked };
+const char* toString(ReplanReason reason);
+
+struct ReplanDecision {
+  bool needed = false;
+  ReplanReason reason = ReplanReason::None;
+  std::string message;         // human-readable, names the numbers
+  Vec3 blocked_at = Vec3::Zero();  // first blocked sample, for TrajectoryBlocked
+};
+
+class TrajectoryTracker {
+ public:
+  // Throws std::invalid_argument for an empty trajectory or bad limits / gains.
+  TrajectoryTracker(Trajectory trajectory, const VehicleLimits& limits, const TrackerConfig& config = {});
+
+  // One control step: advances the reference by dt, measures the errors against `state` and returns the
+  // command (already saturated to the limits). After the goal is reached it returns zero commands.
+  VehicleCommand update(const VehicleState& state, double dt);
+
+  const TrackingStatus& status() const { return status_; }
+  const Trajectory& trajectory() const { return trajectory_; }
+  const TrackerConfig& config() const { return config_; }
+
+  // Whether the vehicle should ask for a new plan: cross-track error beyond replan_deviation, or a sample
+  // of the remaining trajectory (within replan_horizon) no longer free in `world` (new obstacles).
+  ReplanDecision checkReplan(const planner::CollisionWorld& world) const;
+
+ private:
+  struct Projection {
+    std::size_t segment = 0;  // samples[segment] .. samples[segment + 1]
+    Vec3 point = Vec3::Zero();
+    double arc_length = 0.0;
+    double signed_distance = 0.0;
+  };
+  Projection project(const Vec3& position) const;
+  VehicleCommand feedforwardFeedback(const VehicleState& state, const TrajectorySample& ref) const;
+  VehicleCommand purePursuit(const VehicleState& state, const Projection& proj) const;
+  VehicleCommand approachGoal(const VehicleState& state) const;
+  TrajectorySample sampleAtArcLength(double s) const;
+
+  Trajectory trajectory_;
+  VehicleLimits limits_;
+  TrackerConfig config_;
+  TrackingStatus status_;
+  std::size_t last_segment_ = 0;
+  double sum_cross_ = 0.0, sum_position_ = 0.0;
+};
+
+}  // namespace ddsnav::tracker

@@ -1,0 +1,81 @@
+#pragma once
+// A time-parametrised trajectory: samples at a fixed dt plus the analytic curve they were taken from.
+
+#include "ddsnav/planner/scenario.hpp"
+
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+namespace ddsnav::tracker {
+
+using planner::Vec3;
+
+// A clamped B-spline of degree 3: the curve passes through the first and last control points and is
+// C2 everywhere. Knots are uniform in the interior, with multiplicity 4 at both ends.
+struct BSpline {
+  static constexpr int kDegree = 3;
+  std::vector<Vec3> control_points;
+  std::vector<double> knots;  // control_points.size() + 4 values, non-decreasing
+
+  static BSpline clampedUniform(std::vector<Vec3> control_points);  // needs >= 4 control points
+
+  double parameterMin() const { return knots[kDegree]; }
+  double parameterMax() const { return knots[knots.size() - 1 - kDegree]; }
+  int spanCount() const { return static_cast<int>(control_points.size()) - kDegree; }
+  // Index of the first control point that influences parameter u (the span's control points are
+  // first .. first + 3).
+  int firstControlPoint(double u) const;
+
+  Vec3 point(double u) const;
+  // Position and its first and second derivatives with respect to u.
+  void evaluate(double u, Vec3& position, Vec3& first, Vec3& second) const;
+};
+
+struct TrajectorySample {
+  double time = 0.0;          // s from the start of the trajectory
+  Vec3 position = Vec3::Zero();
+  double heading = 0.0;       // rad, unwrapped: continuous along the trajectory, not limited to (-pi, pi]
+  double speed = 0.0;         // forward (horizontal) speed v, m/s
+  double yaw_rate = 0.0;      // omega, rad/s
+  double vz = 0.0;            // vertical speed, m/s (0 in 2-D)
+  double curvature = 0.0;     // signed horizontal curvature, 1/m (left turn positive)
+  double arc_length = 0.0;    // m along the curve from its start
+
+  // World-frame velocity (v cos(heading), v sin(heading), vz).
+  Vec3 velocity() const;
+};
+
+// Numbers a reader wants to know about a trajectory (see docs/smoothing.md).
+struct TrajectoryReport {
+  std::size_t input_waypoints = 0;     // after removing duplicates
+  std::size_t shortcut_waypoints = 0;  // after collision-checked shortcutting
+  int fallback_iterations = 0;         // rounds of corner tightening the collision check asked for
+  double length = 0.0;                 // m
+  double duration = 0.0;               // s
+  double max_curvature = 0.0;          // 1/m, horizontal
+  double max_speed = 0.0;              // m/s
+  double max_yaw_rate = 0.0;           // rad/s
+  double max_vz = 0.0;                 // m/s
+  double max_accel = 0.0;              // m/s^2, along the path, between samples
+  double max_heading_jump = 0.0;       // rad between consecutive samples
+  double min_clearance = std::numeric_limits<double>::infinity();  // m, robot boundary to obstacles
+  std::size_t samples_in_collision = 0;  // always 0 for a trajectory the smoother returns
+};
+
+struct Trajectory {
+  int dimensions = 2;
+  double dt = 0.05;                       // sample spacing in time (the last sample may be closer)
+  std::vector<TrajectorySample> samples;  // strictly increasing time, first at 0
+  BSpline curve;                          // the analytic form of the geometric path
+  double initial_turn = 0.0;              // rad turned in place before driving (0 without a start heading)
+  TrajectoryReport report;
+
+  bool empty() const { return samples.empty(); }
+  double duration() const { return samples.empty() ? 0.0 : samples.back().time; }
+  double length() const { return samples.empty() ? 0.0 : samples.back().arc_length; }
+  // The state at time t, linearly interpolated between samples (clamped to the ends).
+  TrajectorySample at(double time) const;
+};
+
+}  // namespace ddsnav::tracker

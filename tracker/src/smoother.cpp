@@ -1,0 +1,489 @@
+#include "ddsnav/tracker/smoother.hpp"
+
+#include "ddsnav/tracker/vehicle.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <set>
+#include <sstream>
+#include <string>
+
+namespace ddsnav::tracker {
+
+namespace {
+
+using planner::CollisionWorld;
+
+std::string fmt(const Vec3& p, int dims) {
+  std::ostringstream s;
+  s.precision(4);
+  s << "(" << p.x() << ", " << p.y();
+  if (dims == 3) s << ", " << p.z();
+  s << ")";
+  return s.str();
+}
+
+[[noreturn]] void fail(const std::string& what) { throw SmoothingError("smoother: " + what); }
+
+// ---- input checks ---------------------------------------------------------------------------------
+
+std::vector<Vec3> cleanPath(const std::vector<planner::State>& path, int dims) {
+  if (path.empty()) fail("path is empty; expected at least 2 states");
+  if (path.size() == 1) fail("path has a single state; expected at least 2 states");
+  std::vector<Vec3> points;
+  points.reserve(path.size());
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    Vec3 p = path[i].position;
+    if (!p.allFinite() || !std::isfinite(path[i].heading))
+      fail("path state " + std::to_string(i) + " has a non-finite position or heading");
+    if (dims == 2) p.z() = 0.0;
+    // Consecutive duplicates carry no direction; drop them.
+    if (!points.empty() && (p - points.back()).norm() < 1e-9) continue;
+    points.push_back(p);
+  }
+  if (points.size() < 2)
+    fail("all " + std::to_string(path.size()) + " path states are at the same position; expected at least 2 distinct");
+  return points;
+}
+
+void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig& c) {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(l.v_max)) fail("vehicle v_max must be a positive number, got " + std::to_string(l.v_max));
+  if (!positive(l.omega_max)) fail("vehicle omega_max must be a positive number, got " + std::to_string(l.omega_max));
+  if (dims == 3 && !positive(l.vz_max)) fail("vehicle vz_max must be a positive number in 3-D, got " + std::to_string(l.vz_max));
+  if (!positive(c.sample_dt)) fail("sample_dt must be a positive number");
+  if (!positive(c.limit_fraction) || c.limit_fraction > 1.0) fail("limit_fraction must be in (0, 1]");
+  if (!positive(c.max_accel)) fail("max_accel must be a positive number");
+  if (!(c.max_lateral_accel > 0.0)) fail("max_lateral_accel must be > 0");
+  if (!std::isfinite(c.corner_radius)) fail("corner_radius must be finite");
+  if (!(c.shortcut_clearance >= 0.0)) fail("shortcut_clearance must be >= 0");
+  if (c.initial_heading && !std::isfinite(*c.initial_heading)) fail("initial_heading must be finite");
+}
+
+void checkPathFree(const std::vector<Vec3>& points, const CollisionWorld& world) {
+  const int dims = world.dimensions();
+  if (!world.isFree(points.front()))
+    fail("path start " + fmt(points.front(), dims) + " is in collision or out of bounds (robot radius " +
+         std::to_string(world.robotRadius()) + ")");
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    if (!world.isFree(points[i]))
+      fail("path state " + std::to_string(i) + " " + fmt(points[i], dims) + " is in collision or out of bounds");
+    if (!world.isSegmentFree(points[i - 1], points[i]))
+      fail("path edge " + std::to_string(i - 1) + " -> " + std::to_string(i) + " " + fmt(points[i - 1], dims) +
+           " -> " + fmt(points[i], dims) + " is not collision free");
+  }
+}
+
+// ---- shortcutting ----------------------------------------------------------------------------------
+
+// Smallest clearance along a-b is at least `required`. Clearance is 1-Lipschitz, so a point with clearance c
+// vouches for everything within c - required of it: long free stretches take few queries.
+bool clearanceAtLeast(const CollisionWorld& world, const Vec3& a, const Vec3& b, double required) {
+  if (required <= 0.0) return true;
+  const double length = (b - a).norm();
+  const Vec3 dir = length > 0 ? Vec3((b - a) / length) : Vec3::Zero();
+  const double min_step = world.checkResolution();
+  for (double t = 0.0;; ) {
+    const double c = world.clearance(a + std::min(t, length) * dir);
+    if (c < required) return false;
+    if (t >= length) return true;
+    t = std::min(length, t + std::max(c - required, min_step));
+  }
+}
+
+// Direction change at the middle point, rad.
+double deflection(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 u = (b - a).normalized(), w = (c - b).normalized();
+  return std::atan2(u.cross(w).norm(), u.dot(w));
+}
+
+std::vector<Vec3> dropCollinear(const std::vector<Vec3>& points) {
+  std::vector<Vec3> out{points.front()};
+  for (std::size_t i = 1; i + 1 < points.size(); ++i)
+    if (deflection(out.back(), points[i], points[i + 1]) > 1e-6) out.push_back(points[i]);
+  out.push_back(points.back());
+  return out;
+}
+
+// ---- the B-spline through the corners -------------------------------------------------------------
+//
+// Each interior corner c_k with incoming direction u_in and outgoing direction u_out contributes the
+// three control points c_k - d_k u_in, c_k, c_k + d_k u_out. Because consecutive corners' control points
+// all lie on the polyline's edges, every span whose four control points are collinear is exactly the
+// polyline edge; only the spans next to a corner bend, and they stay within d_k sin(angle) / 6 of the
+// polyline. Shrinking d_k therefore pulls the curve onto the (collision-free) polyline locally.
+
+struct Corners {
+  std::vector<Vec3> points;   // the polyline, start and goal included
+  std::vector<double> size;   // d_k per point (0 for start and goal)
+};
+
+// Corner size that makes the curvature at the corner's knot equal to 1/radius: for the pattern above
+// the curvature there is 2 sin(a/2) / (d cos^2(a/2)), a the deflection angle.
+double cornerSizeFor(double angle, double radius) {
+  const double c = std::cos(angle / 2);
+  if (c < 1e-6) return std::numeric_limits<double>::infinity();
+  return radius * 2.0 * std::sin(angle / 2) / (c * c);
+}
+
+Corners makeCorners(const std::vector<Vec3>& points, double radius) {
+  Corners c{points, std::vector<double>(points.size(), 0.0)};
+  for (std::size_t k = 1; k + 1 < points.size(); ++k) {
+    const double in = (points[k] - points[k - 1]).norm(), out = (points[k + 1] - points[k]).norm();
+    const double want = cornerSizeFor(deflection(points[k - 1], points[k], points[k + 1]), radius);
+    // Neighbouring corners share an edge: each takes at most 45% of it.
+    c.size[k] = std::min({want, 0.45 * in, 0.45 * out});
+  }
+  return c;
+}
+
+// Control point index -> corner index, so a collision in a span can be traced to the corners that shape it.
+int cornerOfControlPoint(int index, int corner_count) {
+  if (index <= 0) return 0;
+  const int k = (index + 2) / 3;  // corner k owns control points 3k-2, 3k-1, 3k
+  return std::min(k, corner_count - 1);
+}
+
+BSpline makeSpline(const Corners& c) {
+  std::vector<Vec3> cps{c.points.front()};
+  const std::size_t n = c.points.size();
+  for (std::size_t k = 1; k + 1 < n; ++k) {
+    const Vec3 in = (c.points[k] - c.points[k - 1]).normalized();
+    const Vec3 out = (c.points[k + 1] - c.points[k]).normalized();
+    cps.push_back(c.points[k] - c.size[k] * in);
+    cps.push_back(c.points[k]);
+    cps.push_back(c.points[k] + c.size[k] * out);
+  }
+  cps.push_back(c.points.back());
+  if (cps.size() == 2) {  // a single straight edge: four collinear control points
+    const Vec3 a = cps[0], b = cps[1];
+    cps = {a, a + (b - a) / 3.0, a + 2.0 * (b - a) / 3.0, b};
+  }
+  return BSpline::clampedUniform(std::move(cps));
+}
+
+// ---- dense geometric samples of the curve ----------------------------------------------------------
+
+struct CurvePoint {
+  double u = 0.0;
+  Vec3 position;
+  double heading = 0.0;  // unwrapped
+};
+
+std::vector<CurvePoint> sampleCurve(const BSpline& spline, double max_step) {
+  std::vector<CurvePoint> pts;
+  std::vector<double> raw_heading;
+  std::vector<bool> heading_known;
+  auto add = [&](double u) {
+    Vec3 p, d1, d2;
+    spline.evaluate(u, p, d1, d2);
+    const double h = std::hypot(d1.x(), d1.y());
+    pts.push_back({u, p, 0.0});
+    raw_heading.push_back(h > 1e-9 ? std::atan2(d1.y(), d1.x()) : 0.0);
+    heading_known.push_back(h > 1e-9);
+  };
+  const auto& cp = spline.control_points;
+  for (int s = 0; s < spline.spanCount(); ++s) {
+    // The span's control polygon is at least as long as the span: a safe first guess for the count.
+    double poly = 0.0;
+    for (int j = 0; j < 3; ++j) poly += (cp[s + j + 1] - cp[s + j]).norm();
+    const int m = std::max(1, static_cast<int>(std::ceil(poly / max_step)));
+    const double u0 = spline.knots[s + 3], u1 = spline.knots[s + 4];
+    for (int i = 0; i < m; ++i) {
+      const double u = u0 + (u1 - u0) * i / m;
+      if (!pts.empty()) {
+        // Parameter speed varies inside a span: bisect until consecutive samples are close enough.
+        double ua = pts.back().u;
+        Vec3 pa = pts.back().position;
+        while ((spline.point(u) - pa).norm() > max_step) {
+          double ub = u;
+          while ((spline.point(ub) - pa).norm() > max_step && ub - ua > 1e-12) ub = 0.5 * (ua + ub);
+          add(ub);
+          ua = ub;
+          pa = pts.back().position;
+        }
+      }
+      add(u);
+    }
+  }
+  add(spline.parameterMax());
+
+  // Where the tangent vanishes (a corner tightened to a point, or a vertical climb in 3-D) the heading is
+  // the direction of travel from there: take it from the neighbouring chord, else hold the previous one.
+  const std::size_t n = pts.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (heading_known[i]) continue;
+    Vec3 chord = Vec3::Zero();
+    for (std::size_t j = i + 1; j < n && std::hypot(chord.x(), chord.y()) < 1e-9; ++j) chord = pts[j].position - pts[i].position;
+    if (std::hypot(chord.x(), chord.y()) < 1e-9)
+      for (std::size_t j = i; j-- > 0 && std::hypot(chord.x(), chord.y()) < 1e-9;) chord = pts[i].position - pts[j].position;
+    if (std::hypot(chord.x(), chord.y()) >= 1e-9) {
+      raw_heading[i] = std::atan2(chord.y(), chord.x());
+    } else if (i > 0) {
+      raw_heading[i] = raw_heading[i - 1];  // purely vertical: keep facing the same way
+    }
+  }
+  pts[0].heading = raw_heading[0];
+  for (std::size_t i = 1; i < n; ++i) pts[i].heading = pts[i - 1].heading + wrapAngle(raw_heading[i] - raw_heading[i - 1]);
+  return pts;
+}
+
+// Spans (first control point index) whose samples are not free.
+std::set<int> collidingSpans(const BSpline& spline, const std::vector<CurvePoint>& pts, const CollisionWorld& world,
+                             Vec3* first_hit) {
+  std::set<int> spans;
+  for (const auto& p : pts) {
+    if (world.isFree(p.position)) continue;
+    if (spans.empty() && first_hit) *first_hit = p.position;
+    spans.insert(spline.firstControlPoint(p.u));
+  }
+  return spans;
+}
+
+// ---- time parametrisation ------------------------------------------------------------------------
+
+struct Profile {
+  std::vector<double> time;   // at each curve point
+  std::vector<double> speed;  // path speed ds/dt at each curve point
+  std::vector<double> arc;    // arc length at each curve point
+};
+
+Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::VehicleLimits& limits, int dims,
+                        const SmootherConfig& cfg) {
+  const std::size_t n = pts.size();
+  const double v_eff = cfg.limit_fraction * limits.v_max;
+  const double w_eff = cfg.limit_fraction * limits.omega_max;
+  const double vz_eff = dims == 3 ? cfg.limit_fraction * limits.vz_max : std::numeric_limits<double>::infinity();
+  const double inf = std::numeric_limits<double>::infinity();
+
+  std::vector<double> ds(n - 1), dxy(n - 1), dz(n - 1), dth(n - 1);
+  std::vector<double> cap(n, inf);
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    const Vec3 d = pts[i + 1].position - pts[i].position;
+    ds[i] = d.norm();
+    dxy[i] = std::hypot(d.x(), d.y());
+    dz[i] = d.z();
+    dth[i] = pts[i + 1].heading - pts[i].heading;
+    // Largest path speed on this interval that keeps v, omega, vz and the lateral acceleration in limits.
+    double limit = inf;
+    if (ds[i] <= 0.0) {
+      limit = 0.0;  // turning in place
+    } else {
+      if (dxy[i] > 0) limit = std::min(limit, v_eff * ds[i] / dxy[i]);
+      if (std::abs(dz[i]) > 0) limit = std::min(limit, vz_eff * ds[i] / std::abs(dz[i]));
+      if (std::abs(dth[i]) > 0) {
+        limit = std::min(limit, w_eff * ds[i] / std::abs(dth[i]));
+        if (std::isfinite(cfg.max_lateral_accel) && dxy[i] > 0) {
+          const double kappa = std::abs(dth[i]) / dxy[i];
+          limit = std::min(limit, std::sqrt(cfg.max_lateral_accel / kappa) * ds[i] / dxy[i]);
+        }
+      }
+    }
+    cap[i] = std::min(cap[i], limit);
+    cap[i + 1] = std::min(cap[i + 1], limit);
+  }
+  cap.front() = cap.back() = 0.0;  // start and end at rest
+
+  // Forward-backward pass: the fastest profile under the caps with |ds/dt change| <= max_accel.
+  Profile prof;
+  auto& v = prof.speed;
+  v.assign(n, 0.0);
+  for (std::size_t i = 0; i + 1 < n; ++i) v[i + 1] = std::min(cap[i + 1], std::sqrt(v[i] * v[i] + 2 * cfg.max_accel * ds[i]));
+  for (std::size_t i = n - 1; i-- > 0;) v[i] = std::min(v[i], std::sqrt(v[i + 1] * v[i + 1] + 2 * cfg.max_accel * ds[i]));
+
+  prof.time.assign(n, 0.0);
+  prof.arc.assign(n, 0.0);
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    double tau = 0.0;
+    if (ds[i] > 0) tau = v[i] + v[i + 1] > 1e-12 ? 2 * ds[i] / (v[i] + v[i + 1]) : 2 * std::sqrt(ds[i] / cfg.max_accel);
+    // The speed caps already imply these; they matter for pure rotations and guard rounding.
+    tau = std::max({tau, std::abs(dth[i]) / w_eff, std::abs(dz[i]) / vz_eff});
+    prof.time[i + 1] = prof.time[i] + tau;
+    prof.arc[i + 1] = prof.arc[i] + ds[i];
+  }
+  return prof;
+}
+
+std::vector<TrajectorySample> sampleInTime(const std::vector<CurvePoint>& pts, const Profile& prof, double dt) {
+  std::vector<TrajectorySample> out;
+  const std::size_t n = pts.size();
+  const double total = prof.time.back();
+  const auto count = static_cast<std::size_t>(std::floor(total / dt));
+  out.reserve(count + 2);
+  std::size_t i = 0;
+  auto sampleAt = [&](double t) {
+    while (i + 2 < n && prof.time[i + 1] <= t) ++i;
+    const double tau = prof.time[i + 1] - prof.time[i];
+    const double f = tau > 0 ? std::clamp((t - prof.time[i]) / tau, 0.0, 1.0) : 1.0;
+    const Vec3 d = pts[i + 1].position - pts[i].position;
+    const double ds = d.norm(), dxy = std::hypot(d.x(), d.y());
+    const double dth = pts[i + 1].heading - pts[i].heading;
+    TrajectorySample s;
+    s.time = t;
+    s.position = pts[i].position + f * d;
+    s.heading = pts[i].heading + f * dth;
+    s.arc_length = prof.arc[i] + f * ds;
+    // Path speed, scaled down where the interval is slower than its end speeds say (turning in place).
+    double path_speed = prof.speed[i] + f * (prof.speed[i + 1] - prof.speed[i]);
+    const double sum = prof.speed[i] + prof.speed[i + 1];
+    if (tau > 0 && ds > 0 && sum > 0) path_speed *= std::min(1.0, (2 * ds / sum) / tau);
+    if (tau > 0 && ds > 0 && sum <= 0) path_speed = ds / tau;
+    s.speed = ds > 0 ? path_speed * dxy / ds : 0.0;
+    s.vz = ds > 0 ? path_speed * d.z() / ds : 0.0;
+    s.yaw_rate = tau > 0 ? dth / tau : 0.0;
+    s.curvature = dxy > 1e-12 ? dth / dxy : 0.0;
+    out.push_back(s);
+  };
+  for (std::size_t k = 0; k <= count; ++k) sampleAt(static_cast<double>(k) * dt);
+  if (total - out.back().time > 1e-9) sampleAt(total);
+  // The last sample is exactly the end of the curve, at rest.
+  out.back().position = pts.back().position;
+  out.back().heading = pts.back().heading;
+  out.back().speed = out.back().vz = out.back().yaw_rate = 0.0;
+  out.back().arc_length = prof.arc.back();
+  return out;
+}
+
+// ---- report -------------------------------------------------------------------------------------------
+
+void fillReport(Trajectory& traj, const CollisionWorld& world, bool clearance) {
+  auto& r = traj.report;
+  const auto& s = traj.samples;
+  r.length = traj.length();
+  r.duration = traj.duration();
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    r.max_curvature = std::max(r.max_curvature, std::abs(s[i].curvature));
+    r.max_speed = std::max(r.max_speed, s[i].speed);
+    r.max_yaw_rate = std::max(r.max_yaw_rate, std::abs(s[i].yaw_rate));
+    r.max_vz = std::max(r.max_vz, std::abs(s[i].vz));
+    if (i > 0) {
+      const double dt = s[i].time - s[i - 1].time;
+      r.max_heading_jump = std::max(r.max_heading_jump, std::abs(s[i].heading - s[i - 1].heading));
+      const double v0 = std::hypot(s[i - 1].speed, s[i - 1].vz), v1 = std::hypot(s[i].speed, s[i].vz);
+      if (dt > 1e-9) r.max_accel = std::max(r.max_accel, std::abs(v1 - v0) / dt);
+    }
+    if (clearance) r.min_clearance = std::min(r.min_clearance, world.clearance(s[i].position));
+  }
+}
+
+}  // namespace
+
+std::vector<Vec3> shortcutPolyline(const std::vector<Vec3>& points, const CollisionWorld& world, double min_clearance) {
+  const int n = static_cast<int>(points.size());
+  if (n <= 2) return points;
+  std::vector<double> point_clearance(n, std::numeric_limits<double>::infinity());
+  if (min_clearance > 0)
+    for (int i = 0; i < n; ++i) point_clearance[i] = world.clearance(points[i]);
+  // A shortcut may come as close to obstacles as its own ends do, but no closer than min_clearance.
+  auto ok = [&](int i, int j) {
+    const double need = std::min({min_clearance, point_clearance[i], point_clearance[j]});
+    return world.isSegmentFree(points[i], points[j]) && clearanceAtLeast(world, points[i], points[j], need);
+  };
+  std::vector<Vec3> out{points.front()};
+  int i = 0;
+  while (i < n - 1) {
+    // Exponential then binary search for the farthest point reachable by a straight shortcut. Visibility
+    // is not monotone along a path, so this is a heuristic; every accepted shortcut is checked.
+    int best = i + 1, fail_at = -1, step = 1;
+    while (true) {
+      const int probe = std::min(n - 1, i + 1 + step);
+      if (probe <= best) break;
+      if (ok(i, probe)) {
+        best = probe;
+        if (probe == n - 1) break;
+        step *= 2;
+      } else {
+        fail_at = probe;
+        break;
+      }
+    }
+    if (fail_at > 0) {
+      int hi = fail_at;
+      while (hi - best > 1) {
+        const int mid = (best + hi) / 2;
+        if (ok(i, mid)) best = mid; else hi = mid;
+      }
+    }
+    out.push_back(points[best]);
+    i = best;
+  }
+  return out;
+}
+
+Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWorld& world,
+                      const planner::VehicleLimits& limits, const SmootherConfig& config) {
+  const int dims = world.dimensions();
+  checkLimits(limits, dims, config);
+  std::vector<Vec3> points = cleanPath(path, dims);
+  checkPathFree(points, world);
+
+  Trajectory traj;
+  traj.dimensions = dims;
+  traj.dt = config.sample_dt;
+  traj.report.input_waypoints = points.size();
+  if (config.shortcut) points = shortcutPolyline(points, world, config.shortcut_clearance);
+  points = dropCollinear(points);
+  traj.report.shortcut_waypoints = points.size();
+
+  const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
+  Corners corners = makeCorners(points, radius);
+  const double step = std::min(0.05, world.checkResolution());
+  const int corner_count = static_cast<int>(corners.points.size());
+
+  for (int iteration = 0;; ++iteration) {
+    BSpline spline = makeSpline(corners);
+    std::vector<CurvePoint> pts = sampleCurve(spline, step);
+    Vec3 hit = Vec3::Zero();
+    std::set<int> bad = collidingSpans(spline, pts, world, &hit);
+
+    if (bad.empty()) {
+      if (config.initial_heading) {
+        // Turn in place first: a zero-length interval at the start that only changes the heading.
+        CurvePoint start = pts.front();
+        const double turn = wrapAngle(pts.front().heading - *config.initial_heading);
+        const double shift = *config.initial_heading + turn - pts.front().heading;
+        for (auto& p : pts) p.heading += shift;
+        start.heading = *config.initial_heading;
+        if (std::abs(turn) > 1e-9) pts.insert(pts.begin(), start);
+        traj.initial_turn = turn;
+      }
+      const Profile prof = timeParametrise(pts, limits, dims, config);
+      traj.samples = sampleInTime(pts, prof, config.sample_dt);
+      // Samples lie on chords between checked curve points; check them too, they are what gets flown.
+      for (const auto& s : traj.samples) {
+        if (world.isFree(s.position)) continue;
+        if (bad.empty()) hit = s.position;
+        const double frac = s.arc_length / std::max(prof.arc.back(), 1e-12);
+        bad.insert(spline.firstControlPoint(spline.parameterMin() + frac * (spline.parameterMax() - spline.parameterMin())));
+      }
+      if (bad.empty()) {
+        traj.curve = std::move(spline);
+        traj.report.fallback_iterations = iteration;
+        fillReport(traj, world, config.compute_clearance);
+        return traj;
+      }
+      traj.samples.clear();
+    }
+
+    // Fall back locally: tighten the corners that shape the colliding spans toward the free polyline.
+    std::set<int> to_tighten;
+    for (int first : bad)
+      for (int j = first; j <= first + BSpline::kDegree; ++j) {
+        const int k = cornerOfControlPoint(j, corner_count);
+        if (k > 0 && k < corner_count - 1 && corners.size[k] > 0.0) to_tighten.insert(k);
+      }
+    for (int k : to_tighten) corners.size[k] = corners.size[k] < 1e-4 ? 0.0 : 0.5 * corners.size[k];
+    const bool changed = !to_tighten.empty();
+    if (!changed)
+      fail("the smoothed path collides near " + fmt(hit, dims) +
+           " and the corners there cannot be tightened further (the path itself is too close to an obstacle)");
+    if (iteration + 1 >= config.max_fallback_iterations)
+      fail("the smoothed path still collides near " + fmt(hit, dims) + " after " +
+           std::to_string(config.max_fallback_iterations) + " rounds of corner tightening");
+  }
+}
+
+}  // namespace ddsnav::tracker

@@ -1,0 +1,203 @@
+#include "ddsnav/tracker/tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+namespace ddsnav::tracker {
+
+const char* toString(ReplanReason reason) {
+  switch (reason) {
+    case ReplanReason::None: return "none";
+    case ReplanReason::Deviation: return "deviation";
+    case ReplanReason::TrajectoryBlocked: return "trajectory_blocked";
+  }
+  return "unknown";
+}
+
+TrajectoryTracker::TrajectoryTracker(Trajectory trajectory, const VehicleLimits& limits, const TrackerConfig& config)
+    : trajectory_(std::move(trajectory)), limits_(limits), config_(config) {
+  if (trajectory_.samples.size() < 2) throw std::invalid_argument("tracker: trajectory needs at least 2 samples");
+  if (!(limits_.v_max > 0) || !(limits_.omega_max > 0) || !std::isfinite(limits_.v_max) || !std::isfinite(limits_.omega_max))
+    throw std::invalid_argument("tracker: v_max and omega_max must be positive numbers");
+  if (trajectory_.dimensions == 3 && !(limits_.vz_max > 0)) throw std::invalid_argument("tracker: vz_max must be > 0 in 3-D");
+  for (double g : {config_.zeta, config_.b, config_.min_gain, config_.max_lead, config_.lookahead_min, config_.goal_tolerance,
+                   config_.replan_deviation})
+    if (!(g > 0) || !std::isfinite(g)) throw std::invalid_argument("tracker: gains, distances and tolerances must be positive numbers");
+  if (!(config_.lookahead_time >= 0) || !(config_.replan_horizon > 0))
+    throw std::invalid_argument("tracker: lookahead_time must be >= 0 and replan_horizon > 0");
+}
+
+TrajectorySample TrajectoryTracker::sampleAtArcLength(double s) const {
+  const auto& samples = trajectory_.samples;
+  auto it = std::lower_bound(samples.begin(), samples.end(), s,
+                             [](const TrajectorySample& a, double v) { return a.arc_length < v; });
+  if (it == samples.end()) return samples.back();
+  return *it;
+}
+
+TrajectoryTracker::Projection TrajectoryTracker::project(const Vec3& position) const {
+  const auto& s = trajectory_.samples;
+  // Search a window around the previous projection so that a path passing near itself (a hairpin) cannot
+  // make the projection jump to the wrong part of it.
+  const double s_ref = trajectory_.at(status_.reference_time).arc_length;
+  const double s_prev = s[last_segment_].arc_length;
+  const double s_hi = std::max(s_prev, s_ref) + 2.0 * config_.max_lead + 1.0;
+  std::size_t lo = last_segment_;
+  while (lo > 0 && s[lo].arc_length > s_prev - 0.5) --lo;
+  Projection best;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (std::size_t i = lo; i + 1 < s.size(); ++i) {
+    if (s[i].arc_length > s_hi) break;
+    const Vec3 a = s[i].position, ab = s[i + 1].position - a;
+    const double len2 = ab.squaredNorm();
+    const double f = len2 > 0 ? std::clamp((position - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    const Vec3 p = a + f * ab;
+    const double d = (position - p).norm();
+    if (d < best_d) {
+      best_d = d;
+      best.segment = i;
+      best.point = p;
+      best.arc_length = s[i].arc_length + f * (s[i + 1].arc_length - s[i].arc_length);
+      // Left of the path positive: sign of the horizontal cross product tangent x offset.
+      const double h = s[i].heading + f * (s[i + 1].heading - s[i].heading);
+      const Vec3 off = position - p;
+      const double side = std::cos(h) * off.y() - std::sin(h) * off.x();
+      best.signed_distance = side < 0 ? -d : d;
+    }
+  }
+  return best;
+}
+
+VehicleCommand TrajectoryTracker::feedforwardFeedback(const VehicleState& state, const TrajectorySample& ref) const {
+  // Error of the reference seen from the vehicle: e1 ahead, e2 to the left, e3 heading.
+  const double c = std::cos(state.heading), s = std::sin(state.heading);
+  const Vec3 d = ref.position - state.position;
+  const double e1 = c * d.x() + s * d.y();
+  const double e2 = -s * d.x() + c * d.y();
+  const double e3 = wrapAngle(ref.heading - state.heading);
+  const double vr = ref.speed, wr = ref.yaw_rate;
+  const double k_along = std::max(config_.min_gain, 2 * config_.zeta * std::sqrt(wr * wr + config_.b * vr * vr));
+  const double k_lateral = config_.b * vr;
+  const double sinc = std::abs(e3) < 1e-6 ? 1.0 : std::sin(e3) / e3;
+  VehicleCommand cmd;
+  cmd.v = vr * std::cos(e3) + k_along * e1;
+  cmd.omega = wr + k_lateral * sinc * e2 + k_along * e3;
+  cmd.vz = ref.vz + k_along * d.z();
+  return cmd;
+}
+
+VehicleCommand TrajectoryTracker::purePursuit(const VehicleState& state, const Projection& proj) const {
+  const TrajectorySample here = sampleAtArcLength(proj.arc_length);
+  const double lookahead = config_.lookahead_min + config_.lookahead_time * here.speed;
+  const TrajectorySample target = sampleAtArcLength(proj.arc_length + lookahead);
+  const Vec3 d = target.position - state.position;
+  const double dist = std::hypot(d.x(), d.y());
+  VehicleCommand cmd;
+  cmd.vz = here.vz + 1.0 * d.z();
+  if (dist < 1e-6) {
+    cmd.omega = 2.0 * wrapAngle(target.heading - state.heading);
+    return cmd;
+  }
+  const double alpha = wrapAngle(std::atan2(d.y(), d.x()) - state.heading);
+  if (std::abs(alpha) > std::numbers::pi / 3) {  // facing away: turn in place first
+    cmd.omega = std::copysign(limits_.omega_max, alpha);
+    return cmd;
+  }
+  cmd.v = std::max(here.speed, 0.05 * limits_.v_max);
+  cmd.omega = 2.0 * cmd.v * std::sin(alpha) / dist;
+  return cmd;
+}
+
+VehicleCommand TrajectoryTracker::approachGoal(const VehicleState& state) const {
+  // The reference has finished but the vehicle is not there yet: drive to the end point.
+  const Vec3 d = trajectory_.samples.back().position - state.position;
+  const double dist = std::hypot(d.x(), d.y());
+  const double bearing = wrapAngle(std::atan2(d.y(), d.x()) - state.heading);
+  VehicleCommand cmd;
+  cmd.omega = 1.5 * bearing;
+  cmd.v = std::abs(bearing) < 0.5 ? std::min(config_.min_gain * dist, 0.2 * limits_.v_max) * std::cos(bearing) : 0.0;
+  cmd.vz = config_.min_gain * d.z();
+  return cmd;
+}
+
+VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
+  if (!(dt > 0) || !std::isfinite(dt)) throw std::invalid_argument("tracker: update dt must be a positive finite number");
+  if (!state.position.allFinite() || !std::isfinite(state.heading))
+    throw std::invalid_argument("tracker: vehicle state has non-finite values");
+  const auto& samples = trajectory_.samples;
+  status_.time += dt;
+  ++status_.updates;
+
+  // Advance the reference unless it is already too far ahead of the vehicle.
+  const Projection before = project(state.position);
+  const double next_time = std::min(status_.reference_time + dt, trajectory_.duration());
+  if (trajectory_.at(next_time).arc_length - before.arc_length <= config_.max_lead) status_.reference_time = next_time;
+  const TrajectorySample ref = trajectory_.at(status_.reference_time);
+
+  const Projection proj = project(state.position);
+  last_segment_ = proj.segment;
+  status_.cross_track_error = proj.signed_distance;
+  status_.along_track_error = proj.arc_length - ref.arc_length;
+  status_.heading_error = wrapAngle(state.heading - ref.heading);
+  status_.position_error = (state.position - ref.position).norm();
+  sum_cross_ += std::abs(status_.cross_track_error);
+  sum_position_ += status_.position_error;
+  status_.mean_cross_track_error = sum_cross_ / static_cast<double>(status_.updates);
+  status_.mean_position_error = sum_position_ / static_cast<double>(status_.updates);
+  status_.max_cross_track_error = std::max(status_.max_cross_track_error, std::abs(status_.cross_track_error));
+  const double length = trajectory_.length();
+  status_.progress = length > 0 ? std::clamp(proj.arc_length / length, 0.0, 1.0) : 1.0;
+
+  const bool reference_done = status_.reference_time >= trajectory_.duration();
+  if (!status_.goal_reached && reference_done &&
+      (state.position - samples.back().position).norm() <= config_.goal_tolerance)
+    status_.goal_reached = true;
+  if (status_.goal_reached) {
+    status_.progress = 1.0;
+    return {};
+  }
+
+  VehicleCommand cmd;
+  if (reference_done && (state.position - samples.back().position).norm() > config_.goal_tolerance &&
+      config_.controller == ControllerType::FeedforwardFeedback && status_.position_error > 2 * config_.goal_tolerance)
+    cmd = approachGoal(state);
+  else if (config_.controller == ControllerType::FeedforwardFeedback)
+    cmd = feedforwardFeedback(state, ref);
+  else if (reference_done)
+    cmd = approachGoal(state);
+  else
+    cmd = purePursuit(state, proj);
+
+  cmd.v = std::clamp(cmd.v, 0.0, limits_.v_max);
+  cmd.omega = std::clamp(cmd.omega, -limits_.omega_max, limits_.omega_max);
+  cmd.vz = trajectory_.dimensions == 3 ? std::clamp(cmd.vz, -limits_.vz_max, limits_.vz_max) : 0.0;
+  return cmd;
+}
+
+ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& world) const {
+  ReplanDecision out;
+  if (status_.goal_reached) return out;
+  if (std::abs(status_.cross_track_error) > config_.replan_deviation) {
+    std::ostringstream m;
+    m << "cross-track error " << std::abs(status_.cross_track_error) << " m exceeds the replan threshold "
+      << config_.replan_deviation << " m";
+    out = {true, ReplanReason::Deviation, m.str(), Vec3::Zero()};
+    return out;
+  }
+  const auto& s = trajectory_.samples;
+  const double until = status_.reference_time + config_.replan_horizon;
+  for (std::size_t i = last_segment_; i < s.size() && s[i].time <= until; ++i) {
+    if (world.isFree(s[i].position)) continue;
+    std::ostringstream m;
+    m << "trajectory sample at t=" << s[i].time << " s (" << s[i].position.x() << ", " << s[i].position.y()
+      << ", " << s[i].position.z() << ") is no longer collision free";
+    out = {true, ReplanReason::TrajectoryBlocked, m.str(), s[i].position};
+    return out;
+  }
+  return out;
+}
+
+}  // namespace ddsnav::tracker

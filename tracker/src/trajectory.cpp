@@ -1,0 +1,135 @@
+#include "ddsnav/tracker/trajectory.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace ddsnav::tracker {
+
+BSpline BSpline::clampedUniform(std::vector<Vec3> control_points) {
+  if (control_points.size() < kDegree + 1)
+    throw std::invalid_argument("BSpline: a cubic B-spline needs at least 4 control points");
+  BSpline s;
+  const int n = static_cast<int>(control_points.size());
+  s.control_points = std::move(control_points);
+  const int spans = n - kDegree;
+  s.knots.reserve(n + kDegree + 1);
+  for (int i = 0; i < kDegree; ++i) s.knots.push_back(0.0);
+  for (int i = 0; i <= spans; ++i) s.knots.push_back(static_cast<double>(i));
+  for (int i = 0; i < kDegree; ++i) s.knots.push_back(static_cast<double>(spans));
+  return s;
+}
+
+int BSpline::firstControlPoint(double u) const {
+  const int n = static_cast<int>(control_points.size()) - 1;
+  int span;
+  if (u >= knots[n + 1]) {
+    span = n;
+  } else if (u <= knots[kDegree]) {
+    span = kDegree;
+  } else {
+    // The span with knots[span] <= u < knots[span + 1].
+    auto it = std::upper_bound(knots.begin() + kDegree, knots.begin() + n + 2, u);
+    span = static_cast<int>(it - knots.begin()) - 1;
+  }
+  return span - kDegree;
+}
+
+// Basis functions and their first two derivatives (the NURBS Book's algorithm A2.3, for degree 3).
+void BSpline::evaluate(double u, Vec3& position, Vec3& first, Vec3& second) const {
+  constexpr int p = kDegree;
+  const int first_cp = firstControlPoint(u);
+  const int span = first_cp + p;
+  u = std::clamp(u, parameterMin(), parameterMax());
+  const auto& U = knots;
+
+  double ndu[p + 1][p + 1];
+  double left[p + 1], right[p + 1];
+  ndu[0][0] = 1.0;
+  for (int j = 1; j <= p; ++j) {
+    left[j] = u - U[span + 1 - j];
+    right[j] = U[span + j] - u;
+    double saved = 0.0;
+    for (int r = 0; r < j; ++r) {
+      ndu[j][r] = right[r + 1] + left[j - r];
+      const double temp = ndu[j][r] != 0.0 ? ndu[r][j - 1] / ndu[j][r] : 0.0;
+      ndu[r][j] = saved + right[r + 1] * temp;
+      saved = left[j - r] * temp;
+    }
+    ndu[j][j] = saved;
+  }
+  double ders[3][p + 1];
+  for (int j = 0; j <= p; ++j) ders[0][j] = ndu[j][p];
+  double a[2][p + 1];
+  for (int r = 0; r <= p; ++r) {
+    int s1 = 0, s2 = 1;
+    a[0][0] = 1.0;
+    for (int k = 1; k <= 2; ++k) {
+      double d = 0.0;
+      const int rk = r - k, pk = p - k;
+      if (r >= k) {
+        a[s2][0] = a[s1][0] / ndu[pk + 1][rk];
+        d = a[s2][0] * ndu[rk][pk];
+      }
+      const int j1 = rk >= -1 ? 1 : -rk;
+      const int j2 = (r - 1 <= pk) ? k - 1 : p - r;
+      for (int j = j1; j <= j2; ++j) {
+        a[s2][j] = (a[s1][j] - a[s1][j - 1]) / ndu[pk + 1][rk + j];
+        d += a[s2][j] * ndu[rk + j][pk];
+      }
+      if (r <= pk) {
+        a[s2][k] = -a[s1][k - 1] / ndu[pk + 1][r];
+        d += a[s2][k] * ndu[r][pk];
+      }
+      ders[k][r] = d;
+      std::swap(s1, s2);
+    }
+  }
+  double factor = p;
+  for (int k = 1; k <= 2; ++k) {
+    for (int j = 0; j <= p; ++j) ders[k][j] *= factor;
+    factor *= (p - k);
+  }
+  position.setZero();
+  first.setZero();
+  second.setZero();
+  for (int j = 0; j <= p; ++j) {
+    const Vec3& cp = control_points[first_cp + j];
+    position += ders[0][j] * cp;
+    first += ders[1][j] * cp;
+    second += ders[2][j] * cp;
+  }
+}
+
+Vec3 BSpline::point(double u) const {
+  Vec3 p, d1, d2;
+  evaluate(u, p, d1, d2);
+  return p;
+}
+
+Vec3 TrajectorySample::velocity() const {
+  return {speed * std::cos(heading), speed * std::sin(heading), vz};
+}
+
+TrajectorySample Trajectory::at(double time) const {
+  if (samples.empty()) throw std::logic_error("Trajectory::at on an empty trajectory");
+  if (time <= samples.front().time) return samples.front();
+  if (time >= samples.back().time) return samples.back();
+  auto it = std::upper_bound(samples.begin(), samples.end(), time,
+                             [](double t, const TrajectorySample& s) { return t < s.time; });
+  const TrajectorySample& b = *it;
+  const TrajectorySample& a = *(it - 1);
+  const double f = (time - a.time) / (b.time - a.time);
+  TrajectorySample out;
+  out.time = time;
+  out.position = a.position + f * (b.position - a.position);
+  out.heading = a.heading + f * (b.heading - a.heading);
+  out.speed = a.speed + f * (b.speed - a.speed);
+  out.yaw_rate = a.yaw_rate + f * (b.yaw_rate - a.yaw_rate);
+  out.vz = a.vz + f * (b.vz - a.vz);
+  out.curvature = a.curvature + f * (b.curvature - a.curvature);
+  out.arc_length = a.arc_length + f * (b.arc_length - a.arc_length);
+  return out;
+}
+
+}  // namespace ddsnav::tracker

@@ -1,0 +1,219 @@
+#include "ddsnav/tracker/smoother.hpp"
+
+#include "test_worlds.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+using namespace ddsnav::tracker;
+using ddsnav::planner::Vec3;
+using ddsnav::tracker::testing::pathOf;
+using ddsnav::tracker::testing::scenario2d;
+
+namespace {
+
+ddsnav::planner::VehicleLimits limits(double v = 1.0, double w = 1.0, double vz = 0.0) {
+  ddsnav::planner::VehicleLimits l;
+  l.v_max = v;
+  l.omega_max = w;
+  l.vz_max = vz;
+  return l;
+}
+
+// Checks every sample against the limits and the world; returns how many samples were checked.
+void expectDrivable(const Trajectory& t, const ddsnav::planner::CollisionWorld& world,
+                    const ddsnav::planner::VehicleLimits& l, const SmootherConfig& cfg) {
+  ASSERT_GE(t.samples.size(), 2u);
+  const double tol = 1e-9;
+  for (std::size_t i = 0; i < t.samples.size(); ++i) {
+    const auto& s = t.samples[i];
+    EXPECT_TRUE(world.isFree(s.position)) << "sample " << i << " in collision";
+    EXPECT_LE(s.speed, l.v_max + tol) << "sample " << i;
+    EXPECT_GE(s.speed, 0.0) << "sample " << i;
+    EXPECT_LE(std::abs(s.yaw_rate), l.omega_max + tol) << "sample " << i;
+    EXPECT_LE(std::abs(s.speed * s.curvature), l.omega_max * (1 + 1e-6) + tol) << "sample " << i;
+    if (t.dimensions == 3) EXPECT_LE(std::abs(s.vz), l.vz_max + tol) << "sample " << i;
+    if (i > 0) {
+      const auto& p = t.samples[i - 1];
+      const double dt = s.time - p.time;
+      EXPECT_GT(dt, 0.0);
+      EXPECT_LE(dt, cfg.sample_dt + 1e-9);
+      EXPECT_LE(std::abs(s.heading - p.heading), l.omega_max * dt + tol) << "heading jump at sample " << i;
+      // Positions move no faster than the limits allow.
+      EXPECT_LE((s.position - p.position).head<2>().norm(), l.v_max * dt + 1e-6) << "sample " << i;
+    }
+  }
+  EXPECT_EQ(t.report.samples_in_collision, 0u);
+  EXPECT_NEAR(t.samples.front().speed, 0.0, 1e-12);
+  EXPECT_NEAR(t.samples.back().speed, 0.0, 1e-12);
+}
+
+}  // namespace
+
+TEST(Smoother, StraightLineStaysStraight) {
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig cfg;
+  auto t = smoothPath(pathOf({{1, 5, 0}, {4, 5, 0}, {7, 5, 0}, {12, 5, 0}}), *world, limits(), cfg);
+  EXPECT_EQ(t.report.shortcut_waypoints, 2u);
+  for (const auto& s : t.samples) {
+    EXPECT_NEAR(s.position.y(), 5.0, 1e-9);
+    EXPECT_NEAR(s.heading, 0.0, 1e-9);
+    EXPECT_NEAR(s.curvature, 0.0, 1e-9);
+  }
+  EXPECT_NEAR(t.report.length, 11.0, 1e-6);
+  EXPECT_NEAR(t.samples.back().position.x(), 12.0, 1e-12);
+  // Accelerating at 1 m/s^2 to 0.85 m/s and back: duration = L / v + v / a.
+  EXPECT_NEAR(t.report.duration, 11.0 / 0.85 + 0.85 / 1.0, 0.05);
+  expectDrivable(t, *world, limits(), cfg);
+}
+
+TEST(Smoother, RightAngleGetsBoundedCurvatureArc) {
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig cfg;
+  cfg.shortcut = false;  // keep the corner
+  const auto l = limits(1.0, 1.0);  // corner radius v_max / omega_max = 1 m
+  auto t = smoothPath(pathOf({{2, 2, 0}, {12, 2, 0}, {12, 12, 0}}), *world, l, cfg);
+  // Rounded: the curve does not pass through the corner, and the curvature is finite and about 1/radius.
+  double closest = 1e9;
+  for (const auto& s : t.samples) closest = std::min(closest, (s.position - Vec3(12, 2, 0)).norm());
+  EXPECT_GT(closest, 0.5);
+  EXPECT_LT(closest, 3.0);
+  EXPECT_GT(t.report.max_curvature, 0.3);
+  EXPECT_LT(t.report.max_curvature, 1.5);
+  // Turned left by 90 degrees, continuously.
+  EXPECT_NEAR(t.samples.back().heading - t.samples.front().heading, std::numbers::pi / 2, 1e-6);
+  EXPECT_GT(t.samples.front().speed + t.samples[t.samples.size() / 2].speed, 0.5);  // it does not crawl round the corner
+  expectDrivable(t, *world, l, cfg);
+  // The analytic form reproduces the samples' ends.
+  EXPECT_NEAR((t.curve.point(t.curve.parameterMin()) - Vec3(2, 2, 0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((t.curve.point(t.curve.parameterMax()) - Vec3(12, 12, 0)).norm(), 0.0, 1e-12);
+}
+
+TEST(Smoother, HeadingWrapsAroundPi) {
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig cfg;
+  cfg.shortcut = false;
+  // Heading pi on the first edge, then turning left past -pi (i.e. to about -2.94 rad wrapped).
+  cfg.initial_heading = -std::numbers::pi + 0.01;  // the same direction as +pi - 0.01
+  auto t = smoothPath(pathOf({{15, 10, 0}, {8, 10, 0}, {3, 11, 0}}), *world, limits(), cfg);
+  EXPECT_NEAR(t.initial_turn, -0.01, 1e-6);  // the short way, not a full turn
+  EXPECT_LE(t.report.max_heading_jump, 1.0 * cfg.sample_dt + 1e-9);
+  // The unwrapped heading goes from about -pi through -pi - 0.197 without any 2 pi jump.
+  EXPECT_NEAR(t.samples.back().heading, -std::numbers::pi - std::atan2(1.0, 5.0), 1e-6);
+  expectDrivable(t, *world, limits(), cfg);
+  // Turning right at the wrap: the other way round.
+  auto t2 = smoothPath(pathOf({{15, 10, 0}, {8, 10, 0}, {3, 9, 0}}), *world, limits(), SmootherConfig{});
+  EXPECT_LE(t2.report.max_heading_jump, 1.0 * 0.05 + 1e-9);
+  double max_step = 0;
+  for (std::size_t i = 1; i < t2.samples.size(); ++i)
+    max_step = std::max(max_step, std::abs(t2.samples[i].heading - t2.samples[i - 1].heading));
+  EXPECT_LT(max_step, 0.06);
+}
+
+TEST(Smoother, CollisionFallbackTightensTheCorner) {
+  // A box inside the corner: the polyline keeps 0.5 m from it, the default rounding would cut into it.
+  auto sc = scenario2d(20, 0.2, "  - {type: box, min: [7, 1.5], max: [9.5, 4]}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig cfg;
+  cfg.shortcut = false;  // the diagonal would be free; this test is about the corner
+  const auto path = pathOf({{1, 1, 0}, {10, 1, 0}, {10, 10, 0}});
+  // One round only: the naive rounding collides and there is no round left to fix it.
+  SmootherConfig naive = cfg;
+  naive.max_fallback_iterations = 1;
+  EXPECT_THROW(smoothPath(path, *world, limits(), naive), SmoothingError);
+
+  auto t = smoothPath(path, *world, limits(), cfg);
+  EXPECT_GT(t.report.fallback_iterations, 0);
+  EXPECT_GE(t.report.min_clearance, 0.0);
+  expectDrivable(t, *world, limits(), cfg);
+}
+
+TEST(Smoother, LimitsRespectedOnEverySampleOfAZigzag) {
+  auto sc = scenario2d(40, 0.3, "  - {type: sphere, center: [20, 20], radius: 3}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig cfg;
+  cfg.shortcut = false;
+  cfg.initial_heading = 2.5;
+  const auto l = limits(2.0, 0.6);
+  auto t = smoothPath(pathOf({{2, 2, 0}, {8, 10, 0}, {12, 3, 0}, {15, 12, 0}, {16, 12.5, 0}, {10, 30, 0}, {35, 35, 0},
+                              {35, 5, 0}}),
+                      *world, l, cfg);
+  expectDrivable(t, *world, l, cfg);
+  EXPECT_LE(t.report.max_speed, 0.85 * l.v_max + 1e-9);
+  EXPECT_LE(t.report.max_yaw_rate, 0.85 * l.omega_max + 1e-9);
+  EXPECT_LE(t.report.max_accel, cfg.max_accel * 1.05);
+  EXPECT_GT(t.report.min_clearance, 0.0);
+}
+
+TEST(Smoother, ThreeDimensionalClimbRespectsVz) {
+  const std::string text =
+      "name: t3\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [1, 1, 1]\n"
+      "goal: [20, 20, 10]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 2.0, omega_max: 0.6, vz_max: 0.5, dt: 1.0}\n"
+      "obstacles:\n  - {type: sphere, center: [15, 5, 5], radius: 2}\n";
+  auto sc = ddsnav::planner::parseScenario(text, "t3");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig cfg;
+  const auto l = *sc.vehicle;
+  auto t = smoothPath(pathOf({{2, 2, 1}, {10, 2, 8}, {10, 12, 8}, {20, 20, 3}}), *world, l, cfg);
+  EXPECT_EQ(t.dimensions, 3);
+  expectDrivable(t, *world, l, cfg);
+  EXPECT_GT(t.report.max_vz, 0.1);
+  EXPECT_NEAR(t.samples.back().position.z(), 3.0, 1e-9);
+}
+
+TEST(Smoother, ShortcuttingRemovesDetoursButNotThroughObstacles) {
+  auto sc = scenario2d(20, 0.3, "  - {type: box, min: [9, 0], max: [11, 12]}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  std::vector<Vec3> pts{{2, 2, 0}, {4, 8, 0}, {6, 13.5, 0}, {10, 13.5, 0}, {14, 13.5, 0}, {16, 6, 0}, {18, 2, 0}};
+  auto out = shortcutPolyline(pts, *world, 0.1);
+  EXPECT_LT(out.size(), pts.size());
+  EXPECT_EQ(out.front(), pts.front());
+  EXPECT_EQ(out.back(), pts.back());
+  EXPECT_GE(out.size(), 3u);  // the wall stays in the way
+  for (std::size_t i = 1; i < out.size(); ++i) EXPECT_TRUE(world->isSegmentFree(out[i - 1], out[i]));
+}
+
+TEST(Smoother, NoRoundingStopsAndTurnsInPlace) {
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig cfg;
+  cfg.shortcut = false;
+  cfg.corner_radius = 0.0;
+  auto t = smoothPath(pathOf({{2, 2, 0}, {12, 2, 0}, {12, 12, 0}}), *world, limits(), cfg);
+  double closest = 1e9;
+  for (const auto& s : t.samples) closest = std::min(closest, (s.position - Vec3(12, 2, 0)).norm());
+  EXPECT_LT(closest, 1e-3);  // it goes through the corner
+  EXPECT_LE(t.report.max_heading_jump, 0.85 * cfg.sample_dt + 1e-9);
+  expectDrivable(t, *world, limits(), cfg);
+}
+
+TEST(Smoother, BadInputGivesClearErrors) {
+  auto sc = scenario2d(20, 0.3, "  - {type: box, min: [5, 0], max: [6, 10]}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  auto expectError = [&](const std::vector<ddsnav::planner::State>& path, const std::string& needle,
+                         ddsnav::planner::VehicleLimits l = limits()) {
+    try {
+      smoothPath(path, *world, l);
+      ADD_FAILURE() << "expected an error containing '" << needle << "'";
+    } catch (const SmoothingError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expectError({}, "empty");
+  expectError(pathOf({{1, 1, 0}}), "single state");
+  expectError(pathOf({{1, 1, 0}, {1, 1, 0}, {1, 1, 0}}), "same position");
+  expectError(pathOf({{1, 1, 0}, {NAN, 2, 0}}), "non-finite");
+  expectError(pathOf({{1, 1, 0}, {INFINITY, 2, 0}}), "non-finite");
+  expectError(pathOf({{5.5, 5, 0}, {8, 15, 0}}), "start");          // inside the box
+  expectError(pathOf({{2, 5, 0}, {8, 5, 0}}), "edge 0 -> 1");        // through the box
+  expectError(pathOf({{2, 5, 0}, {2, 25, 0}}), "out of bounds");
+  expectError(pathOf({{2, 5, 0}, {3, 5, 0}}), "v_max", limits(0.0));
+  // Duplicates in the middle are removed, not an error.
+  auto t = smoothPath(pathOf({{2, 5, 0}, {3, 12, 0}, {3, 12, 0}, {4, 15, 0}}), *world, limits());
+  EXPECT_EQ(t.report.input_waypoints, 3u);
+}
