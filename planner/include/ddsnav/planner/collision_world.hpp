@@ -77,4 +77,16 @@ std::unique_ptr<CollisionWorld> makeEllipsoidWorld(int dimensions, const Vec3& b
 std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
                                                  double robot_radius, const std::vector<std::uint8_t>& octree_binary);
 
+// How the OctoMap world treats voxels the map has never observed (not in the octree). Optimistic planning
+// (unknown = free, the default) plans through unexplored space and relies on replanning as the map grows;
+// unknown = occupied keeps every state inside observed free space. It affects isFree (and so segment
+// checks) only: clearance and obstaclesNear always report observed occupied voxels. In 2-D a column
+// counts as occupied / known when any voxel of the octree in that (x, y) cell is.
+struct OctoMapWorldOptions {
+  bool unknown_is_occupied = false;
+};
+std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
+                                                 double robot_radius, const std::vector<std::uint8_t>& octree_binary,
+                                                 const OctoMapWorldOptions& options);
+
 }  // namespace ddsnav::planner

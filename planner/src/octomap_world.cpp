@@ -1,0 +1,394 @@
+// makeOctoMapWorld: the map the mapper publishes (OcTree::writeBinary bytes) as a collision world.
+//
+// Asking the octree itself costs a 16-level pointer descent per lookup (OcTree::search). After loading,
+// every occupied leaf is flattened into finest-level voxels (coarse pruned leaves expanded) and stored in
+// 8x8x8-voxel bricks: a flat open-addressing hash from brick coordinates to a 512-bit mask. A point query
+// is then one hash probe and one bit test, with exactly OcTree::search's answer (same key arithmetic:
+// floor(c / resolution)).
+//
+// The robot is a ball (disc in 2-D) of robot_radius: a state collides when the voxel holding it is
+// occupied or any occupied voxel (a cube) lies within robot_radius of it — checked exactly, by scanning
+// the set bits of the few bricks that overlap the ball's bounding box. Unknown space is free by default
+// (optimistic planning, replanned as the map grows); OctoMapWorldOptions::unknown_is_occupied blocks it.
+#include "ddsnav/planner/collision_world.hpp"
+
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace ddsnav::planner {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::uint64_t kEmpty = ~0ull;
+constexpr std::int64_t kCellLimit = 32768;  // OctoMap keys are 16 bits: cells -32768 .. 32767 per axis
+
+struct Cell {
+  std::int64_t x, y, z;
+};
+
+class OctoMapWorld final : public CollisionWorld {
+ public:
+  OctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max, double robot_radius,
+               const octomap::OcTree& tree, const OctoMapWorldOptions& options)
+      : dims_(dimensions),
+        bmin_(bounds_min),
+        bmax_(bounds_max),
+        radius_(robot_radius),
+        unknown_blocked_(options.unknown_is_occupied),
+        resolution_(tree.getResolution()),
+        factor_(1.0 / tree.getResolution()) {
+    if (dims_ == 2) bmin_.z() = bmax_.z() = 0.0;
+    load(tree);
+  }
+
+  int dimensions() const override { return dims_; }
+  Vec3 boundsMin() const override { return bmin_; }
+  Vec3 boundsMax() const override { return bmax_; }
+  double robotRadius() const override { return radius_; }
+
+  bool isFree(const Vec3& p) const override {
+    countCheck();
+    if (!insideBounds(p)) return false;
+    if (blocked(cellOf(p))) return false;
+    return radius_ <= 0.0 || !blockedWithin(p, radius_);
+  }
+
+  double clearance(const Vec3& p) const override {
+    if (!p.allFinite()) return -radius_;
+    const double d = nearestOccupied(p);
+    return d == kInf ? kInf : d - radius_;
+  }
+
+  std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override {
+    std::vector<NearbyObstacle> out;
+    if (!p.allFinite() || !(range >= 0.0) || occupied_bricks_.empty()) return out;
+    Cell lo, hi;
+    cellRange(p, std::min(range, 1e7), lo, hi);
+    lo = {std::max(lo.x, occ_lo_.x), std::max(lo.y, occ_lo_.y), std::max(lo.z, occ_lo_.z)};
+    hi = {std::min(hi.x, occ_hi_.x), std::min(hi.y, occ_hi_.y), std::min(hi.z, occ_hi_.z)};
+    if (lo.x > hi.x || lo.y > hi.y || lo.z > hi.z) return out;
+    auto visit = [&](std::uint32_t index, const Brick& b) {
+      forEachBit(b.occupied, [&](unsigned bit) {
+        const Cell c = cellOfBit(b, bit);
+        if (!inRange(c, lo, hi)) return;
+        const Vec3 q = nearestPointOfCell(c, p);
+        const double d = distance(p, q);
+        if (d <= range) out.push_back({static_cast<int>(index * 512u + bit), q, d});
+      });
+    };
+    const double bricks_in_box = double((hi.x >> 3) - (lo.x >> 3) + 1) * double((hi.y >> 3) - (lo.y >> 3) + 1) *
+                                 double((hi.z >> 3) - (lo.z >> 3) + 1);
+    if (bricks_in_box > double(occupied_bricks_.size())) {
+      for (std::uint32_t i : occupied_bricks_) visit(i, bricks_[i]);
+    } else {
+      forBricksIn(lo, hi, visit);
+    }
+    std::sort(out.begin(), out.end(), [](const NearbyObstacle& a, const NearbyObstacle& b) {
+      return a.distance < b.distance || (a.distance == b.distance && a.id < b.id);
+    });
+    return out;
+  }
+
+ private:
+  struct Brick {
+    std::array<std::uint64_t, 8> occupied{};
+    std::array<std::uint64_t, 8> known{};  // occupied or free in the octree
+    std::int32_t bx = 0, by = 0, bz = 0;
+  };
+
+  // --- voxel arithmetic (OctoMap's: key = floor(coordinate / resolution) + 32768) ---
+  std::int64_t cellCoord(double c) const {
+    const double f = std::floor(factor_ * c);
+    return static_cast<std::int64_t>(std::clamp(f, -4.0 * kCellLimit, 4.0 * kCellLimit));
+  }
+  Cell cellOf(const Vec3& p) const { return {cellCoord(p.x()), cellCoord(p.y()), dims_ == 2 ? 0 : cellCoord(p.z())}; }
+  static std::uint32_t bitOf(const Cell& c) {
+    return static_cast<std::uint32_t>((c.x & 7) | ((c.y & 7) << 3) | ((c.z & 7) << 6));
+  }
+  static Cell cellOfBit(const Brick& b, unsigned bit) {
+    return {std::int64_t(b.bx) * 8 + (bit & 7), std::int64_t(b.by) * 8 + ((bit >> 3) & 7),
+            std::int64_t(b.bz) * 8 + (bit >> 6)};
+  }
+  static bool inRange(const Cell& c, const Cell& lo, const Cell& hi) {
+    return c.x >= lo.x && c.x <= hi.x && c.y >= lo.y && c.y <= hi.y && c.z >= lo.z && c.z <= hi.z;
+  }
+  static bool inMap(std::int64_t bx, std::int64_t by, std::int64_t bz) {
+    constexpr std::int64_t kb = kCellLimit / 8;
+    return bx >= -kb && bx < kb && by >= -kb && by < kb && bz >= -kb && bz < kb;
+  }
+  static std::uint64_t pack(std::int64_t bx, std::int64_t by, std::int64_t bz) {
+    constexpr std::int64_t kb = kCellLimit / 8;
+    return std::uint64_t(bx + kb) | (std::uint64_t(by + kb) << 13) | (std::uint64_t(bz + kb) << 26);
+  }
+
+  Vec3 nearestPointOfCell(const Cell& c, const Vec3& p) const {
+    Vec3 q;
+    const std::int64_t idx[3] = {c.x, c.y, c.z};
+    for (int i = 0; i < 3; ++i) {
+      if (i == 2 && dims_ == 2) {
+        q[i] = p[i];
+        continue;
+      }
+      const double lo = double(idx[i]) * resolution_, hi = double(idx[i] + 1) * resolution_;
+      q[i] = std::clamp(p[i], lo, hi);
+    }
+    return q;
+  }
+  double distance(const Vec3& p, const Vec3& q) const {
+    const double dx = p.x() - q.x(), dy = p.y() - q.y(), dz = dims_ == 2 ? 0.0 : p.z() - q.z();
+    return std::sqrt(dx * dx + dy * dy + dz * dz);
+  }
+  // Distance from p to the box of cells [lo, hi] (a lower bound for every cell in it).
+  double distanceToCells(const Vec3& p, const Cell& lo, const Cell& hi) const {
+    const double l[3] = {double(lo.x) * resolution_, double(lo.y) * resolution_, double(lo.z) * resolution_};
+    const double h[3] = {double(hi.x + 1) * resolution_, double(hi.y + 1) * resolution_, double(hi.z + 1) * resolution_};
+    double sum = 0.0;
+    for (int i = 0; i < dims_; ++i) {
+      const double gap = std::max({l[i] - p[i], 0.0, p[i] - h[i]});
+      sum += gap * gap;
+    }
+    return std::sqrt(sum);
+  }
+
+  void cellRange(const Vec3& p, double r, Cell& lo, Cell& hi) const {
+    lo = {cellCoord(p.x() - r), cellCoord(p.y() - r), dims_ == 2 ? 0 : cellCoord(p.z() - r)};
+    hi = {cellCoord(p.x() + r), cellCoord(p.y() + r), dims_ == 2 ? 0 : cellCoord(p.z() + r)};
+  }
+
+  // --- the brick hash ---
+  const Brick* findBrick(std::int64_t bx, std::int64_t by, std::int64_t bz) const {
+    if (slot_keys_.empty() || !inMap(bx, by, bz)) return nullptr;
+    const std::uint64_t key = pack(bx, by, bz);
+    for (std::size_t s = slotOf(key);; s = (s + 1) & slot_mask_) {
+      if (slot_keys_[s] == key) return &bricks_[slot_bricks_[s]];
+      if (slot_keys_[s] == kEmpty) return nullptr;
+    }
+  }
+  std::size_t slotOf(std::uint64_t key) const {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 20) & slot_mask_;
+  }
+  Brick& brickFor(std::int64_t bx, std::int64_t by, std::int64_t bz) {
+    if ((bricks_.size() + 1) * 2 > slot_keys_.size()) rehash(std::max<std::size_t>(1024, slot_keys_.size() * 2));
+    const std::uint64_t key = pack(bx, by, bz);
+    for (std::size_t s = slotOf(key);; s = (s + 1) & slot_mask_) {
+      if (slot_keys_[s] == key) return bricks_[slot_bricks_[s]];
+      if (slot_keys_[s] == kEmpty) {
+        slot_keys_[s] = key;
+        slot_bricks_[s] = static_cast<std::uint32_t>(bricks_.size());
+        Brick& b = bricks_.emplace_back();
+        b.bx = static_cast<std::int32_t>(bx), b.by = static_cast<std::int32_t>(by), b.bz = static_cast<std::int32_t>(bz);
+        return b;
+      }
+    }
+  }
+  void rehash(std::size_t capacity) {
+    slot_keys_.assign(capacity, kEmpty);
+    slot_bricks_.assign(capacity, 0);
+    slot_mask_ = capacity - 1;
+    for (std::uint32_t i = 0; i < bricks_.size(); ++i) {
+      const std::uint64_t key = pack(bricks_[i].bx, bricks_[i].by, bricks_[i].bz);
+      std::size_t s = slotOf(key);
+      while (slot_keys_[s] != kEmpty) s = (s + 1) & slot_mask_;
+      slot_keys_[s] = key;
+      slot_bricks_[s] = i;
+    }
+  }
+
+  template <class Fn>
+  static void forEachBit(const std::array<std::uint64_t, 8>& words, Fn&& fn) {
+    for (unsigned w = 0; w < 8; ++w) {
+      for (std::uint64_t m = words[w]; m != 0; m &= m - 1) fn(w * 64 + static_cast<unsigned>(std::countr_zero(m)));
+    }
+  }
+  template <class Fn>
+  void forBricksIn(const Cell& lo, const Cell& hi, Fn&& fn) const {
+    for (std::int64_t bz = lo.z >> 3; bz <= (hi.z >> 3); ++bz)
+      for (std::int64_t by = lo.y >> 3; by <= (hi.y >> 3); ++by)
+        for (std::int64_t bx = lo.x >> 3; bx <= (hi.x >> 3); ++bx)
+          if (const Brick* b = findBrick(bx, by, bz)) fn(static_cast<std::uint32_t>(b - bricks_.data()), *b);
+  }
+
+  // --- loading ---
+  void load(const octomap::OcTree& tree) {
+    const unsigned depth_max = tree.getTreeDepth();
+    // Free voxels matter only to the unknown-is-occupied policy and only where a robot can be.
+    const double margin = radius_ + 2.0 * resolution_;
+    const Cell free_lo = {cellCoord(bmin_.x() - margin), cellCoord(bmin_.y() - margin),
+                          dims_ == 2 ? 0 : cellCoord(bmin_.z() - margin)};
+    const Cell free_hi = {cellCoord(bmax_.x() + margin), cellCoord(bmax_.y() + margin),
+                          dims_ == 2 ? 0 : cellCoord(bmax_.z() + margin)};
+    for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+      const bool occupied = tree.isNodeOccupied(*it);
+      if (!occupied && !unknown_blocked_) continue;
+      const std::int64_t size = std::int64_t(1) << (depth_max - it.getDepth());
+      const octomap::OcTreeKey corner = it.getIndexKey();
+      Cell lo = {std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit,
+                 std::int64_t(corner[2]) - kCellLimit};
+      Cell hi = {lo.x + size - 1, lo.y + size - 1, lo.z + size - 1};
+      if (dims_ == 2) lo.z = hi.z = 0;  // the column is what a 2-D robot meets
+      if (!occupied) {
+        lo = {std::max(lo.x, free_lo.x), std::max(lo.y, free_lo.y), std::max(lo.z, free_lo.z)};
+        hi = {std::min(hi.x, free_hi.x), std::min(hi.y, free_hi.y), std::min(hi.z, free_hi.z)};
+      }
+      for (std::int64_t z = lo.z; z <= hi.z; ++z)
+        for (std::int64_t y = lo.y; y <= hi.y; ++y)
+          for (std::int64_t x = lo.x; x <= hi.x; ++x) {
+            const Cell c{x, y, z};
+            Brick& b = brickFor(x >> 3, y >> 3, z >> 3);
+            const std::uint32_t bit = bitOf(c);
+            b.known[bit >> 6] |= 1ull << (bit & 63);
+            if (occupied) b.occupied[bit >> 6] |= 1ull << (bit & 63);
+          }
+    }
+    for (std::uint32_t i = 0; i < bricks_.size(); ++i) {
+      const auto& occ = bricks_[i].occupied;
+      if (std::none_of(occ.begin(), occ.end(), [](std::uint64_t w) { return w != 0; })) continue;
+      occupied_bricks_.push_back(i);
+      forEachBit(occ, [&](unsigned bit) {
+        const Cell c = cellOfBit(bricks_[i], bit);
+        occ_lo_ = {std::min(occ_lo_.x, c.x), std::min(occ_lo_.y, c.y), std::min(occ_lo_.z, c.z)};
+        occ_hi_ = {std::max(occ_hi_.x, c.x), std::max(occ_hi_.y, c.y), std::max(occ_hi_.z, c.z)};
+      });
+    }
+  }
+
+  // --- queries ---
+  bool insideBounds(const Vec3& p) const {
+    for (int i = 0; i < dims_; ++i) {
+      if (!(p[i] - radius_ >= bmin_[i] && p[i] + radius_ <= bmax_[i])) return false;  // also rejects NaN
+    }
+    return true;
+  }
+
+  std::array<std::uint64_t, 8> blockedMask(const Brick& b) const {
+    std::array<std::uint64_t, 8> m = b.occupied;
+    if (unknown_blocked_) {
+      for (int w = 0; w < 8; ++w) m[w] |= ~b.known[w];
+    }
+    return m;
+  }
+
+  bool blocked(const Cell& c) const {
+    const Brick* b = findBrick(c.x >> 3, c.y >> 3, c.z >> 3);
+    if (b == nullptr) return unknown_blocked_;
+    const std::uint32_t bit = bitOf(c);
+    const std::uint64_t word = unknown_blocked_ ? (b->occupied[bit >> 6] | ~b->known[bit >> 6]) : b->occupied[bit >> 6];
+    return (word >> (bit & 63)) & 1u;
+  }
+
+  // Some blocked voxel lies within r of p (its cube touches the closed ball).
+  bool blockedWithin(const Vec3& p, double r) const {
+    Cell lo, hi;
+    cellRange(p, r, lo, hi);
+    const double r2 = r * r;
+    for (std::int64_t bz = lo.z >> 3; bz <= (hi.z >> 3); ++bz)
+      for (std::int64_t by = lo.y >> 3; by <= (hi.y >> 3); ++by)
+        for (std::int64_t bx = lo.x >> 3; bx <= (hi.x >> 3); ++bx) {
+          const Brick* b = findBrick(bx, by, bz);
+          if (b == nullptr) {
+            if (!unknown_blocked_) continue;
+            // Every voxel of a missing brick is unknown: the nearest one of it inside [lo, hi] decides.
+            const Cell blo{std::max(lo.x, bx * 8), std::max(lo.y, by * 8), dims_ == 2 ? 0 : std::max(lo.z, bz * 8)};
+            const Cell bhi{std::min(hi.x, bx * 8 + 7), std::min(hi.y, by * 8 + 7), dims_ == 2 ? 0 : std::min(hi.z, bz * 8 + 7)};
+            if (distanceToCells(p, blo, bhi) <= r) return true;
+            continue;
+          }
+          bool hit = false;
+          forEachBit(blockedMask(*b), [&](unsigned bit) {
+            if (hit) return;
+            const Cell c = cellOfBit(*b, bit);
+            if (!inRange(c, lo, hi)) return;
+            const Vec3 q = nearestPointOfCell(c, p);
+            const double dx = p.x() - q.x(), dy = p.y() - q.y(), dz = dims_ == 2 ? 0.0 : p.z() - q.z();
+            if (dx * dx + dy * dy + dz * dz <= r2) hit = true;
+          });
+          if (hit) return true;
+        }
+    return false;
+  }
+
+  double nearestInBrick(const Vec3& p, const Brick& b, double best) const {
+    forEachBit(b.occupied, [&](unsigned bit) { best = std::min(best, distance(p, nearestPointOfCell(cellOfBit(b, bit), p))); });
+    return best;
+  }
+
+  // Distance from p to the nearest occupied voxel: rings of bricks around p's brick, nearest first, until
+  // the next ring cannot hold anything closer; a plain scan of all occupied bricks once that is cheaper.
+  double nearestOccupied(const Vec3& p) const {
+    if (occupied_bricks_.empty()) return kInf;
+    const Cell pc = cellOf(p);
+    const std::int64_t px = pc.x >> 3, py = pc.y >> 3, pz = pc.z >> 3;
+    const double brick_size = 8.0 * resolution_;
+    double best = kInf;
+    for (std::int64_t k = 0;; ++k) {
+      if (k >= 1 && best <= double(k - 1) * brick_size) return best;
+      const std::int64_t side = 2 * k + 1;
+      const double ring_cells = dims_ == 2 ? double(side * side) : double(side * side * side);
+      if (ring_cells > 2.0 * double(occupied_bricks_.size())) break;
+      const std::int64_t zk = dims_ == 2 ? 0 : k;
+      for (std::int64_t dz = -zk; dz <= zk; ++dz)
+        for (std::int64_t dy = -k; dy <= k; ++dy)
+          for (std::int64_t dx = -k; dx <= k; ++dx) {
+            if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != k) continue;  // the ring only
+            if (const Brick* b = findBrick(px + dx, py + dy, pz + dz)) best = nearestInBrick(p, *b, best);
+          }
+    }
+    for (std::uint32_t i : occupied_bricks_) {
+      const Brick& b = bricks_[i];
+      const Cell lo{std::int64_t(b.bx) * 8, std::int64_t(b.by) * 8, std::int64_t(b.bz) * 8};
+      const Cell hi{lo.x + 7, lo.y + 7, lo.z + 7};
+      if (distanceToCells(p, lo, hi) < best) best = nearestInBrick(p, b, best);
+    }
+    return best;
+  }
+
+  int dims_;
+  Vec3 bmin_, bmax_;
+  double radius_;
+  bool unknown_blocked_;
+  double resolution_, factor_;
+  std::vector<std::uint64_t> slot_keys_;
+  std::vector<std::uint32_t> slot_bricks_;
+  std::size_t slot_mask_ = 0;
+  std::vector<Brick> bricks_;
+  std::vector<std::uint32_t> occupied_bricks_;
+  Cell occ_lo_{kCellLimit, kCellLimit, kCellLimit}, occ_hi_{-kCellLimit, -kCellLimit, -kCellLimit};  // occupied voxels' box
+};
+
+}  // namespace
+
+std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
+                                                 double robot_radius, const std::vector<std::uint8_t>& octree_binary,
+                                                 const OctoMapWorldOptions& options) {
+  if (dimensions != 2 && dimensions != 3) throw std::invalid_argument("makeOctoMapWorld: dimensions must be 2 or 3");
+  for (int i = 0; i < dimensions; ++i) {
+    if (!std::isfinite(bounds_min[i]) || !std::isfinite(bounds_max[i]) || !(bounds_max[i] > bounds_min[i])) {
+      throw std::invalid_argument("makeOctoMapWorld: bounds must be finite with max > min on every axis");
+    }
+  }
+  if (!std::isfinite(robot_radius) || robot_radius < 0.0) {
+    throw std::invalid_argument("makeOctoMapWorld: robot_radius must be finite and >= 0");
+  }
+  octomap::OcTree tree(0.1);
+  std::istringstream in(std::string(octree_binary.begin(), octree_binary.end()), std::ios::in | std::ios::binary);
+  if (octree_binary.empty() || !tree.readBinary(in)) {
+    throw std::runtime_error("makeOctoMapWorld: the " + std::to_string(octree_binary.size()) +
+                             " bytes are not a binary OctoMap OcTree (OcTree::writeBinary output expected)");
+  }
+  return std::make_unique<OctoMapWorld>(dimensions, bounds_min, bounds_max, robot_radius, tree, options);
+}
+
+std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
+                                                 double robot_radius, const std::vector<std::uint8_t>& octree_binary) {
+  return makeOctoMapWorld(dimensions, bounds_min, bounds_max, robot_radius, octree_binary, OctoMapWorldOptions{});
+}
+
+}  // namespace ddsnav::planner

@@ -1,0 +1,242 @@
+// The OctoMap collision world against OcTree::search and a brute-force scan of every occupied voxel.
+#include "ddsnav/planner/collision_world.hpp"
+
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <sstream>
+
+namespace ddsnav::planner {
+namespace {
+
+std::vector<std::uint8_t> toBytes(const octomap::OcTree& tree) {
+  std::ostringstream s;
+  tree.writeBinaryConst(s);
+  const std::string str = s.str();
+  return {str.begin(), str.end()};
+}
+
+// A map with single voxels, a pruned 8x8x8 occupied block, free space from a few scans and unknown space.
+octomap::OcTree makeMap(double resolution, bool flat) {
+  octomap::OcTree tree(resolution);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-4.0f, 4.0f), uz(0.0f, 3.0f);
+  const float z0 = 0.55f;
+  octomap::Pointcloud cloud;
+  for (int i = 0; i < 3000; ++i) cloud.push_back(u(rng), u(rng), flat ? z0 : uz(rng));
+  tree.insertPointCloud(cloud, octomap::point3d(0.05f, 0.05f, flat ? z0 : 1.5f), 6.0);
+  if (!flat) {
+    // A solid block aligned to 8 voxels: the tree prunes it into one coarse leaf.
+    const double r = resolution;
+    for (int x = 0; x < 8; ++x)
+      for (int y = 0; y < 8; ++y)
+        for (int z = 0; z < 8; ++z)
+          tree.setNodeValue((16 + x + 0.5) * r, (8 + y + 0.5) * r, (z + 0.5) * r, tree.getClampingThresMaxLog());
+    tree.prune();
+  }
+  return tree;
+}
+
+struct OccupiedCell {
+  Vec3 lo, hi;
+};
+
+std::vector<OccupiedCell> occupiedCells(const octomap::OcTree& tree, bool flat) {
+  std::vector<OccupiedCell> cells;
+  const double r = tree.getResolution();
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const int n = 1 << (tree.getTreeDepth() - it.getDepth());
+    const octomap::OcTreeKey k = it.getIndexKey();
+    for (int x = 0; x < n; ++x)
+      for (int y = 0; y < n; ++y)
+        for (int z = 0; z < (flat ? 1 : n); ++z) {
+          Vec3 lo((int(k[0]) - 32768 + x) * r, (int(k[1]) - 32768 + y) * r, (int(k[2]) - 32768 + z) * r);
+          cells.push_back({lo, lo + Vec3::Constant(r)});
+        }
+  }
+  return cells;
+}
+
+double distanceToCell(const Vec3& p, const OccupiedCell& c, bool flat) {
+  double sum = 0.0;
+  for (int i = 0; i < (flat ? 2 : 3); ++i) {
+    const double gap = std::max({c.lo[i] - p[i], 0.0, p[i] - c.hi[i]});
+    sum += gap * gap;
+  }
+  return std::sqrt(sum);
+}
+
+bool occupiedAt(const octomap::OcTree& tree, const Vec3& p) {
+  const octomap::OcTreeNode* n = tree.search(p.x(), p.y(), p.z());
+  return n != nullptr && tree.isNodeOccupied(n);
+}
+
+TEST(OctoMapWorld, PointQueriesEqualOcTreeSearch) {
+  const octomap::OcTree tree = makeMap(0.1, false);
+  const auto world = makeOctoMapWorld(3, Vec3(-100, -100, -100), Vec3(100, 100, 100), 0.0, toBytes(tree));
+  octomap::OcTree read(0.1);
+  std::istringstream in(std::string(reinterpret_cast<const char*>(toBytes(tree).data()), toBytes(tree).size()));
+  ASSERT_TRUE(read.readBinary(in));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-5.0, 5.0), uz(-0.5, 3.5);
+  int mismatches = 0, occupied = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const Vec3 p(u(rng), u(rng), uz(rng));
+    const bool occ = occupiedAt(read, p);
+    occupied += occ;
+    if (world->isFree(p) == occ) ++mismatches;
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(occupied, 500);  // the test would be empty otherwise
+  EXPECT_EQ(world->validityChecks(), 100000u);
+}
+
+TEST(OctoMapWorld, RobotRadiusMatchesBruteForce) {
+  const octomap::OcTree tree = makeMap(0.1, false);
+  const std::vector<OccupiedCell> cells = occupiedCells(tree, false);
+  const double radius = 0.35;
+  const auto world = makeOctoMapWorld(3, Vec3(-50, -50, -50), Vec3(50, 50, 50), radius, toBytes(tree));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-5.0, 5.0), uz(-0.5, 3.5);
+  int mismatches = 0, blocked = 0, clearance_mismatches = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3 p(u(rng), u(rng), uz(rng));
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const OccupiedCell& c : cells) nearest = std::min(nearest, distanceToCell(p, c, false));
+    const bool collides = occupiedAt(tree, p) || nearest <= radius;
+    blocked += collides;
+    if (world->isFree(p) == collides) ++mismatches;
+    if (std::abs(world->clearance(p) - (nearest - radius)) > 1e-12) ++clearance_mismatches;
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_EQ(clearance_mismatches, 0);
+  EXPECT_GT(blocked, 300);
+  EXPECT_LT(blocked, 2900);
+}
+
+TEST(OctoMapWorld, ObstaclesNearAreTheOccupiedVoxelsInRangeNearestFirst) {
+  const octomap::OcTree tree = makeMap(0.1, false);
+  const std::vector<OccupiedCell> cells = occupiedCells(tree, false);
+  const auto world = makeOctoMapWorld(3, Vec3(-50, -50, -50), Vec3(50, 50, 50), 0.2, toBytes(tree));
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-4.0, 4.0), uz(0.0, 3.0);
+  for (int i = 0; i < 50; ++i) {
+    const Vec3 p(u(rng), u(rng), uz(rng));
+    const double range = 0.8;
+    std::vector<double> expected;
+    for (const OccupiedCell& c : cells) {
+      const double d = distanceToCell(p, c, false);
+      if (d <= range) expected.push_back(d);
+    }
+    std::sort(expected.begin(), expected.end());
+    const std::vector<NearbyObstacle> got = world->obstaclesNear(p, range);
+    ASSERT_EQ(got.size(), expected.size());
+    for (std::size_t k = 0; k < got.size(); ++k) {
+      EXPECT_NEAR(got[k].distance, expected[k], 1e-12);
+      EXPECT_NEAR((got[k].nearest_point - p).norm(), got[k].distance, 1e-12);
+      if (k > 0) EXPECT_NE(got[k].id, got[k - 1].id);
+    }
+  }
+  EXPECT_TRUE(world->obstaclesNear(Vec3(1000, 1000, 1000), 1.0).empty());
+}
+
+TEST(OctoMapWorld, UnknownAsOccupiedBlocksUnobservedSpace) {
+  const octomap::OcTree tree = makeMap(0.1, false);
+  const auto bytes = toBytes(tree);
+  const double radius = 0.15;
+  const auto optimistic = makeOctoMapWorld(3, Vec3(-50, -50, -50), Vec3(50, 50, 50), radius, bytes);
+  const auto cautious = makeOctoMapWorld(3, Vec3(-50, -50, -50), Vec3(50, 50, 50), radius, bytes, {true});
+  // Far outside the observed region: free when unknown is free, blocked otherwise.
+  EXPECT_TRUE(optimistic->isFree(Vec3(30, 30, 30)));
+  EXPECT_FALSE(cautious->isFree(Vec3(30, 30, 30)));
+  // Brute force: every voxel whose cube is within the radius must be known free.
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(-1.5, 1.5), uz(1.0, 2.0);
+  const double r = tree.getResolution();
+  int mismatches = 0, free_count = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3 p(u(rng), u(rng), uz(rng));
+    bool collides = false;
+    const octomap::OcTreeNode* here = tree.search(p.x(), p.y(), p.z());
+    collides = here == nullptr || tree.isNodeOccupied(here);
+    for (int dx = -3; dx <= 3 && !collides; ++dx)
+      for (int dy = -3; dy <= 3 && !collides; ++dy)
+        for (int dz = -3; dz <= 3 && !collides; ++dz) {
+          const Vec3 c((std::floor(p.x() / r) + dx + 0.5) * r, (std::floor(p.y() / r) + dy + 0.5) * r,
+                       (std::floor(p.z() / r) + dz + 0.5) * r);
+          const OccupiedCell cell{c - Vec3::Constant(r / 2), c + Vec3::Constant(r / 2)};
+          if (distanceToCell(p, cell, false) > radius) continue;
+          const octomap::OcTreeNode* n = tree.search(c.x(), c.y(), c.z());
+          if (n == nullptr || tree.isNodeOccupied(n)) collides = true;
+        }
+    free_count += !collides;
+    if (cautious->isFree(p) == collides) ++mismatches;
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(free_count, 100);
+}
+
+TEST(OctoMapWorld, TwoDimensionalSlab) {
+  const octomap::OcTree tree = makeMap(0.05, true);
+  const std::vector<OccupiedCell> cells = occupiedCells(tree, true);
+  const double radius = 0.2;
+  const auto world = makeOctoMapWorld(2, Vec3(-10, -10, 0), Vec3(10, 10, 0), radius, toBytes(tree));
+  EXPECT_EQ(world->dimensions(), 2);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-4.5, 4.5);
+  int mismatches = 0, blocked = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3 p(u(rng), u(rng), 0.0);  // z is ignored in 2-D: the slab's column is what counts
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const OccupiedCell& c : cells) nearest = std::min(nearest, distanceToCell(p, c, true));
+    const bool collides = occupiedAt(tree, Vec3(p.x(), p.y(), 0.55)) || nearest <= radius;
+    blocked += collides;
+    if (world->isFree(p) == collides) ++mismatches;
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(blocked, 100);
+  // Bounds: the disc must fit inside.
+  EXPECT_FALSE(world->isFree(Vec3(9.9, 0, 0)));
+  EXPECT_FALSE(world->isFree(Vec3(std::nan(""), 0, 0)));
+}
+
+TEST(OctoMapWorld, SegmentsUseTheSameCheck) {
+  octomap::OcTree tree(0.1);
+  // A wall at x = 1.0 .. 1.1, y in [-1, 1), z in [0, 1).
+  for (int y = -10; y < 10; ++y)
+    for (int z = 0; z < 10; ++z) tree.updateNode(octomap::point3d(1.05f, y * 0.1f + 0.05f, z * 0.1f + 0.05f), true);
+  const auto world = makeOctoMapWorld(3, Vec3(-5, -5, -5), Vec3(5, 5, 5), 0.1, toBytes(tree));
+  EXPECT_FALSE(world->isSegmentFree(Vec3(0, 0, 0.5), Vec3(2, 0, 0.5)));
+  EXPECT_TRUE(world->isSegmentFree(Vec3(0, 0, 0.5), Vec3(0, 2, 0.5)));
+  EXPECT_TRUE(world->isSegmentFree(Vec3(0, 0, 0.5), Vec3(2, 0, 1.3)) == false);
+  EXPECT_TRUE(world->isSegmentFree(Vec3(0, 0, 1.3), Vec3(2, 0, 1.3)));
+  EXPECT_NEAR(world->clearance(Vec3(0.5, 0, 0.5)), 0.5 - 0.1, 1e-9);
+}
+
+TEST(OctoMapWorld, EmptyMapIsFreeWithInfiniteClearance) {
+  octomap::OcTree tree(0.1);
+  const auto world = makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, toBytes(tree));
+  EXPECT_TRUE(world->isFree(Vec3(0, 0, 0)));
+  EXPECT_EQ(world->clearance(Vec3(0, 0, 0)), std::numeric_limits<double>::infinity());
+  EXPECT_TRUE(world->obstaclesNear(Vec3(0, 0, 0), 5.0).empty());
+}
+
+TEST(OctoMapWorld, BadInputIsRejected) {
+  const auto bytes = toBytes(makeMap(0.1, false));
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, {}), std::runtime_error);
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, {1, 2, 3, 4, 5}), std::runtime_error);
+  std::vector<std::uint8_t> truncated(bytes.begin(), bytes.begin() + bytes.size() / 2);
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, truncated), std::runtime_error);
+  EXPECT_THROW(makeOctoMapWorld(4, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, bytes), std::invalid_argument);
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(1, -1, -1), Vec3(1, 1, 1), 0.1, bytes), std::invalid_argument);
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), -0.1, bytes), std::invalid_argument);
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), std::nan(""), bytes), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace ddsnav::planner
