@@ -1,0 +1,58 @@
+// What each vendor implements behind the bus API. Private to components/bus.
+#pragma once
+
+#include <ddsnav/bus/bus.hpp>
+
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+
+namespace ddsnav::bus::detail {
+
+class WriterImpl {
+ public:
+  virtual ~WriterImpl() = default;
+  virtual void writeSample(const void* sample) = 0;                 // a generated class
+  virtual void writeRaw(std::span<const std::uint8_t> payload) = 0;  // encapsulation + body
+  virtual std::size_t matched() const = 0;
+};
+
+class ReaderImpl {
+ public:
+  virtual ~ReaderImpl() = default;
+  virtual std::size_t matched() const = 0;
+};
+
+// One endpoint to create. `type` is null only for raw endpoints of a type unknown to this build.
+struct EndpointSpec {
+  std::string topic;
+  std::string type_name;
+  bool keyed = false;
+  const msg::TypeSupport* type = nullptr;
+  Qos qos;
+};
+
+// A discovered endpoint: is_writer false for a subscription.
+using DiscoverySink = std::function<void(const TopicInfo& info, bool is_writer)>;
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual std::shared_ptr<WriterImpl> createWriter(const EndpointSpec& spec) = 0;
+  // Exactly one of typed / raw is set.
+  virtual std::shared_ptr<ReaderImpl> createReader(const EndpointSpec& spec, SampleCallback typed,
+                                                   RawCallback raw) = 0;
+};
+
+// The sink may be called from vendor threads until the backend is destroyed.
+std::unique_ptr<Backend> makeFastBackend(const ParticipantOptions& options, DiscoverySink sink);
+std::unique_ptr<Backend> makeCycloneBackend(const ParticipantOptions& options, DiscoverySink sink);
+
+// Topics whose name starts with this are the bus's own plumbing, hidden from discovery.
+inline constexpr std::string_view kInternalTopicPrefix = "ddsnav_internal/";
+
+// Runs a user callback, logging (not propagating) what it throws: vendor threads must not unwind.
+void invokeSafely(const std::string& topic, const std::function<void()>& call);
+
+}  // namespace ddsnav::bus::detail

@@ -1,0 +1,207 @@
+// Vendor-independent part of the bus: option checks, the per-process topic/type table, discovery
+// bookkeeping. The vendor code lives in fastdds_backend.cpp and cyclone_backend.cpp.
+#include "backend.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <map>
+#include <set>
+#include <thread>
+
+namespace ddsnav::bus {
+
+Vendor parseVendor(std::string_view name) {
+  if (name == "fastdds" || name == "fast" || name == "fastrtps") return Vendor::FastDDS;
+  if (name == "cyclonedds" || name == "cyclone") return Vendor::CycloneDDS;
+  throw BusError("unknown DDS vendor '" + std::string(name) + "': expected 'fastdds' or 'cyclonedds'");
+}
+
+std::string_view vendorName(Vendor vendor) { return vendor == Vendor::FastDDS ? "fastdds" : "cyclonedds"; }
+
+Vendor vendorFromEnvironment(Vendor fallback) {
+  const char* env = std::getenv("DDSNAV_DDS");
+  if (env == nullptr || *env == '\0') return fallback;
+  try {
+    return parseVendor(env);
+  } catch (const BusError& e) {
+    throw BusError(std::string("environment variable DDSNAV_DDS: ") + e.what());
+  }
+}
+
+namespace detail {
+
+void write(WriterImpl& writer, const void* sample) { writer.writeSample(sample); }
+std::size_t matchedReaders(const WriterImpl& writer) { return writer.matched(); }
+std::size_t matchedWriters(const ReaderImpl& reader) { return reader.matched(); }
+
+bool waitMatched(const std::function<std::size_t()>& matched, std::size_t count,
+                 std::chrono::milliseconds timeout) {
+  // Matching is reported by vendor listeners on their own threads; polling a cheap status query every
+  // few ms is simpler than wiring a condition variable through both vendors and costs nothing here.
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (matched() < count) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
+void invokeSafely(const std::string& topic, const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const std::exception& e) {
+    spdlog::error("bus: callback for topic '{}' threw: {}", topic, e.what());
+  } catch (...) {
+    spdlog::error("bus: callback for topic '{}' threw a non-standard exception", topic);
+  }
+}
+
+// Discovery state shared with the vendor threads that feed it (it outlives neither).
+struct DiscoveryState {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::set<std::pair<std::string, std::string>> seen;  // (topic, type) with a publisher
+  std::vector<TopicInfo> topics;
+  std::map<std::string, std::string> local_types;  // topics this participant uses -> type
+  std::set<std::pair<std::string, std::string>> reported_conflicts;
+  std::function<void(const TopicInfo&)> callback;
+
+  void onEndpoint(const TopicInfo& info, bool is_writer) {
+    if (info.topic.starts_with(kInternalTopicPrefix)) return;
+    std::function<void(const TopicInfo&)> cb;
+    {
+      std::lock_guard lock(mutex);
+      auto local = local_types.find(info.topic);
+      if (local != local_types.end() && local->second != info.type_name &&
+          reported_conflicts.emplace(info.topic, info.type_name).second) {
+        // DDS silently never matches endpoints whose types differ; say so once.
+        spdlog::error("bus: topic '{}' is used here with type {} but a remote {} uses type {}; they will "
+                      "not communicate",
+                      info.topic, local->second, is_writer ? "publisher" : "subscriber", info.type_name);
+      }
+      if (!is_writer || !seen.emplace(info.topic, info.type_name).second) return;
+      topics.push_back(info);
+      cb = callback;
+    }
+    changed.notify_all();
+    if (cb) invokeSafely(info.topic, [&] { cb(info); });
+  }
+};
+
+class ParticipantImpl {
+ public:
+  ParticipantOptions options;
+  std::shared_ptr<DiscoveryState> discovery = std::make_shared<DiscoveryState>();
+  std::unique_ptr<Backend> backend;
+
+  // Same topic, same type within one process: DDS would otherwise fail obscurely or never match.
+  void claimTopic(const std::string& topic, std::string_view type_name) {
+    if (topic.empty()) throw BusError("empty topic name");
+    std::lock_guard lock(discovery->mutex);
+    auto [it, inserted] = discovery->local_types.emplace(topic, std::string(type_name));
+    if (!inserted && it->second != type_name)
+      throw BusError("topic '" + topic + "' is already used with type " + it->second +
+                     " in this participant; cannot use it with type " + std::string(type_name));
+  }
+};
+
+}  // namespace detail
+
+Participant::Participant(const ParticipantOptions& options) : impl_(std::make_unique<detail::ParticipantImpl>()) {
+  if (options.domain_id < 0 || options.domain_id > kMaxDomainId)
+    throw BusError("DDS domain id " + std::to_string(options.domain_id) + " is out of range: expected 0.." +
+                   std::to_string(kMaxDomainId));
+  impl_->options = options;
+  std::weak_ptr<detail::DiscoveryState> weak = impl_->discovery;
+  detail::DiscoverySink sink = [weak](const TopicInfo& info, bool is_writer) {
+    if (auto state = weak.lock()) state->onEndpoint(info, is_writer);
+  };
+  impl_->backend = options.vendor == Vendor::FastDDS ? detail::makeFastBackend(options, sink)
+                                                     : detail::makeCycloneBackend(options, sink);
+}
+
+Participant::~Participant() = default;
+
+Vendor Participant::vendor() const { return impl_->options.vendor; }
+int Participant::domainId() const { return impl_->options.domain_id; }
+const std::string& Participant::name() const { return impl_->options.name; }
+
+std::shared_ptr<detail::WriterImpl> Participant::createWriter(const msg::TypeSupport& type,
+                                                              const std::string& topic, const Qos& qos) {
+  impl_->claimTopic(topic, type.name);
+  auto writer = impl_->backend->createWriter({topic, std::string(type.name), type.keyed, &type, qos});
+  impl_->discovery->onEndpoint({topic, std::string(type.name), type.keyed}, true);
+  return writer;
+}
+
+std::shared_ptr<detail::ReaderImpl> Participant::createReader(const msg::TypeSupport& type,
+                                                              const std::string& topic, const Qos& qos,
+                                                              detail::SampleCallback callback) {
+  impl_->claimTopic(topic, type.name);
+  return impl_->backend->createReader({topic, std::string(type.name), type.keyed, &type, qos},
+                                      std::move(callback), nullptr);
+}
+
+namespace {
+detail::EndpointSpec rawSpec(const TopicInfo& topic, const Qos& qos) {
+  const msg::TypeSupport* type = msg::find_type_support(topic.type_name);
+  if (type != nullptr && type->keyed != topic.keyed)
+    throw BusError("topic '" + topic.topic + "': type " + topic.type_name + " is " +
+                   (type->keyed ? "keyed" : "unkeyed") + " in this build but was given as " +
+                   (topic.keyed ? "keyed" : "unkeyed"));
+  return {topic.topic, topic.type_name, topic.keyed, type, qos};
+}
+}  // namespace
+
+RawPublisher Participant::rawPublisher(const TopicInfo& topic, const Qos& qos) {
+  impl_->claimTopic(topic.topic, topic.type_name);
+  auto writer = impl_->backend->createWriter(rawSpec(topic, qos));
+  impl_->discovery->onEndpoint(topic, true);
+  return RawPublisher(std::move(writer));
+}
+
+Subscription Participant::subscribeRaw(const TopicInfo& topic, const Qos& qos, detail::RawCallback callback) {
+  if (!callback) throw BusError("subscribeRaw('" + topic.topic + "'): empty callback");
+  impl_->claimTopic(topic.topic, topic.type_name);
+  return Subscription(impl_->backend->createReader(rawSpec(topic, qos), nullptr, std::move(callback)));
+}
+
+void RawPublisher::publish(std::span<const std::uint8_t> payload) {
+  if (payload.size() < 4) throw BusError("raw sample of " + std::to_string(payload.size()) +
+                                         " bytes: expected at least the 4-byte encapsulation header");
+  impl_->writeRaw(payload);
+}
+
+std::vector<TopicInfo> Participant::discoveredTopics() const {
+  std::lock_guard lock(impl_->discovery->mutex);
+  std::vector<TopicInfo> topics = impl_->discovery->topics;
+  std::sort(topics.begin(), topics.end(), [](const TopicInfo& a, const TopicInfo& b) {
+    return std::tie(a.topic, a.type_name) < std::tie(b.topic, b.type_name);
+  });
+  return topics;
+}
+
+std::optional<TopicInfo> Participant::waitForTopic(const std::string& topic,
+                                                   std::chrono::milliseconds timeout) const {
+  auto& d = *impl_->discovery;
+  std::unique_lock lock(d.mutex);
+  std::optional<TopicInfo> found;
+  d.changed.wait_for(lock, timeout, [&] {
+    for (const TopicInfo& t : d.topics)
+      if (t.topic == topic) {
+        found = t;
+        return true;
+      }
+    return false;
+  });
+  return found;
+}
+
+void Participant::onTopicDiscovered(std::function<void(const TopicInfo&)> callback) {
+  std::lock_guard lock(impl_->discovery->mutex);
+  impl_->discovery->callback = std::move(callback);
+}
+
+}  // namespace ddsnav::bus

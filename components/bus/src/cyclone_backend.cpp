@@ -1,0 +1,336 @@
+// Cyclone DDS 0.10 side of the bus. The only file that includes Cyclone headers.
+//
+// Topics are created from the idlc descriptors (so Cyclone knows keys and checks incoming bytes), but
+// samples never go through Cyclone's C structs: the generated Fast CDR classes produce and consume the
+// serialized form, handed over with ddsi_serdata_from_ser_iov + dds_writecdr and dds_takecdr.
+#include "backend.hpp"
+
+#include <dds/dds.h>
+#include <dds/ddsi/ddsi_serdata.h>
+
+#include <spdlog/spdlog.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <set>
+
+namespace ddsnav::bus::detail {
+namespace {
+
+// Loopback only, unicast discovery to 127.0.0.1 over a participant-index range that covers the host.
+constexpr const char* kLoopbackConfig =
+    "<CycloneDDS><Domain id=\"any\">"
+    "<General><Interfaces><NetworkInterface address=\"127.0.0.1\"/></Interfaces>"
+    "<AllowMulticast>false</AllowMulticast></General>"
+    "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>"
+    "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery>"
+    "<Internal><SocketReceiveBufferSize min=\"4MB\"/></Internal>"
+    "</Domain></CycloneDDS>";
+
+std::string errorText(dds_return_t rc) { return dds_strretcode(rc); }
+
+// A domain's configuration is fixed when the process first creates it; later participants share it.
+void ensureDomain(int domain_id) {
+  static std::mutex mutex;
+  static std::set<int> created;
+  std::lock_guard lock(mutex);
+  if (created.count(domain_id) != 0) return;
+  const char* override_config = std::getenv("DDSNAV_CYCLONEDDS_CONFIG");
+  const char* config = override_config != nullptr && *override_config != '\0' ? override_config : kLoopbackConfig;
+  dds_entity_t domain = dds_create_domain(static_cast<dds_domainid_t>(domain_id), config);
+  if (domain < 0 && domain != DDS_RETCODE_PRECONDITION_NOT_MET)  // NOT_MET: it exists already
+    throw BusError("Cyclone DDS could not create domain " + std::to_string(domain_id) +
+                   (config == kLoopbackConfig ? std::string() : " from DDSNAV_CYCLONEDDS_CONFIG") + ": " +
+                   errorText(domain));
+  created.insert(domain_id);
+}
+
+struct QosHandle {
+  dds_qos_t* qos = dds_create_qos();
+  ~QosHandle() { dds_delete_qos(qos); }
+};
+
+void applyQos(const Qos& q, dds_qos_t* qos) {
+  if (q.depth < 1) throw BusError("QoS depth " + std::to_string(q.depth) + ": expected >= 1");
+  dds_qset_reliability(qos, q.reliability == Reliability::Reliable ? DDS_RELIABILITY_RELIABLE
+                                                                   : DDS_RELIABILITY_BEST_EFFORT,
+                       DDS_SECS(1));
+  dds_qset_durability(qos, q.durability == Durability::TransientLocal ? DDS_DURABILITY_TRANSIENT_LOCAL
+                                                                     : DDS_DURABILITY_VOLATILE);
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, q.depth);
+  // Cyclone serves late joiners from the durability service history (default depth 1), not the writer's.
+  dds_qset_durability_service(qos, 0, DDS_HISTORY_KEEP_LAST, q.depth, DDS_LENGTH_UNLIMITED,
+                              DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
+}
+
+class CycloneCore;
+
+class CycloneWriter : public WriterImpl {
+ public:
+  CycloneWriter(std::shared_ptr<CycloneCore> core, dds_entity_t writer, const ddsi_sertype* sertype,
+                const EndpointSpec& spec)
+      : core_(std::move(core)), writer_(writer), sertype_(sertype), spec_(spec) {}
+  ~CycloneWriter() override { dds_delete(writer_); }
+
+  void writeSample(const void* sample) override {
+    // One serialization into a per-thread buffer that keeps its capacity (no 8 MB allocation per cloud).
+    thread_local std::vector<std::uint8_t> buffer;
+    std::size_t size = spec_.type->serialized_size(sample);
+    if (buffer.size() < size) buffer.resize(size);
+    std::size_t n = spec_.type->serialize(sample, buffer.data(), buffer.size());
+    if (n == 0) throw BusError("could not serialize a sample for topic '" + spec_.topic + "'");
+    writeBytes(buffer.data(), n);
+  }
+
+  void writeRaw(std::span<const std::uint8_t> payload) override { writeBytes(payload.data(), payload.size()); }
+
+  std::size_t matched() const override {
+    dds_publication_matched_status_t status{};
+    dds_get_publication_matched_status(writer_, &status);
+    return status.current_count;
+  }
+
+ private:
+  void writeBytes(const std::uint8_t* data, std::size_t size) {
+    ddsrt_iovec_t iov;
+    iov.iov_base = const_cast<std::uint8_t*>(data);
+    iov.iov_len = static_cast<ddsrt_iov_len_t>(size);
+    // Copies the bytes into Cyclone's sample representation and checks them against the descriptor.
+    ddsi_serdata* sd = ddsi_serdata_from_ser_iov(sertype_, SDK_DATA, 1, &iov, size);
+    if (sd == nullptr)
+      throw BusError("Cyclone DDS rejected a " + std::to_string(size) + "-byte sample on topic '" + spec_.topic +
+                     "': not a valid " + spec_.type_name);
+    dds_return_t rc = dds_writecdr(writer_, sd);  // takes over the reference
+    if (rc < 0) throw BusError("Cyclone DDS write on topic '" + spec_.topic + "' failed: " + errorText(rc));
+  }
+
+  std::shared_ptr<CycloneCore> core_;
+  dds_entity_t writer_;
+  const ddsi_sertype* sertype_;
+  EndpointSpec spec_;
+};
+
+class CycloneReader : public ReaderImpl {
+ public:
+  CycloneReader(std::shared_ptr<CycloneCore> core, const EndpointSpec& spec, SampleCallback typed, RawCallback raw)
+      : core_(std::move(core)), spec_(spec), typed_(std::move(typed)), raw_(std::move(raw)) {
+    if (typed_) sample_ = spec.type->create();
+  }
+  ~CycloneReader() override {
+    if (reader_ > 0) dds_delete(reader_);  // returns after a running listener call has finished
+    if (sample_ != nullptr) spec_.type->destroy(sample_);
+  }
+
+  void attach(dds_entity_t reader) { reader_ = reader; }
+
+  std::size_t matched() const override {
+    dds_subscription_matched_status_t status{};
+    dds_get_subscription_matched_status(reader_, &status);
+    return status.current_count;
+  }
+
+  static void onDataAvailable(dds_entity_t reader, void* arg) { static_cast<CycloneReader*>(arg)->drain(reader); }
+
+ private:
+  void drain(dds_entity_t reader) {
+    ddsi_serdata* sd = nullptr;
+    dds_sample_info_t info;
+    while (dds_takecdr(reader, &sd, 1, &info, DDS_ANY_STATE) == 1) {
+      if (info.valid_data) deliver(sd, info);
+      ddsi_serdata_unref(sd);
+    }
+  }
+
+  void deliver(ddsi_serdata* sd, const dds_sample_info_t& info) {
+    // A reference into the received sample: no copy before deserialization.
+    std::size_t size = ddsi_serdata_size(sd);
+    ddsrt_iovec_t iov;
+    ddsi_serdata* ref = ddsi_serdata_to_ser_ref(sd, 0, size, &iov);
+    SampleInfo si{info.source_timestamp};
+    if (typed_) {
+      if (spec_.type->deserialize(iov.iov_base, iov.iov_len, sample_))
+        invokeSafely(spec_.topic, [&] { typed_(sample_, si); });
+      else
+        spdlog::warn("bus: dropped an undecodable {} sample on topic '{}'", spec_.type_name, spec_.topic);
+    } else {
+      RawSample s{spec_.topic, spec_.type_name,
+                  std::span<const std::uint8_t>(static_cast<const std::uint8_t*>(iov.iov_base), iov.iov_len),
+                  si.source_timestamp_ns};
+      invokeSafely(spec_.topic, [&] { raw_(s); });
+    }
+    ddsi_serdata_to_ser_unref(ref, &iov);
+  }
+
+  std::shared_ptr<CycloneCore> core_;
+  EndpointSpec spec_;
+  SampleCallback typed_;
+  RawCallback raw_;
+  void* sample_ = nullptr;
+  dds_entity_t reader_ = 0;
+};
+
+class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
+ public:
+  CycloneCore(const ParticipantOptions& options, DiscoverySink sink) : sink_(std::move(sink)) {
+    ensureDomain(options.domain_id);
+    participant_ = dds_create_participant(static_cast<dds_domainid_t>(options.domain_id), nullptr, nullptr);
+    if (participant_ < 0)
+      throw BusError("Cyclone DDS could not create a participant on domain " + std::to_string(options.domain_id) +
+                     ": " + errorText(participant_));
+    watchBuiltin(DDS_BUILTIN_TOPIC_DCPSPUBLICATION, &CycloneCore::onPublication);
+    watchBuiltin(DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION, &CycloneCore::onSubscription);
+  }
+
+  ~CycloneCore() {
+    dds_delete(participant_);  // and everything in it, waiting for running listeners
+    for (auto& [name, st] : sertypes_) ddsi_sertype_unref(const_cast<ddsi_sertype*>(st));
+  }
+
+  std::shared_ptr<WriterImpl> createWriter(const EndpointSpec& spec) {
+    std::lock_guard lock(mutex_);
+    auto [topic, sertype] = topicFor(spec);
+    QosHandle qos;
+    applyQos(spec.qos, qos.qos);
+    dds_entity_t writer = dds_create_writer(participant_, topic, qos.qos, nullptr);
+    if (writer < 0)
+      throw BusError("Cyclone DDS could not create a writer on topic '" + spec.topic + "': " + errorText(writer));
+    return std::make_shared<CycloneWriter>(shared_from_this(), writer, sertype, spec);
+  }
+
+  std::shared_ptr<ReaderImpl> createReader(const EndpointSpec& spec, SampleCallback typed, RawCallback raw) {
+    std::lock_guard lock(mutex_);
+    auto [topic, sertype] = topicFor(spec);
+    QosHandle qos;
+    applyQos(spec.qos, qos.qos);
+    auto impl = std::make_shared<CycloneReader>(shared_from_this(), spec, std::move(typed), std::move(raw));
+    dds_listener_t* listener = dds_create_listener(impl.get());
+    dds_lset_data_available(listener, &CycloneReader::onDataAvailable);
+    dds_entity_t reader = dds_create_reader(participant_, topic, qos.qos, listener);
+    dds_delete_listener(listener);
+    if (reader < 0)
+      throw BusError("Cyclone DDS could not create a reader on topic '" + spec.topic + "': " + errorText(reader));
+    impl->attach(reader);
+    return impl;
+  }
+
+ private:
+  std::pair<dds_entity_t, const ddsi_sertype*> topicFor(const EndpointSpec& spec) {
+    if (spec.type == nullptr || spec.type->cyclone_descriptor == nullptr)
+      throw BusError("topic '" + spec.topic + "': type " + spec.type_name +
+                     " is unknown to this build; Cyclone DDS needs its IDL descriptor (use --dds fastdds for "
+                     "opaque types)");
+    auto* descriptor = static_cast<const dds_topic_descriptor_t*>(spec.type->cyclone_descriptor);
+    auto it = topics_.find(spec.topic);
+    if (it == topics_.end()) {
+      dds_entity_t topic = dds_create_topic(participant_, descriptor, spec.topic.c_str(), nullptr, nullptr);
+      if (topic < 0)
+        throw BusError("Cyclone DDS could not create topic '" + spec.topic + "' of type " + spec.type_name + ": " +
+                       errorText(topic));
+      it = topics_.emplace(spec.topic, topic).first;
+    }
+    return {it->second, sertypeFor(spec.type_name, descriptor)};
+  }
+
+  // Cyclone 0.10 has no public call returning a topic's sertype, but every serdata points to its sertype
+  // and Cyclone shares one sertype per (domain, descriptor). So: write one default sample through a
+  // private topic of the same descriptor, take it back as serdata, and keep a reference to its type.
+  const ddsi_sertype* sertypeFor(const std::string& type_name, const dds_topic_descriptor_t* descriptor) {
+    auto it = sertypes_.find(type_name);
+    if (it != sertypes_.end()) return it->second;
+    std::string probe_name = std::string(kInternalTopicPrefix) + "type_probe/" + type_name;
+    for (char& ch : probe_name)
+      if (ch == ':') ch = '_';  // not allowed in topic names
+    dds_entity_t topic = dds_create_topic(participant_, descriptor, probe_name.c_str(), nullptr, nullptr);
+    QosHandle qos;
+    dds_qset_reliability(qos.qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+    dds_qset_history(qos.qos, DDS_HISTORY_KEEP_ALL, 0);
+    dds_entity_t reader = dds_create_reader(participant_, topic, qos.qos, nullptr);
+    dds_entity_t writer = dds_create_writer(participant_, topic, qos.qos, nullptr);
+    // An all-zero C sample is a valid default for idlc types (null strings serialize as empty strings).
+    std::vector<std::uint8_t> zero(descriptor->m_size + 64, 0);
+    const ddsi_sertype* sertype = nullptr;
+    if (topic > 0 && reader > 0 && writer > 0 && dds_write(writer, zero.data()) == DDS_RETCODE_OK) {
+      ddsi_serdata* sd = nullptr;
+      dds_sample_info_t info;
+      if (dds_takecdr(reader, &sd, 1, &info, DDS_ANY_STATE) == 1) {
+        sertype = ddsi_sertype_ref(sd->type);
+        ddsi_serdata_unref(sd);
+      }
+    }
+    dds_delete(writer);
+    dds_delete(reader);
+    dds_delete(topic);
+    if (sertype == nullptr) throw BusError("Cyclone DDS: could not obtain the serializer of type " + type_name);
+    sertypes_.emplace(type_name, sertype);
+    return sertype;
+  }
+
+  using Handler = void (CycloneCore::*)(dds_entity_t);
+  struct BuiltinWatch {
+    CycloneCore* core;
+    Handler handler;
+  };
+
+  void watchBuiltin(dds_entity_t builtin_topic, Handler handler) {
+    watches_.push_back(std::make_unique<BuiltinWatch>(BuiltinWatch{this, handler}));
+    dds_listener_t* listener = dds_create_listener(watches_.back().get());
+    dds_lset_data_available(listener, [](dds_entity_t reader, void* arg) {
+      auto* w = static_cast<BuiltinWatch*>(arg);
+      (w->core->*(w->handler))(reader);
+    });
+    dds_entity_t reader = dds_create_reader(participant_, builtin_topic, nullptr, listener);
+    dds_delete_listener(listener);
+    if (reader < 0) spdlog::warn("bus: Cyclone discovery reader failed: {}", errorText(reader));
+  }
+
+  void onPublication(dds_entity_t reader) { takeEndpoints(reader, true); }
+  void onSubscription(dds_entity_t reader) { takeEndpoints(reader, false); }
+
+  void takeEndpoints(dds_entity_t reader, bool writers) {
+    constexpr int kBatch = 16;
+    void* samples[kBatch] = {};
+    dds_sample_info_t infos[kBatch];
+    int n;
+    while ((n = dds_take(reader, samples, infos, kBatch, kBatch)) > 0) {
+      for (int i = 0; i < n; ++i) {
+        if (!infos[i].valid_data || infos[i].instance_state != DDS_IST_ALIVE) continue;
+        auto* ep = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
+        // RTPS entity kind (last GUID byte): 0x02 keyed writer, 0x07 keyed reader.
+        std::uint8_t kind = ep->key.v[15];
+        bool keyed = writers ? kind == 0x02 : kind == 0x07;
+        sink_({ep->topic_name, ep->type_name, keyed}, writers);
+      }
+      dds_return_loan(reader, samples, n);
+    }
+  }
+
+  DiscoverySink sink_;
+  dds_entity_t participant_ = 0;
+  std::mutex mutex_;
+  std::map<std::string, dds_entity_t> topics_;
+  std::map<std::string, const ddsi_sertype*> sertypes_;
+  std::vector<std::unique_ptr<BuiltinWatch>> watches_;
+};
+
+class CycloneBackend : public Backend {
+ public:
+  CycloneBackend(const ParticipantOptions& options, DiscoverySink sink)
+      : core_(std::make_shared<CycloneCore>(options, std::move(sink))) {}
+  std::shared_ptr<WriterImpl> createWriter(const EndpointSpec& spec) override { return core_->createWriter(spec); }
+  std::shared_ptr<ReaderImpl> createReader(const EndpointSpec& spec, SampleCallback typed, RawCallback raw) override {
+    return core_->createReader(spec, std::move(typed), std::move(raw));
+  }
+
+ private:
+  std::shared_ptr<CycloneCore> core_;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> makeCycloneBackend(const ParticipantOptions& options, DiscoverySink sink) {
+  return std::make_unique<CycloneBackend>(options, std::move(sink));
+}
+
+}  // namespace ddsnav::bus::detail

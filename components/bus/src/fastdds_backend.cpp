@@ -1,0 +1,424 @@
+// Fast DDS 2.9 side of the bus. The only file that includes Fast DDS headers.
+//
+// One generic TopicDataType per type name carries either a generated class (through its TypeSupport) or
+// raw bytes; which one is decided per sample by the Carrier handed to write()/take().
+#include "backend.hpp"
+
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/TopicDataType.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+#include <fastrtps/utils/md5.h>
+
+#include <spdlog/spdlog.h>
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <mutex>
+
+namespace ddsnav::bus::detail {
+namespace {
+
+namespace dds = eprosima::fastdds::dds;
+namespace rtps = eprosima::fastrtps::rtps;
+using eprosima::fastrtps::types::ReturnCode_t;
+
+// Loopback defaults (see docs/bus.md and dds-notes.md).
+constexpr std::uint32_t kShmSegmentSize = 16 * 1024 * 1024;
+constexpr std::uint32_t kSocketBufferSize = 4 * 1024 * 1024;
+constexpr std::uint32_t kMaxParticipantsPerHost = 32;
+
+// What write()/take() exchange with GenericType: a generated class, or bytes.
+struct Carrier {
+  void* typed = nullptr;                    // sample to serialize from / deserialize into; null: raw
+  std::span<const std::uint8_t> raw_in;     // raw writers: the bytes to send
+  std::vector<std::uint8_t> raw_out;        // raw readers and key objects: the bytes received
+};
+
+class GenericType : public dds::TopicDataType {
+ public:
+  GenericType(const std::string& name, bool keyed, const msg::TypeSupport* type) : type_(type) {
+    setName(name.c_str());
+    // Only a preallocation hint: samples are unbounded, payloads grow per sample (REALLOC memory policy).
+    m_typeSize = 4096;
+    m_isGetKeyDefined = keyed;
+  }
+
+  bool serialize(void* data, rtps::SerializedPayload_t* payload) override {
+    auto* c = static_cast<Carrier*>(data);
+    if (c->typed != nullptr) {
+      std::size_t n = type_->serialize(c->typed, payload->data, payload->max_size);
+      if (n == 0) return false;
+      payload->length = static_cast<std::uint32_t>(n);
+    } else {
+      if (c->raw_in.size() > payload->max_size) return false;
+      std::memcpy(payload->data, c->raw_in.data(), c->raw_in.size());
+      payload->length = static_cast<std::uint32_t>(c->raw_in.size());
+    }
+    payload->encapsulation = payload->data[1] == 0 ? CDR_BE : CDR_LE;
+    return true;
+  }
+
+  bool deserialize(rtps::SerializedPayload_t* payload, void* data) override {
+    auto* c = static_cast<Carrier*>(data);
+    if (c->typed != nullptr) return type_->deserialize(payload->data, payload->length, c->typed);
+    c->raw_out.assign(payload->data, payload->data + payload->length);
+    return true;
+  }
+
+  std::function<std::uint32_t()> getSerializedSizeProvider(void* data) override {
+    auto* c = static_cast<Carrier*>(data);
+    return [this, c]() -> std::uint32_t {
+      return static_cast<std::uint32_t>(c->typed != nullptr ? type_->serialized_size(c->typed) : c->raw_in.size());
+    };
+  }
+
+  void* createData() override { return new Carrier(); }
+  void deleteData(void* data) override { delete static_cast<Carrier*>(data); }
+
+  // RTPS key hash: the big-endian key CDR, zero-padded to 16 bytes, or its MD5 when it may be longer.
+  bool getKey(void* data, rtps::InstanceHandle_t* handle, bool force_md5) override {
+    if (!m_isGetKeyDefined || type_ == nullptr) return false;
+    auto* c = static_cast<Carrier*>(data);
+    const void* sample = c->typed;
+    std::unique_ptr<void, void (*)(void*)> temp(nullptr, type_->destroy);
+    if (sample == nullptr) {
+      std::span<const std::uint8_t> bytes = c->raw_in.empty() ? std::span<const std::uint8_t>(c->raw_out) : c->raw_in;
+      temp.reset(type_->create());
+      if (!type_->deserialize(bytes.data(), bytes.size(), temp.get())) return false;
+      sample = temp.get();
+    }
+    std::vector<unsigned char> key;
+    type_->serialize_key(sample, key);
+    std::memset(handle->value, 0, 16);
+    if (force_md5 || type_->key_max_size > 16) {
+      ::MD5 md5;
+      md5.init();
+      md5.update(key.data(), static_cast<unsigned int>(key.size()));
+      md5.finalize();
+      std::memcpy(handle->value, md5.digest, 16);
+    } else {
+      std::memcpy(handle->value, key.data(), std::min<std::size_t>(key.size(), 16));
+    }
+    return true;
+  }
+
+ private:
+  const msg::TypeSupport* type_;
+};
+
+// Fast DDS leaves /dev/shm segments of killed processes behind. Like `fastdds shm clean`: every segment
+// or port has an "<name>_el" lock file that its live owner holds locked; unlocked ones are dead.
+void cleanStaleSharedMemory() {
+  DIR* dir = opendir("/dev/shm");
+  if (dir == nullptr) return;
+  int removed = 0;
+  while (dirent* entry = readdir(dir)) {
+    std::string name = entry->d_name;
+    if (!name.starts_with("fastrtps_") || !name.ends_with("_el")) continue;
+    std::string lock_path = "/dev/shm/" + name;
+    int fd = open(lock_path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) continue;
+    bool dead = flock(fd, LOCK_EX | LOCK_NB) == 0;
+    if (dead) {
+      std::string base = name.substr(0, name.size() - 3);
+      unlink(("/dev/shm/" + base).c_str());
+      if (base.starts_with("fastrtps_port")) unlink(("/dev/shm/sem." + base + "_mutex").c_str());
+      unlink(lock_path.c_str());
+      ++removed;
+    }
+    close(fd);
+  }
+  closedir(dir);
+  if (removed > 0) spdlog::debug("bus: removed {} stale Fast DDS shared-memory segments", removed);
+}
+
+rtps::Locator_t loopbackLocator() {
+  rtps::Locator_t loc;
+  loc.kind = LOCATOR_KIND_UDPv4;
+  rtps::IPLocator::setIPv4(loc, 127, 0, 0, 1);
+  loc.port = 0;  // 0: derived from domain and participant id, for each of the peer range
+  return loc;
+}
+
+dds::DomainParticipantQos participantQos(const ParticipantOptions& options) {
+  auto* factory = dds::DomainParticipantFactory::get_instance();
+  if (const char* file = std::getenv("DDSNAV_FASTDDS_PROFILES"); file != nullptr && *file != '\0') {
+    // Real deployments: the user's XML decides transports and discovery entirely.
+    if (factory->load_XML_profiles_file(file) != ReturnCode_t::RETCODE_OK)
+      throw BusError(std::string("DDSNAV_FASTDDS_PROFILES: cannot load Fast DDS profiles from '") + file + "'");
+    dds::DomainParticipantQos qos = factory->get_default_participant_qos();
+    qos.name(options.name);
+    return qos;
+  }
+  dds::DomainParticipantQos qos;  // not the factory default: an environment XML must not re-enable multicast
+  qos.name(options.name);
+  auto& transport = qos.transport();
+  transport.use_builtin_transports = false;
+  if (options.fast_shared_memory) {
+    auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+    shm->segment_size(kShmSegmentSize);
+    transport.user_transports.push_back(shm);
+  }
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->interfaceWhiteList.emplace_back("127.0.0.1");
+  udp->maxInitialPeersRange = kMaxParticipantsPerHost;
+  udp->sendBufferSize = kSocketBufferSize;
+  udp->receiveBufferSize = kSocketBufferSize;
+  transport.user_transports.push_back(udp);
+  transport.send_socket_buffer_size = kSocketBufferSize;
+  transport.listen_socket_buffer_size = kSocketBufferSize;
+
+  auto& builtin = qos.wire_protocol().builtin;
+  // A unicast metatraffic locator is what keeps Fast DDS from adding its multicast discovery locator.
+  builtin.metatrafficUnicastLocatorList.push_back(loopbackLocator());
+  builtin.initialPeersList.push_back(loopbackLocator());
+  // Announce every 0.5 s instead of 3 s: late joiners match in < 1 s.
+  builtin.discovery_config.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(0, 500'000'000);
+  builtin.discovery_config.leaseDuration = eprosima::fastrtps::Duration_t(10, 0);
+  return qos;
+}
+
+class FastCore;
+
+class FastWriter : public WriterImpl {
+ public:
+  FastWriter(std::shared_ptr<FastCore> core, dds::DataWriter* writer, std::string topic)
+      : core_(std::move(core)), writer_(writer), topic_(std::move(topic)) {}
+  ~FastWriter() override;
+
+  void writeSample(const void* sample) override {
+    Carrier c;
+    c.typed = const_cast<void*>(sample);  // serialize() only reads it
+    write(c);
+  }
+  void writeRaw(std::span<const std::uint8_t> payload) override {
+    Carrier c;
+    c.raw_in = payload;
+    write(c);
+  }
+  std::size_t matched() const override {
+    dds::PublicationMatchedStatus status;
+    writer_->get_publication_matched_status(status);
+    return static_cast<std::size_t>(status.current_count);
+  }
+
+ private:
+  void write(Carrier& c) {
+    if (!writer_->write(&c))
+      throw BusError("Fast DDS refused a sample on topic '" + topic_ +
+                     "' (serialization failed or the reliable history stayed full)");
+  }
+  std::shared_ptr<FastCore> core_;
+  dds::DataWriter* writer_;
+  std::string topic_;
+};
+
+class FastReader : public ReaderImpl, public dds::DataReaderListener {
+ public:
+  FastReader(std::shared_ptr<FastCore> core, const EndpointSpec& spec, SampleCallback typed, RawCallback raw)
+      : core_(std::move(core)), spec_(spec), typed_(std::move(typed)), raw_(std::move(raw)) {
+    if (typed_) carrier_.typed = spec.type->create();
+  }
+  ~FastReader() override;
+
+  void attach(dds::DataReader* reader) { reader_ = reader; }
+
+  std::size_t matched() const override {
+    dds::SubscriptionMatchedStatus status;
+    reader_->get_subscription_matched_status(status);
+    return static_cast<std::size_t>(status.current_count);
+  }
+
+  void on_data_available(dds::DataReader* reader) override {
+    dds::SampleInfo info;
+    // Fast DDS calls this once per reader at a time, so the one carrier (and its grown buffers) is reused.
+    while (reader->take_next_sample(&carrier_, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
+      SampleInfo si{info.source_timestamp.to_ns()};
+      if (typed_) {
+        invokeSafely(spec_.topic, [&] { typed_(carrier_.typed, si); });
+      } else {
+        RawSample s{spec_.topic, spec_.type_name, carrier_.raw_out, si.source_timestamp_ns};
+        invokeSafely(spec_.topic, [&] { raw_(s); });
+      }
+    }
+  }
+
+ private:
+  std::shared_ptr<FastCore> core_;
+  EndpointSpec spec_;
+  SampleCallback typed_;
+  RawCallback raw_;
+  Carrier carrier_;
+  dds::DataReader* reader_ = nullptr;
+};
+
+class DiscoveryListener : public dds::DomainParticipantListener {
+ public:
+  explicit DiscoveryListener(DiscoverySink sink) : sink_(std::move(sink)) {}
+  void on_publisher_discovery(dds::DomainParticipant*, rtps::WriterDiscoveryInfo&& info) override {
+    if (info.status != rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
+    sink_({info.info.topicName().to_string(), info.info.typeName().to_string(),
+           info.info.topicKind() == rtps::WITH_KEY},
+          true);
+  }
+  void on_subscriber_discovery(dds::DomainParticipant*, rtps::ReaderDiscoveryInfo&& info) override {
+    if (info.status != rtps::ReaderDiscoveryInfo::DISCOVERED_READER) return;
+    sink_({info.info.topicName().to_string(), info.info.typeName().to_string(),
+           info.info.topicKind() == rtps::WITH_KEY},
+          false);
+  }
+
+ private:
+  DiscoverySink sink_;
+};
+
+// The participant and its publisher/subscriber; kept alive by every endpoint created from it.
+class FastCore : public std::enable_shared_from_this<FastCore> {
+ public:
+  FastCore(const ParticipantOptions& options, DiscoverySink sink) : listener_(std::move(sink)) {
+    static std::once_flag cleaned;
+    std::call_once(cleaned, cleanStaleSharedMemory);
+    auto* factory = dds::DomainParticipantFactory::get_instance();
+    participant_ = factory->create_participant(options.domain_id, participantQos(options), &listener_,
+                                               dds::StatusMask::none());
+    if (participant_ == nullptr)
+      throw BusError("Fast DDS could not create a participant on domain " + std::to_string(options.domain_id));
+    publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
+    subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
+    if (publisher_ == nullptr || subscriber_ == nullptr) {
+      participant_->delete_contained_entities();
+      factory->delete_participant(participant_);
+      throw BusError("Fast DDS could not create a publisher/subscriber");
+    }
+  }
+
+  ~FastCore() {
+    participant_->set_listener(nullptr);
+    participant_->delete_contained_entities();
+    dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  }
+
+  std::shared_ptr<WriterImpl> createWriter(const EndpointSpec& spec) {
+    std::lock_guard lock(mutex_);
+    dds::Topic* topic = topicFor(spec);
+    dds::DataWriterQos qos = publisher_->get_default_datawriter_qos();
+    applyQos(spec.qos, qos.reliability(), qos.durability(), qos.history());
+    qos.durability_service().history_kind = dds::KEEP_LAST_HISTORY_QOS;
+    qos.durability_service().history_depth = spec.qos.depth;
+    qos.endpoint().history_memory_policy = rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;
+    // Repair lost fragments of large samples quickly rather than after the default 3 s heartbeat.
+    qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
+    dds::DataWriter* writer = publisher_->create_datawriter(topic, qos);
+    if (writer == nullptr) throw BusError("Fast DDS could not create a writer on topic '" + spec.topic + "'");
+    return std::make_shared<FastWriter>(shared_from_this(), writer, spec.topic);
+  }
+
+  std::shared_ptr<ReaderImpl> createReader(const EndpointSpec& spec, SampleCallback typed, RawCallback raw) {
+    std::lock_guard lock(mutex_);
+    dds::Topic* topic = topicFor(spec);
+    dds::DataReaderQos qos = subscriber_->get_default_datareader_qos();
+    applyQos(spec.qos, qos.reliability(), qos.durability(), qos.history());
+    qos.endpoint().history_memory_policy = rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;
+    auto impl = std::make_shared<FastReader>(shared_from_this(), spec, std::move(typed), std::move(raw));
+    dds::DataReader* reader = subscriber_->create_datareader(topic, qos, impl.get(),
+                                                             dds::StatusMask::data_available());
+    if (reader == nullptr) throw BusError("Fast DDS could not create a reader on topic '" + spec.topic + "'");
+    impl->attach(reader);
+    return impl;
+  }
+
+  void deleteWriter(dds::DataWriter* writer) {
+    std::lock_guard lock(mutex_);
+    publisher_->delete_datawriter(writer);
+  }
+  void deleteReader(dds::DataReader* reader) {
+    std::lock_guard lock(mutex_);
+    reader->set_listener(nullptr);
+    subscriber_->delete_datareader(reader);
+  }
+
+ private:
+  static void applyQos(const Qos& q, dds::ReliabilityQosPolicy& reliability, dds::DurabilityQosPolicy& durability,
+                       dds::HistoryQosPolicy& history) {
+    if (q.depth < 1) throw BusError("QoS depth " + std::to_string(q.depth) + ": expected >= 1");
+    reliability.kind = q.reliability == Reliability::Reliable ? dds::RELIABLE_RELIABILITY_QOS
+                                                              : dds::BEST_EFFORT_RELIABILITY_QOS;
+    durability.kind = q.durability == Durability::TransientLocal ? dds::TRANSIENT_LOCAL_DURABILITY_QOS
+                                                                 : dds::VOLATILE_DURABILITY_QOS;
+    history.kind = dds::KEEP_LAST_HISTORY_QOS;
+    history.depth = q.depth;
+  }
+
+  dds::Topic* topicFor(const EndpointSpec& spec) {
+    if (spec.keyed && spec.type == nullptr)
+      throw BusError("topic '" + spec.topic + "': keyed type " + spec.type_name +
+                     " is unknown to this build, so its key hashes cannot be computed");
+    auto registered = types_.find(spec.type_name);
+    if (registered == types_.end()) {
+      dds::TypeSupport ts(new GenericType(spec.type_name, spec.keyed, spec.type));
+      if (participant_->register_type(ts) != ReturnCode_t::RETCODE_OK)
+        throw BusError("Fast DDS could not register type " + spec.type_name);
+      registered = types_.emplace(spec.type_name, ts).first;
+    }
+    auto it = topics_.find(spec.topic);
+    if (it != topics_.end()) return it->second;
+    dds::Topic* topic = participant_->create_topic(spec.topic, spec.type_name, dds::TOPIC_QOS_DEFAULT);
+    if (topic == nullptr) throw BusError("Fast DDS could not create topic '" + spec.topic + "'");
+    topics_.emplace(spec.topic, topic);
+    return topic;
+  }
+
+  DiscoveryListener listener_;
+  dds::DomainParticipant* participant_ = nullptr;
+  dds::Publisher* publisher_ = nullptr;
+  dds::Subscriber* subscriber_ = nullptr;
+  std::mutex mutex_;
+  std::map<std::string, dds::TypeSupport> types_;
+  std::map<std::string, dds::Topic*> topics_;
+};
+
+FastWriter::~FastWriter() { core_->deleteWriter(writer_); }
+
+FastReader::~FastReader() {
+  if (reader_ != nullptr) core_->deleteReader(reader_);
+  if (carrier_.typed != nullptr) spec_.type->destroy(carrier_.typed);
+}
+
+class FastBackend : public Backend {
+ public:
+  FastBackend(const ParticipantOptions& options, DiscoverySink sink)
+      : core_(std::make_shared<FastCore>(options, std::move(sink))) {}
+  std::shared_ptr<WriterImpl> createWriter(const EndpointSpec& spec) override { return core_->createWriter(spec); }
+  std::shared_ptr<ReaderImpl> createReader(const EndpointSpec& spec, SampleCallback typed, RawCallback raw) override {
+    return core_->createReader(spec, std::move(typed), std::move(raw));
+  }
+
+ private:
+  std::shared_ptr<FastCore> core_;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> makeFastBackend(const ParticipantOptions& options, DiscoverySink sink) {
+  return std::make_unique<FastBackend>(options, std::move(sink));
+}
+
+}  // namespace ddsnav::bus::detail

@@ -1,0 +1,114 @@
+// Typed round trips of every message type inside one process: same vendor and across vendors, with a
+// transient-local late joiner, keyed instances and an 8 MB point cloud.
+#include "samples.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+namespace ddsnav::test {
+namespace {
+
+using bus::Vendor;
+
+// Publishes sample 1 before the subscriber exists (served to it as a late joiner), then sample 2 live.
+void roundTripEveryType(Vendor pub_vendor, Vendor sub_vendor, int domain_offset) {
+  bus::Participant pub(options(pub_vendor, domain_offset, "rt-pub"));
+  bus::Participant sub(options(sub_vendor, domain_offset, "rt-sub"));
+  forEachMessageType([&](auto proto) {
+    using T = decltype(proto);
+    SCOPED_TRACE(shortName<T>());
+    const std::string topic = "test/" + shortName<T>();
+    auto writer = pub.publisher<T>(topic, bus::Qos::state(2));
+    const T first = makeSample<T>(1);
+    writer.publish(first);
+    auto inbox = sub.inbox<T>(topic, bus::Qos::state(2));
+    std::optional<T> got = inbox.wait(kWait);
+    ASSERT_TRUE(got.has_value()) << "late joiner got nothing";
+    EXPECT_EQ(*got, first);
+    const T second = makeSample<T>(2);
+    writer.publish(second);
+    got = inbox.wait(kWait);
+    ASSERT_TRUE(got.has_value()) << "live sample did not arrive";
+    EXPECT_EQ(*got, second);
+  });
+}
+
+TEST(BusInProcess, FastToFastEveryType) { roundTripEveryType(Vendor::FastDDS, Vendor::FastDDS, 0); }
+TEST(BusInProcess, CycloneToCycloneEveryType) { roundTripEveryType(Vendor::CycloneDDS, Vendor::CycloneDDS, 1); }
+TEST(BusInProcess, FastToCycloneEveryType) { roundTripEveryType(Vendor::FastDDS, Vendor::CycloneDDS, 2); }
+TEST(BusInProcess, CycloneToFastEveryType) { roundTripEveryType(Vendor::CycloneDDS, Vendor::FastDDS, 3); }
+
+// 8 MB of xyz (699051 points) plus intensities: several hundred fragments across vendors.
+void largeCloud(Vendor pub_vendor, Vendor sub_vendor, int domain_offset) {
+  bus::Participant pub(options(pub_vendor, domain_offset, "cloud-pub"));
+  bus::Participant sub(options(sub_vendor, domain_offset, "cloud-sub"));
+  auto writer = pub.publisher<msg::PointCloud>("sensors/points", bus::Qos::state(1));
+  auto inbox = sub.inbox<msg::PointCloud>("sensors/points", bus::Qos::state(1));
+  ASSERT_TRUE(writer.waitForSubscribers(1, kWait));
+  const msg::PointCloud cloud = makeCloud(3, 8 * 1024 * 1024 / 12);
+  ASSERT_GE(cloud.xyz().size() * sizeof(float), 8u * 1024 * 1024 - 12);
+  writer.publish(cloud);
+  std::optional<msg::PointCloud> got = inbox.wait(kWait);
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ(got->xyz().size(), cloud.xyz().size());
+  EXPECT_TRUE(*got == cloud);  // EXPECT_EQ would print 8 MB on failure
+}
+
+TEST(BusInProcess, LargeCloudFastToCyclone) { largeCloud(Vendor::FastDDS, Vendor::CycloneDDS, 4); }
+TEST(BusInProcess, LargeCloudCycloneToFast) { largeCloud(Vendor::CycloneDDS, Vendor::FastDDS, 5); }
+TEST(BusInProcess, LargeCloudFastToFast) { largeCloud(Vendor::FastDDS, Vendor::FastDDS, 6); }
+TEST(BusInProcess, LargeCloudCycloneToCyclone) { largeCloud(Vendor::CycloneDDS, Vendor::CycloneDDS, 7); }
+
+// Keyed: with depth 1 per instance a late joiner still gets one status per component name.
+void keyedLateJoiner(Vendor pub_vendor, Vendor sub_vendor, int domain_offset) {
+  bus::Participant pub(options(pub_vendor, domain_offset, "status-pub"));
+  bus::Participant sub(options(sub_vendor, domain_offset, "status-sub"));
+  auto writer = pub.publisher<msg::ComponentStatus>("system/status", bus::Qos::state(1));
+  msg::ComponentStatus a = makeSample<msg::ComponentStatus>(1);
+  msg::ComponentStatus b = makeSample<msg::ComponentStatus>(2);
+  msg::ComponentStatus a_newer = a;
+  a_newer.detail("newer");
+  writer.publish(a);
+  writer.publish(b);
+  writer.publish(a_newer);  // replaces a: same key
+  auto inbox = sub.inbox<msg::ComponentStatus>("system/status", bus::Qos::state(1));
+  std::map<std::string, msg::ComponentStatus> latest;
+  while (latest.size() < 2) {
+    std::optional<msg::ComponentStatus> got = inbox.wait(kWait);
+    ASSERT_TRUE(got.has_value()) << "got " << latest.size() << " of 2 instances";
+    latest[got->name()] = *got;
+  }
+  EXPECT_EQ(latest[a.name()], a_newer);
+  EXPECT_EQ(latest[b.name()], b);
+  EXPECT_FALSE(inbox.wait(200ms).has_value()) << "the replaced sample of the first key was delivered";
+}
+
+TEST(BusInProcess, KeyedLateJoinerFastToCyclone) { keyedLateJoiner(Vendor::FastDDS, Vendor::CycloneDDS, 8); }
+TEST(BusInProcess, KeyedLateJoinerCycloneToFast) { keyedLateJoiner(Vendor::CycloneDDS, Vendor::FastDDS, 9); }
+
+// SampleInfo carries the writer's source timestamp on both vendors.
+TEST(BusInProcess, SampleInfoHasSourceTimestamp) {
+  for (Vendor v : {Vendor::FastDDS, Vendor::CycloneDDS}) {
+    SCOPED_TRACE(vendorTag(v));
+    bus::Participant p(options(v, 10, "info"));
+    std::mutex m;
+    std::condition_variable cv;
+    std::int64_t stamp = 0;
+    auto sub = p.subscribe<msg::Clock>("system/clock", bus::Qos::commands(),
+                                       [&](const msg::Clock&, const bus::SampleInfo& info) {
+                                         std::lock_guard lock(m);
+                                         stamp = info.source_timestamp_ns;
+                                         cv.notify_all();
+                                       });
+    auto pub = p.publisher<msg::Clock>("system/clock", bus::Qos::commands());
+    ASSERT_TRUE(pub.waitForSubscribers(1, kWait));
+    auto before = std::chrono::system_clock::now().time_since_epoch();
+    pub.publish(makeSample<msg::Clock>(1));
+    std::unique_lock lock(m);
+    ASSERT_TRUE(cv.wait_for(lock, kWait, [&] { return stamp != 0; }));
+    EXPECT_GE(stamp, std::chrono::duration_cast<std::chrono::nanoseconds>(before).count() - 1'000'000);
+  }
+}
+
+}  // namespace
+}  // namespace ddsnav::test
