@@ -1,0 +1,92 @@
+// Clear errors: unknown vendor, domain out of range, type mismatch, bad raw bytes, unknown raw types.
+#include "samples.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+namespace ddsnav::test {
+namespace {
+
+using bus::Vendor;
+
+// Runs f, expecting a BusError whose message contains every one of the given fragments.
+template <class F>
+void expectBusError(F&& f, std::initializer_list<std::string_view> fragments) {
+  try {
+    f();
+    ADD_FAILURE() << "no BusError thrown";
+  } catch (const bus::BusError& e) {
+    for (std::string_view frag : fragments) EXPECT_NE(std::string(e.what()).find(frag), std::string::npos) << e.what();
+  }
+}
+
+TEST(BusErrors, UnknownVendorNamesTheChoices) {
+  expectBusError([] { bus::parseVendor("opendds"); }, {"opendds", "fastdds", "cyclonedds"});
+  EXPECT_EQ(bus::parseVendor("cyclonedds"), Vendor::CycloneDDS);
+  EXPECT_EQ(bus::parseVendor("fastdds"), Vendor::FastDDS);
+  setenv("DDSNAV_DDS", "rti", 1);
+  expectBusError([] { bus::vendorFromEnvironment(); }, {"DDSNAV_DDS", "rti"});
+  setenv("DDSNAV_DDS", "cyclonedds", 1);
+  EXPECT_EQ(bus::vendorFromEnvironment(), Vendor::CycloneDDS);
+  unsetenv("DDSNAV_DDS");
+  EXPECT_EQ(bus::vendorFromEnvironment(Vendor::FastDDS), Vendor::FastDDS);
+}
+
+TEST(BusErrors, DomainOutOfRange) {
+  for (Vendor v : {Vendor::FastDDS, Vendor::CycloneDDS}) {
+    for (int domain : {-1, bus::kMaxDomainId + 1, 100000}) {
+      bus::ParticipantOptions o;
+      o.vendor = v;
+      o.domain_id = domain;
+      expectBusError([&] { bus::Participant p(o); }, {std::to_string(domain), "out of range"});
+    }
+  }
+}
+
+TEST(BusErrors, TopicTypeMismatchInOneParticipant) {
+  for (Vendor v : {Vendor::FastDDS, Vendor::CycloneDDS}) {
+    bus::Participant p(options(v, 15, "mismatch"));
+    auto pub = p.publisher<msg::Clock>("shared/topic", bus::Qos::commands());
+    expectBusError([&] { p.subscribe<msg::VehicleState>("shared/topic", bus::Qos::commands(),
+                                                        [](const msg::VehicleState&) {}); },
+                   {"shared/topic", "ddsnav::msg::Clock", "ddsnav::msg::VehicleState"});
+    expectBusError([&] { p.rawPublisher({"shared/topic", "ddsnav::msg::Path", false}, bus::Qos::commands()); },
+                   {"shared/topic", "ddsnav::msg::Path"});
+    // The same type again is fine.
+    EXPECT_NO_THROW(p.subscribe<msg::Clock>("shared/topic", bus::Qos::commands(), [](const msg::Clock&) {}));
+  }
+}
+
+TEST(BusErrors, BadQosDepth) {
+  for (Vendor v : {Vendor::FastDDS, Vendor::CycloneDDS}) {
+    bus::Participant p(options(v, 15, "depth"));
+    expectBusError([&] { p.publisher<msg::Clock>("clock/zero", bus::Qos::state(0)); }, {"depth", "0"});
+  }
+}
+
+TEST(BusErrors, RawBytesChecked) {
+  bus::Participant cyclone(options(Vendor::CycloneDDS, 15, "raw-errors"));
+  auto pub = cyclone.rawPublisher({"raw/cloud", "ddsnav::msg::PointCloud", false}, bus::Qos::commands());
+  expectBusError([&] { pub.publish(std::vector<std::uint8_t>{0, 1}); }, {"2 bytes", "encapsulation"});
+  // A cloud header claiming 1e6 floats that are not there: Cyclone's type check refuses it.
+  std::vector<std::uint8_t> truncated = {0, 1, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 4, 0, 0, 0, 'm', 'a', 'p', 0};
+  expectBusError([&] { pub.publish(truncated); }, {"raw/cloud", "not a valid ddsnav::msg::PointCloud"});
+}
+
+TEST(BusErrors, RawUnknownTypes) {
+  bus::Participant cyclone(options(Vendor::CycloneDDS, 15, "unknown-c"));
+  expectBusError([&] { cyclone.subscribeRaw({"x/y", "other::Thing", false}, bus::Qos::commands(),
+                                            [](const bus::RawSample&) {}); },
+                 {"other::Thing", "unknown to this build"});
+  bus::Participant fast(options(Vendor::FastDDS, 15, "unknown-f"));
+  expectBusError([&] { fast.rawPublisher({"x/z", "other::Keyed", true}, bus::Qos::commands()); },
+                 {"other::Keyed", "key"});
+  // Keyed-ness that contradicts the known type.
+  expectBusError([&] { fast.rawPublisher({"x/w", "ddsnav::msg::ComponentStatus", false}, bus::Qos::commands()); },
+                 {"ComponentStatus", "keyed"});
+}
+
+}  // namespace
+}  // namespace ddsnav::test
