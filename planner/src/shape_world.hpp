@@ -52,6 +52,7 @@ class ShapeWorld final : public CollisionWorld {
  private:
   bool insideBounds(const Vec3& p) const;
   bool collides(const Shape& s, const Vec3& p) const;  // the robot at p touches s
+  double distanceLowerBound(const Shape& s, const Vec3& p) const;  // <= distance from p to s, cheap
   bool freeAgainst(const Vec3& p, const int* candidates, int count) const;
   int cellIndex(int cx, int cy) const { return cy * nx_ + cx; }
   int cellX(double x) const;
