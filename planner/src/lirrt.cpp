@@ -99,14 +99,15 @@ PlanResult LirrtPlanner::solve(const PlanProblem& problem) {
     const int most_alive = book.mostAlive();
     Vec3 x_rand;
     int x_nearest = -1;
+    int driven_control = -1;  // the control of U used from most_alive, when x_nearest stays most_alive
     if (most_alive >= 0 && random.uniform() < options_.drive_probability) {
       // Lines 5-11: a random control of the most alive node (among its free ones: Se already found
       // which controls collide, re-trying those would only waste the iteration), then the closest
       // node within H of x_rand that can reach it inside its own R+.
       const std::uint64_t mask = free_controls[static_cast<std::size_t>(most_alive)];
       const int free_count = std::popcount(mask);
-      const UnicycleControl& u = controls[static_cast<std::size_t>(
-          nthSetBit(mask, static_cast<int>(random.below(static_cast<std::uint64_t>(free_count)))))];
+      driven_control = nthSetBit(mask, static_cast<int>(random.below(static_cast<std::uint64_t>(free_count))));
+      const UnicycleControl& u = controls[static_cast<std::size_t>(driven_control)];
       const TreeNode& from = tree.node(most_alive);
       x_rand = driveUnicycle(from.state, u.turn, u.length, u.climb, region).position;
       x_nearest = most_alive;
@@ -132,8 +133,17 @@ PlanResult LirrtPlanner::solve(const PlanProblem& problem) {
     if (!world.isSegmentFree(parent.state.position, x_new.position)) continue;
     const bool in_goal = (x_new.position - problem.goal).norm() <= problem.goal_radius;
     const ControlSurvey survey = surveyControls(x_new, controls, region, world);
-    // A dead node (Se = 0) is removed from the tree (Section 3.3.1), unless it is the goal itself.
-    if (survey.se <= 0.0 && !in_goal) continue;
+    // A dead node (Se = 0) is removed from the tree (Section 3.3.1), unless it is the goal itself. When it
+    // was reached by a control of U from the most alive node, that control is dead too: without this the
+    // most alive node would keep drawing it, and its liveness would never change.
+    if (survey.se <= 0.0 && !in_goal) {
+      if (driven_control >= 0 && x_nearest == most_alive) {
+        std::uint64_t& mask = free_controls[static_cast<std::size_t>(most_alive)];
+        mask &= ~(std::uint64_t{1} << driven_control);
+        book.reduceSe(most_alive, static_cast<double>(std::popcount(mask)) / static_cast<double>(controls.size()));
+      }
+      continue;
+    }
     const double cost = parent.cost + (x_new.position - parent.state.position).norm();
     const int id = addNode(x_new, x_nearest, cost, survey, static_cast<std::int64_t>(iteration));
 

@@ -38,6 +38,15 @@ int LivenessBook::add(int parent, double se, const std::vector<int>& near) {
   return id;
 }
 
+void LivenessBook::reduceSe(int id, double se) {
+  Node& n = nodes_[id];
+  if (!(se >= 0.0 && se <= n.se)) throw std::invalid_argument("LivenessBook::reduceSe: Se may only decrease");
+  if (n.se > 0.0 && se <= 0.0) --alive_;
+  n.se = se;
+  n.ln_se = se > 0.0 ? std::log(se) : -std::numeric_limits<double>::infinity();
+  push(id);  // new bound, or (dead) just invalidates the old entries
+}
+
 double LivenessBook::lnLi(int id) const {
   const Node& n = nodes_[id];
   if (n.se <= 0.0) return -std::numeric_limits<double>::infinity();

@@ -41,6 +41,10 @@ class LivenessBook {
   int neighbourCollisions(int id) const { return nodes_[id].neighbours; }
   bool dead(int id) const { return nodes_[id].se <= 0.0; }
 
+  // Lowers a node's Se when one of its controls turned out to lead only to a dead successor (a dead node
+  // is an "inevitable obstacle", Section 3.3.1, so that control no longer counts as free). Se = 0 kills it.
+  void reduceSe(int id, double se);
+
   // Eq. 6 at the current tree size; -inf for a dead node.
   double lnLi(int id) const;
 
