@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -231,16 +232,57 @@ std::vector<CurvePoint> sampleCurve(const BSpline& spline, double max_step) {
   return pts;
 }
 
-// Spans (first control point index) whose samples are not free.
-std::set<int> collidingSpans(const BSpline& spline, const std::vector<CurvePoint>& pts, const CollisionWorld& world,
-                             Vec3* first_hit) {
-  std::set<int> spans;
-  for (const auto& p : pts) {
-    if (world.isFree(p.position)) continue;
-    if (spans.empty() && first_hit) *first_hit = p.position;
-    spans.insert(spline.firstControlPoint(p.u));
-  }
+// Spans (first control point index) whose samples are not free, with the first colliding point of each.
+std::map<int, Vec3> collidingSpans(const BSpline& spline, const std::vector<CurvePoint>& pts, const CollisionWorld& world) {
+  std::map<int, Vec3> spans;
+  for (const auto& p : pts)
+    if (!world.isFree(p.position)) spans.emplace(spline.firstControlPoint(p.u), p.position);
   return spans;
+}
+
+// The polyline itself touches an obstacle near `hit` (its edges were checked at the world's resolution; a
+// finer look can find a graze between two checked states). Insert a new corner next to it, pushed away
+// from the nearest obstacle, so both new edges are free. Returns false when no push up to 0.3 m works.
+bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, double radius) {
+  const int dims = world.dimensions();
+  std::size_t edge = 0;
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 foot = hit;
+  for (std::size_t i = 0; i + 1 < c.points.size(); ++i) {
+    const Vec3 a = c.points[i], ab = c.points[i + 1] - a;
+    const double f = std::clamp((hit - a).dot(ab) / std::max(ab.squaredNorm(), 1e-18), 0.0, 1.0);
+    const double d = (hit - (a + f * ab)).norm();
+    if (d < best) best = d, edge = i, foot = a + f * ab;
+  }
+  const Vec3 a = c.points[edge], b = c.points[edge + 1];
+  if ((foot - a).norm() < 1e-6 || (foot - b).norm() < 1e-6) foot = 0.5 * (a + b) + 0.5 * (foot - 0.5 * (a + b)) * 0.98;
+  Vec3 away = Vec3::Zero();
+  const auto near = world.obstaclesNear(foot, world.robotRadius() + 1.0);
+  if (!near.empty()) away = foot - near.front().nearest_point;
+  if (dims == 2) away.z() = 0.0;
+  if (away.norm() < 1e-9) {
+    // Inside or on the surface: go sideways, towards the side with more clearance.
+    const Vec3 t = (b - a).normalized();
+    Vec3 side(-t.y(), t.x(), 0.0);
+    if (world.clearance(foot - 0.01 * side) > world.clearance(foot + 0.01 * side)) side = -side;
+    away = side;
+  }
+  away.normalize();
+  for (double push = 0.005; push <= 0.3; push *= 1.6) {
+    const Vec3 q = foot + push * away;
+    if (!world.isFree(q) || !world.isSegmentFree(a, q) || !world.isSegmentFree(q, b)) continue;
+    c.points.insert(c.points.begin() + static_cast<std::ptrdiff_t>(edge) + 1, q);
+    c.size.insert(c.size.begin() + static_cast<std::ptrdiff_t>(edge) + 1, 0.0);
+    // The new corner and its neighbours get their normal rounding back (capped by the new, shorter edges).
+    for (std::size_t k = edge; k <= edge + 2 && k < c.points.size(); ++k) {
+      if (k == 0 || k + 1 >= c.points.size()) continue;
+      const double in = (c.points[k] - c.points[k - 1]).norm(), out = (c.points[k + 1] - c.points[k]).norm();
+      const double want = cornerSizeFor(deflection(c.points[k - 1], c.points[k], c.points[k + 1]), radius);
+      c.size[k] = k == edge + 1 ? std::min({want, 0.45 * in, 0.45 * out}) : std::min({c.size[k], 0.45 * in, 0.45 * out});
+    }
+    return true;
+  }
+  return false;
 }
 
 // ---- time parametrisation ------------------------------------------------------------------------
@@ -431,13 +473,11 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
   Corners corners = makeCorners(points, radius);
   const double step = std::min(0.05, world.checkResolution());
-  const int corner_count = static_cast<int>(corners.points.size());
 
   for (int iteration = 0;; ++iteration) {
     BSpline spline = makeSpline(corners);
     std::vector<CurvePoint> pts = sampleCurve(spline, step);
-    Vec3 hit = Vec3::Zero();
-    std::set<int> bad = collidingSpans(spline, pts, world, &hit);
+    std::map<int, Vec3> bad = collidingSpans(spline, pts, world);
 
     if (bad.empty()) {
       if (config.initial_heading) {
@@ -455,34 +495,41 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
       // Samples lie on chords between checked curve points; check them too, they are what gets flown.
       for (const auto& s : traj.samples) {
         if (world.isFree(s.position)) continue;
-        if (bad.empty()) hit = s.position;
         const double frac = s.arc_length / std::max(prof.arc.back(), 1e-12);
-        bad.insert(spline.firstControlPoint(spline.parameterMin() + frac * (spline.parameterMax() - spline.parameterMin())));
+        bad.emplace(spline.firstControlPoint(spline.parameterMin() + frac * (spline.parameterMax() - spline.parameterMin())),
+                    s.position);
       }
       if (bad.empty()) {
         traj.curve = std::move(spline);
         traj.report.fallback_iterations = iteration;
+        traj.report.shortcut_waypoints = corners.points.size();
         fillReport(traj, world, config.compute_clearance);
         return traj;
       }
       traj.samples.clear();
     }
+    if (iteration + 1 >= config.max_fallback_iterations)
+      fail("the smoothed path still collides near " + fmt(bad.begin()->second, dims) + " after " +
+           std::to_string(config.max_fallback_iterations) + " rounds of corner tightening");
 
-    // Fall back locally: tighten the corners that shape the colliding spans toward the free polyline.
+    // Fall back locally: tighten the corners that shape a colliding span, pulling the curve onto the free
+    // polyline; where the curve already is the polyline, push the polyline away from the obstacle.
+    const int corner_count = static_cast<int>(corners.points.size());
     std::set<int> to_tighten;
-    for (int first : bad)
+    std::vector<Vec3> to_push;
+    for (const auto& [first, hit] : bad) {
+      bool shaped_by_corner = false;
       for (int j = first; j <= first + BSpline::kDegree; ++j) {
         const int k = cornerOfControlPoint(j, corner_count);
-        if (k > 0 && k < corner_count - 1 && corners.size[k] > 0.0) to_tighten.insert(k);
+        if (k > 0 && k < corner_count - 1 && corners.size[k] > 0.0) to_tighten.insert(k), shaped_by_corner = true;
       }
+      if (!shaped_by_corner) to_push.push_back(hit);
+    }
     for (int k : to_tighten) corners.size[k] = corners.size[k] < 1e-4 ? 0.0 : 0.5 * corners.size[k];
-    const bool changed = !to_tighten.empty();
-    if (!changed)
-      fail("the smoothed path collides near " + fmt(hit, dims) +
-           " and the corners there cannot be tightened further (the path itself is too close to an obstacle)");
-    if (iteration + 1 >= config.max_fallback_iterations)
-      fail("the smoothed path still collides near " + fmt(hit, dims) + " after " +
-           std::to_string(config.max_fallback_iterations) + " rounds of corner tightening");
+    for (const Vec3& hit : to_push)
+      if (!pushPolylineAway(corners, hit, world, radius))
+        fail("the path passes too close to an obstacle near " + fmt(hit, dims) +
+             " and no local detour of up to 0.3 m is collision free");
   }
 }
 

@@ -23,7 +23,7 @@ TrajectoryTracker::TrajectoryTracker(Trajectory trajectory, const VehicleLimits&
   if (!(limits_.v_max > 0) || !(limits_.omega_max > 0) || !std::isfinite(limits_.v_max) || !std::isfinite(limits_.omega_max))
     throw std::invalid_argument("tracker: v_max and omega_max must be positive numbers");
   if (trajectory_.dimensions == 3 && !(limits_.vz_max > 0)) throw std::invalid_argument("tracker: vz_max must be > 0 in 3-D");
-  for (double g : {config_.zeta, config_.b, config_.min_gain, config_.max_lead, config_.lookahead_min, config_.goal_tolerance,
+  for (double g : {config_.zeta, config_.b, config_.max_natural_frequency, config_.min_gain, config_.max_lead, config_.lookahead_min, config_.goal_tolerance,
                    config_.replan_deviation})
     if (!(g > 0) || !std::isfinite(g)) throw std::invalid_argument("tracker: gains, distances and tolerances must be positive numbers");
   if (!(config_.lookahead_time >= 0) || !(config_.replan_horizon > 0))
@@ -79,8 +79,11 @@ VehicleCommand TrajectoryTracker::feedforwardFeedback(const VehicleState& state,
   const double e2 = -s * d.x() + c * d.y();
   const double e3 = wrapAngle(ref.heading - state.heading);
   const double vr = ref.speed, wr = ref.yaw_rate;
-  const double k_along = std::max(config_.min_gain, 2 * config_.zeta * std::sqrt(wr * wr + config_.b * vr * vr));
-  const double k_lateral = config_.b * vr;
+  // Natural frequency of the linearised error dynamics: sqrt(omega_r^2 + b v_r^2) (Kanayama / de Luca-Oriolo
+  // scheduling), capped so that fast references do not ask for more turn rate than the vehicle has.
+  const double a = std::min(std::sqrt(wr * wr + config_.b * vr * vr), config_.max_natural_frequency);
+  const double k_along = std::max(config_.min_gain, 2 * config_.zeta * a);
+  const double k_lateral = vr > 1e-6 ? std::max(0.0, (a * a - wr * wr) / vr) : 0.0;
   const double sinc = std::abs(e3) < 1e-6 ? 1.0 : std::sin(e3) / e3;
   VehicleCommand cmd;
   cmd.v = vr * std::cos(e3) + k_along * e1;

@@ -36,7 +36,7 @@ struct SmootherConfig {
   // Target turn radius at corners, m: < 0 means v_max / omega_max (corners at full speed when there is
   // room); 0 means no rounding: the polyline itself, stopping and turning in place at every corner.
   double corner_radius = -1.0;
-  int max_fallback_iterations = 24;  // each halves the corner size near a collision
+  int max_fallback_iterations = 40;  // rounds of local repair: halve nearby corners, or detour the polyline
   // Heading the vehicle has at the start; when set, the trajectory starts by turning in place from it.
   std::optional<double> initial_heading;
   bool compute_clearance = true;     // fill report.min_clearance (one clearance query per sample)

@@ -22,9 +22,11 @@ enum class ControllerType {
 
 struct TrackerConfig {
   ControllerType controller = ControllerType::FeedforwardFeedback;
-  // Feedback: k_along = k_heading = 2 zeta sqrt(omega_r^2 + b v_r^2), k_lateral = b v_r.
+  // Feedback: with a = min(sqrt(omega_r^2 + b v_r^2), max_natural_frequency),
+  // k_along = k_heading = 2 zeta a and k_lateral = (a^2 - omega_r^2) / v_r (= b v_r below the cap).
   double zeta = 0.7;             // damping ratio of the linearised error dynamics
-  double b = 6.0;                // 1/m^2, lateral stiffness
+  double b = 6.0;                // 1/m^2, lateral stiffness at low speed
+  double max_natural_frequency = 2.5;  // rad/s, keeps the feedback within the turn-rate limit at speed
   double min_gain = 0.5;         // 1/s floor for k_along and k_heading when the reference is (nearly) at rest
   // The reference time stops advancing while the reference is more than max_lead metres (along the path)
   // ahead of the vehicle, so a vehicle held back (saturation, disturbance) is not left behind for good.

@@ -1,0 +1,141 @@
+#include "ddsnav/tracker/closed_loop.hpp"
+#include "ddsnav/tracker/smoother.hpp"
+#include "ddsnav/tracker/tracker.hpp"
+
+#include "test_worlds.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+using namespace ddsnav::tracker;
+using ddsnav::planner::Vec3;
+using ddsnav::tracker::testing::pathOf;
+using ddsnav::tracker::testing::scenario2d;
+
+namespace {
+
+ClosedLoopConfig loopConfig(const ddsnav::planner::VehicleLimits& limits, VehicleNoise noise = VehicleNoise::nominal()) {
+  ClosedLoopConfig c;
+  c.vehicle.limits = limits;
+  c.vehicle.noise = noise;
+  return c;
+}
+
+}  // namespace
+
+TEST(Tracker, StatusOnAStraightTrajectory) {
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  auto traj = smoothPath(pathOf({{1, 5, 0}, {15, 5, 0}}), *world, *sc.vehicle);
+  TrajectoryTracker tracker(traj, *sc.vehicle);
+  // A vehicle 0.3 m to the left of the path, behind the reference, facing along it.
+  VehicleState s;
+  s.position = {1.0, 5.3, 0};
+  for (int i = 0; i < 20; ++i) tracker.update(s, 0.05);  // it does not move: the reference waits max_lead ahead
+  const auto& st = tracker.status();
+  EXPECT_NEAR(st.cross_track_error, 0.3, 1e-9);
+  EXPECT_LT(st.along_track_error, 0.0);
+  EXPECT_GE(st.along_track_error, -0.5 - 0.05);  // reference held within max_lead (plus one step)
+  EXPECT_NEAR(st.max_cross_track_error, 0.3, 1e-9);
+  EXPECT_NEAR(st.progress, 0.0, 1e-9);
+  EXPECT_FALSE(st.goal_reached);
+  // Right of the path: negative.
+  s.position = {1.0, 4.8, 0};
+  tracker.update(s, 0.05);
+  EXPECT_NEAR(tracker.status().cross_track_error, -0.2, 1e-9);
+  // Commands turn the vehicle back towards the path (right, negative omega) and move it forward.
+  s.position = {1.0, 5.3, 0};
+  const auto cmd = tracker.update(s, 0.05);
+  EXPECT_LT(cmd.omega, 0.0);
+  EXPECT_GT(cmd.v, 0.0);
+  EXPECT_LE(cmd.v, sc.vehicle->v_max);
+}
+
+TEST(Tracker, ReplanOnDeviationAndOnNewObstacle) {
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  auto traj = smoothPath(pathOf({{1, 5, 0}, {15, 5, 0}}), *world, *sc.vehicle);
+  TrackerConfig cfg;
+  cfg.replan_deviation = 0.8;
+  TrajectoryTracker tracker(traj, *sc.vehicle, cfg);
+  VehicleState s;
+  s.position = {1.0, 5.0, 0};
+  tracker.update(s, 0.05);
+  EXPECT_FALSE(tracker.checkReplan(*world).needed);
+
+  // An obstacle appears across the trajectory.
+  auto blocked = ddsnav::planner::makeScenarioWorld(scenario2d(20, 0.3, "  - {type: sphere, center: [10, 5.5], radius: 1}\n"));
+  const auto d = tracker.checkReplan(*blocked);
+  EXPECT_TRUE(d.needed);
+  EXPECT_EQ(d.reason, ReplanReason::TrajectoryBlocked);
+  EXPECT_NEAR(d.blocked_at.y(), 5.0, 1e-9);
+  EXPECT_NE(d.message.find("no longer collision free"), std::string::npos);
+
+  s.position = {1.0, 6.0, 0};
+  tracker.update(s, 0.05);
+  const auto dev = tracker.checkReplan(*world);
+  EXPECT_TRUE(dev.needed);
+  EXPECT_EQ(dev.reason, ReplanReason::Deviation);
+}
+
+TEST(Tracker, RejectsBadInput) {
+  Trajectory empty;
+  ddsnav::planner::VehicleLimits l;
+  l.v_max = 1;
+  l.omega_max = 1;
+  EXPECT_THROW(TrajectoryTracker(empty, l), std::invalid_argument);
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  auto traj = smoothPath(pathOf({{1, 5, 0}, {15, 5, 0}}), *world, *sc.vehicle);
+  TrajectoryTracker tracker(traj, l);
+  VehicleState s;
+  s.position = {NAN, 0, 0};
+  EXPECT_THROW(tracker.update(s, 0.05), std::invalid_argument);
+  EXPECT_THROW(tracker.update(VehicleState{}, -1.0), std::invalid_argument);
+}
+
+TEST(ClosedLoop, HandMadeWorldReachesGoalWithSmallError) {
+  auto sc = scenario2d(30, 0.3,
+                       "  - {type: box, min: [8, 0], max: [10, 18]}\n"
+                       "  - {type: sphere, center: [20, 12], radius: 3}\n",
+                       2.0, 0.628);
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig scfg;
+  scfg.initial_heading = 0.0;
+  auto traj = smoothPath(pathOf({{2, 2, 0}, {6, 12, 0}, {7, 20, 0}, {15, 20, 0}, {18, 17, 0}, {24.5, 15, 0}, {27, 3, 0}}),
+                         *world, *sc.vehicle, scfg);
+  for (auto controller : {ControllerType::FeedforwardFeedback, ControllerType::PurePursuit}) {
+    auto cfg = loopConfig(*sc.vehicle);
+    cfg.tracker.controller = controller;
+    const auto r = runClosedLoop(traj, cfg, world.get());
+    EXPECT_TRUE(r.goal_reached) << "controller " << static_cast<int>(controller);
+    EXPECT_EQ(r.track_states_in_collision, 0u);
+    EXPECT_LE(traj.report.max_heading_jump, sc.vehicle->omega_max * traj.dt + 1e-9);
+    // The vehicle's own heading steps obey omega_max up to the yaw-rate disturbance.
+    EXPECT_LE(r.max_heading_step, (sc.vehicle->omega_max + 5 * cfg.vehicle.noise.sigma_omega) * cfg.control_dt);
+    std::printf("controller %d: mean CTE %.4f max %.4f mean pos %.4f time %.2f (trajectory %.2f)\n", static_cast<int>(controller),
+                r.status.mean_cross_track_error, r.status.max_cross_track_error, r.status.mean_position_error, r.time,
+                traj.duration());
+    if (controller == ControllerType::FeedforwardFeedback) {
+      EXPECT_LT(r.status.mean_cross_track_error, 0.1);
+      EXPECT_LT(r.status.max_cross_track_error, 0.5);
+      EXPECT_LT(r.time, traj.duration() + 5.0);
+    } else {
+      EXPECT_LT(r.status.mean_cross_track_error, 0.5);
+    }
+  }
+}
+
+TEST(ClosedLoop, WithoutNoiseTheErrorIsTiny) {
+  auto sc = scenario2d(30, 0.3, "", 2.0, 0.628);
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig scfg;
+  scfg.shortcut = false;
+  auto traj = smoothPath(pathOf({{2, 2, 0}, {20, 2, 0}, {20, 20, 0}, {5, 25, 0}}), *world, *sc.vehicle, scfg);
+  auto cfg = loopConfig(*sc.vehicle, VehicleNoise::none());
+  const auto r = runClosedLoop(traj, cfg, world.get());
+  EXPECT_TRUE(r.goal_reached);
+  EXPECT_LT(r.status.mean_cross_track_error, 0.02);
+}
