@@ -1,0 +1,319 @@
+#include <ddsnav/runtime/component.hpp>
+
+#include <ddsnav/msg/messages.hpp>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <pthread.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdlib>
+#include <mutex>
+#include <thread>
+
+namespace ddsnav::runtime {
+namespace {
+
+using namespace std::chrono_literals;
+
+// Exit codes.
+constexpr int kExitOk = 0;
+constexpr int kExitError = 1;
+constexpr int kExitUsage = 2;       // bad command line, config or parameter
+constexpr int kExitHungShutdown = 3;  // did not finish within shutdown_timeout_s after a signal
+
+sigset_t shutdownSignals() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  return set;
+}
+
+// Waits for SIGINT/SIGTERM on its own thread (they are blocked everywhere else, so DDS threads never see
+// them). After the first signal the process has `bound` to finish; a second signal or the bound
+// running out ends it at once.
+class SignalWatcher {
+ public:
+  SignalWatcher(std::function<void()> on_signal, std::chrono::milliseconds bound)
+      : on_signal_(std::move(on_signal)), bound_(bound), thread_([this] { run(); }) {}
+  ~SignalWatcher() {
+    finished_ = true;
+    thread_.join();
+  }
+
+ private:
+  void run() {
+    sigset_t set = shutdownSignals();
+    timespec tick{0, 100'000'000};
+    std::optional<std::chrono::steady_clock::time_point> deadline;
+    while (!finished_) {
+      int sig = sigtimedwait(&set, nullptr, &tick);
+      if (sig > 0 && !deadline) {
+        spdlog::info("received {}, shutting down", sig == SIGINT ? "SIGINT" : "SIGTERM");
+        deadline = std::chrono::steady_clock::now() + bound_;
+        on_signal_();
+      } else if (sig > 0) {
+        spdlog::warn("second signal, exiting immediately");
+        std::_Exit(kExitHungShutdown);
+      }
+      if (deadline && std::chrono::steady_clock::now() > *deadline && !finished_) {
+        spdlog::error("shutdown did not finish within {} ms, exiting", bound_.count());
+        std::_Exit(kExitHungShutdown);
+      }
+    }
+  }
+
+  std::function<void()> on_signal_;
+  std::chrono::milliseconds bound_;
+  std::atomic<bool> finished_{false};
+  std::thread thread_;
+};
+
+class ContextImpl : public Context {
+ public:
+  ContextImpl(std::string name, Parameters params, std::shared_ptr<spdlog::logger> logger)
+      : name_(std::move(name)), params_(std::move(params)), logger_(std::move(logger)) {}
+
+  ~ContextImpl() override { stopHeartbeat(); }
+
+  void start(const bus::ParticipantOptions& options) {
+    participant_ = std::make_unique<bus::Participant>(options);
+    status_pub_ = participant_->publisher<msg::ComponentStatus>("system/status", bus::Qos::state(1));
+    publishState(msg::LIFECYCLE_STARTING);
+    const std::string clock = params_.declare<std::string>("clock", "system", "system | topic");
+    if (clock == "system")
+      clock_ = std::make_unique<SystemClock>();
+    else if (clock == "topic")
+      clock_ = std::make_unique<TopicClock>(*participant_);
+    else
+      throw ParameterError("parameter 'clock': expected 'system' or 'topic', got '" + clock + "'");
+    heartbeat_period_ = positiveSeconds("heartbeat_period_s", 1.0, "period of the system/status heartbeat, s");
+    heartbeat_ = std::thread([this] { heartbeatLoop(); });
+    publishState(msg::LIFECYCLE_CONFIGURING);
+  }
+
+  const std::string& name() const override { return name_; }
+  Parameters& params() override { return params_; }
+  bus::Participant& bus() override { return *participant_; }
+  const Clock& clock() const override { return *clock_; }
+  spdlog::logger& log() override { return *logger_; }
+
+  void ready() override {
+    params_.rejectUndeclared();
+    publishState(msg::LIFECYCLE_READY);
+    logger_->info("ready on {} domain {}", bus::vendorName(participant_->vendor()), participant_->domainId());
+  }
+
+  void setDetail(const std::string& detail) override {
+    {
+      std::lock_guard lock(mutex_);
+      detail_ = detail;
+    }
+    publishStatus();
+  }
+
+  bool shutdownRequested() const override { return shutdown_.load(); }
+
+  void spin(std::chrono::milliseconds period, const std::function<void()>& tick) override {
+    auto next = std::chrono::steady_clock::now() + period;
+    while (!shutdown_) {
+      std::unique_lock lock(mutex_);
+      if (changed_.wait_until(lock, next, [&] { return shutdown_.load(); })) break;
+      lock.unlock();
+      next += period;
+      if (tick) tick();
+    }
+  }
+
+  bool waitForShutdown(std::chrono::milliseconds timeout) override {
+    std::unique_lock lock(mutex_);
+    return changed_.wait_for(lock, timeout, [&] { return shutdown_.load(); });
+  }
+
+  void requestShutdown() override {
+    if (shutdown_.exchange(true)) return;
+    publishState(msg::LIFECYCLE_SHUTTING_DOWN);
+    changed_.notify_all();
+  }
+
+  void finish(msg::LifecycleState state, const std::string& detail) {
+    if (!participant_) return;
+    {
+      std::lock_guard lock(mutex_);
+      if (!detail.empty()) detail_ = detail;
+    }
+    publishState(state);
+    stopHeartbeat();
+    clock_.reset();
+    status_pub_ = {};
+    participant_.reset();
+  }
+
+  double positiveSeconds(const std::string& key, double fallback, const std::string& description) {
+    double v = params_.declare<double>(key, fallback, description);
+    if (v <= 0) throw ParameterError("parameter '" + key + "': expected a positive number of seconds, got " +
+                                     std::to_string(v));
+    return v;
+  }
+
+ private:
+  void publishState(msg::LifecycleState state) {
+    {
+      std::lock_guard lock(mutex_);
+      state_ = state;
+    }
+    publishStatus();
+  }
+
+  void publishStatus() {
+    msg::ComponentStatus s;
+    {
+      std::lock_guard lock(mutex_);
+      s.name(name_);
+      s.state(state_);
+      s.ready(state_ == msg::LIFECYCLE_READY);
+      s.detail(detail_);
+    }
+    s.pid(static_cast<std::int32_t>(getpid()));
+    s.stamp_ns(clock_ ? clock_->nowNs() : SystemClock().nowNs());
+    try {
+      status_pub_.publish(s);
+    } catch (const bus::BusError& e) {
+      logger_->warn("could not publish status: {}", e.what());
+    }
+  }
+
+  void heartbeatLoop() {
+    auto period = std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::duration<double>(heartbeat_period_));
+    std::unique_lock lock(heartbeat_mutex_);
+    while (!heartbeat_stop_) {
+      if (heartbeat_cv_.wait_for(lock, period, [&] { return heartbeat_stop_; })) break;
+      lock.unlock();
+      publishStatus();
+      lock.lock();
+    }
+  }
+
+  void stopHeartbeat() {
+    {
+      std::lock_guard lock(heartbeat_mutex_);
+      heartbeat_stop_ = true;
+    }
+    heartbeat_cv_.notify_all();
+    if (heartbeat_.joinable()) heartbeat_.join();
+  }
+
+  std::string name_;
+  Parameters params_;
+  std::shared_ptr<spdlog::logger> logger_;
+  std::unique_ptr<bus::Participant> participant_;
+  bus::Publisher<msg::ComponentStatus> status_pub_;
+  std::unique_ptr<Clock> clock_;
+
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  msg::LifecycleState state_ = msg::LIFECYCLE_STARTING;
+  std::string detail_;
+  std::atomic<bool> shutdown_{false};
+
+  double heartbeat_period_ = 1.0;
+  std::thread heartbeat_;
+  std::mutex heartbeat_mutex_;
+  std::condition_variable heartbeat_cv_;
+  bool heartbeat_stop_ = false;
+};
+
+int envInt(const char* name, int fallback) {
+  const char* v = std::getenv(name);
+  if (v == nullptr || *v == '\0') return fallback;
+  char* end = nullptr;
+  long n = std::strtol(v, &end, 10);
+  if (*end != '\0') throw bus::BusError(std::string("environment variable ") + name + "='" + v +
+                                        "': expected an integer");
+  return static_cast<int>(n);
+}
+
+}  // namespace
+
+int runComponent(const std::string& name, int argc, char** argv, const std::function<void(Context&)>& body,
+                 const OptionsHook& options) {
+  // Before any thread exists, so that every thread (DDS ones included) inherits the blocked mask.
+  sigset_t signals = shutdownSignals();
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  CLI::App app{"ddsnav component " + name};
+  std::string dds, config, log_level = "info", instance = name;
+  std::optional<int> domain;
+  std::vector<std::string> overrides;
+  app.add_option("--dds", dds, "DDS vendor: fastdds | cyclonedds (default: $DDSNAV_DDS, else fastdds)");
+  app.add_option("--domain", domain, "DDS domain id 0..232 (default: $DDSNAV_DOMAIN, else 0)");
+  app.add_option("--config", config, "YAML parameter file")->check(CLI::ExistingFile);
+  app.add_option("--param", overrides, "parameter override key=value (repeatable)");
+  app.add_option("--log-level", log_level, "trace | debug | info | warn | error | off")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
+  app.add_option("--name", instance, "instance name in system/status (default: " + name + ")");
+  if (options) options(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    int rc = app.exit(e);
+    return rc == 0 ? kExitOk : kExitUsage;
+  }
+
+  auto logger = spdlog::stderr_color_mt(instance);
+  logger->set_level(spdlog::level::from_str(log_level));
+  logger->set_pattern("[%H:%M:%S.%e] [%n] [%^%l%$] %v");
+  spdlog::set_default_logger(logger);
+
+  std::unique_ptr<ContextImpl> ctx;
+  bus::ParticipantOptions bus_options;
+  try {
+    bus_options.vendor = dds.empty() ? bus::vendorFromEnvironment() : bus::parseVendor(dds);
+    bus_options.domain_id = domain ? *domain : envInt("DDSNAV_DOMAIN", 0);
+    if (bus_options.domain_id < 0 || bus_options.domain_id > bus::kMaxDomainId)
+      throw bus::BusError("DDS domain id " + std::to_string(bus_options.domain_id) + " is out of range: expected 0.." +
+                          std::to_string(bus::kMaxDomainId));
+    bus_options.name = instance;
+    ctx = std::make_unique<ContextImpl>(instance, Parameters::load(config, overrides), logger);
+  } catch (const std::exception& e) {
+    logger->error("{}", e.what());
+    return kExitUsage;
+  }
+
+  int rc = kExitOk;
+  try {
+    ctx->start(bus_options);
+    double bound_s = ctx->positiveSeconds("shutdown_timeout_s", 5.0, "time allowed for a clean shutdown, s");
+    SignalWatcher watcher([&ctx] { ctx->requestShutdown(); },
+                          std::chrono::milliseconds(static_cast<long>(bound_s * 1000)));
+    try {
+      body(*ctx);
+      ctx->finish(msg::LIFECYCLE_FINISHED, "");
+    } catch (const ParameterError& e) {
+      logger->error("{}", e.what());
+      ctx->finish(msg::LIFECYCLE_FAILED, e.what());
+      rc = kExitUsage;
+    } catch (const std::exception& e) {
+      logger->error("{}", e.what());
+      ctx->finish(msg::LIFECYCLE_FAILED, e.what());
+      rc = kExitError;
+    }
+  } catch (const ParameterError& e) {
+    logger->error("{}", e.what());
+    rc = kExitUsage;
+  } catch (const std::exception& e) {
+    logger->error("{}", e.what());
+    rc = kExitError;
+  }
+  ctx.reset();
+  spdlog::drop(instance);
+  return rc;
+}
+
+}  // namespace ddsnav::runtime

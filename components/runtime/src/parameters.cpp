@@ -1,0 +1,79 @@
+#include <ddsnav/runtime/parameters.hpp>
+
+#include <fstream>
+
+namespace ddsnav::runtime {
+
+Parameters Parameters::load(const std::string& file, const std::vector<std::string>& overrides) {
+  Parameters p;
+  if (!file.empty()) {
+    std::ifstream in(file);
+    if (!in) throw ParameterError("cannot read config file '" + file + "'");
+    YAML::Node root;
+    try {
+      root = YAML::Load(in);
+    } catch (const YAML::Exception& e) {
+      throw ParameterError("config file '" + file + "' line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    }
+    if (root.IsDefined() && !root.IsNull()) {
+      if (!root.IsMap()) throw ParameterError("config file '" + file + "': expected a map of parameters at the top");
+      p.flatten(root, "", file);
+    }
+  }
+  for (const std::string& o : overrides) {
+    auto eq = o.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw ParameterError("--param '" + o + "': expected key=value, e.g. --param resolution=0.05");
+    std::string key = o.substr(0, eq);
+    std::string value = o.substr(eq + 1);
+    YAML::Node node;
+    try {
+      node = YAML::Load(value);  // so that lists ("[1, 2]") and typed scalars work like in the file
+    } catch (const YAML::Exception& e) {
+      throw ParameterError("--param " + key + ": cannot parse value '" + value + "': " + e.msg);
+    }
+    if (!node.IsDefined() || node.IsNull()) node = YAML::Node(value);
+    p.set(key, node, "--param");
+  }
+  return p;
+}
+
+void Parameters::flatten(const YAML::Node& node, const std::string& prefix, const std::string& source) {
+  for (const auto& kv : node) {
+    std::string key = prefix.empty() ? kv.first.as<std::string>() : prefix + "." + kv.first.as<std::string>();
+    if (kv.second.IsMap())
+      flatten(kv.second, key, source);
+    else
+      set(key, kv.second, source);
+  }
+}
+
+void Parameters::set(const std::string& key, const YAML::Node& value, const std::string& source) {
+  values_[key] = value;
+  sources_[key] = source;
+}
+
+void Parameters::rejectUndeclared() const {
+  std::string unknown;
+  for (const auto& [key, source] : sources_)
+    if (declared_.count(key) == 0) unknown += (unknown.empty() ? "" : ", ") + key + " (" + source + ")";
+  if (unknown.empty()) return;
+  std::string known;
+  for (const std::string& k : declared_) known += (known.empty() ? "" : ", ") + k;
+  throw ParameterError("unknown parameter(s): " + unknown + "; this component takes: " +
+                       (known.empty() ? "none" : known));
+}
+
+std::string Parameters::text(const YAML::Node& node) {
+  if (node.IsScalar()) return "'" + node.Scalar() + "'";
+  if (node.IsSequence()) return "a list";
+  if (node.IsMap()) return "a map";
+  return "nothing";
+}
+
+std::string Parameters::where(const std::string& key) const {
+  auto it = sources_.find(key);
+  return "parameter '" + key + "'" + (it == sources_.end() ? "" : " (from " + it->second + ")");
+}
+
+}  // namespace ddsnav::runtime
