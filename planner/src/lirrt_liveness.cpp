@@ -109,7 +109,8 @@ std::vector<UnicycleControl> lirrtControlSet(const ForwardRegion& region, const 
     for (int t = 0; t < options.turn_steps; ++t) {
       for (int c = 0; c < climbs; ++c) {
         UnicycleControl u;
-        u.length = region.reach * s / options.speed_steps;
+        // Lengths halve from the full reach: short steps keep nodes alive in passages narrower than an edge.
+        u.length = region.reach / std::pow(2.0, options.speed_steps - s);
         u.turn = spread(options.turn_steps, region.max_turn, t);
         u.climb = region.dimensions == 3 ? spread(climbs, region.max_climb, c) : 0.0;
         controls.push_back(u);

@@ -124,14 +124,16 @@ TEST(LirrtControls, SetCoversTurnsAndSpeeds) {
   limits.dt = 10.0;
   const ForwardRegion r2 = forwardRegion(limits, 2);
   const auto u2 = lirrtControlSet(r2, LirrtOptions{});
-  ASSERT_EQ(u2.size(), 10u);  // 2 speeds x 5 turns
-  EXPECT_DOUBLE_EQ(u2.front().length, 10.0);  // half of reach 20
+  ASSERT_EQ(u2.size(), 20u);  // 4 lengths x 5 turns
+  EXPECT_DOUBLE_EQ(u2.front().length, 2.5);  // reach 20 / 2^3
   EXPECT_DOUBLE_EQ(u2.front().turn, -1.5);
   EXPECT_DOUBLE_EQ(u2[2].turn, 0.0);
+  EXPECT_DOUBLE_EQ(u2[5].length, 5.0);
+  EXPECT_DOUBLE_EQ(u2[10].length, 10.0);
   EXPECT_DOUBLE_EQ(u2.back().turn, 1.5);
   EXPECT_DOUBLE_EQ(u2.back().length, 20.0);
   const auto u3 = lirrtControlSet(forwardRegion(limits, 3), LirrtOptions{});
-  ASSERT_EQ(u3.size(), 30u);  // x 3 climbs
+  ASSERT_EQ(u3.size(), 60u);  // x 3 climbs
   EXPECT_DOUBLE_EQ(u3.front().climb, -10.0);
   EXPECT_DOUBLE_EQ(u3[1].climb, 0.0);
 }

@@ -83,7 +83,7 @@ struct LirrtOptions {
   double goal_bias = 0.1;          // W: sample the goal
   double neighbour_radius = 0.5;   // H, as a fraction of the reach v_max*dt
   int turn_steps = 5;              // controls: turns evenly spread over [-max_turn, max_turn]
-  int speed_steps = 2;             // controls: lengths reach*k/speed_steps, k = 1..speed_steps
+  int speed_steps = 4;             // controls: lengths reach / 2^k, k = 0..speed_steps-1
   int climb_steps = 3;             // 3-D controls: climbs evenly spread over [-max_climb, max_climb]
 };
 
