@@ -1,0 +1,167 @@
+#include "ddsnav/perception/obstacle_detector.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace ddsnav::perception {
+namespace {
+
+void require(bool ok, const char* name, const char* expected) {
+  if (!ok) throw std::invalid_argument(std::string("perception parameter '") + name + "' must be " + expected);
+}
+
+bool finitePositive(double v) { return std::isfinite(v) && v > 0.0; }
+
+class StageTimer {
+ public:
+  double lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now - last_).count();
+    last_ = now;
+    return ms;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace
+
+void DetectorParams::validate() const {
+  require(std::isfinite(voxel_size) && voxel_size >= 0.001 && voxel_size <= 100.0, "voxel_size", "in [0.001, 100] m");
+  require(finitePositive(max_range) && max_range <= 1e5, "max_range", "in (0, 1e5] m");
+  require(std::isfinite(ground_z), "ground_z", "finite");
+  require(std::isfinite(cluster_tolerance) && cluster_tolerance >= 0.001 && cluster_tolerance <= 100.0,
+          "cluster_tolerance", "in [0.001, 100] m");
+  require(min_cluster_size >= 1, "min_cluster_size", ">= 1");
+  require(max_cluster_size >= min_cluster_size, "max_cluster_size", ">= min_cluster_size");
+  require(std::isfinite(gap_min_width) && gap_min_width >= 0.0, "gap_min_width", "finite and >= 0");
+  require(finitePositive(beam_spacing) && beam_spacing < 1.0, "beam_spacing", "in (0, 1) rad");
+  require(std::isfinite(gap_min_beams) && gap_min_beams >= 1.0, "gap_min_beams", ">= 1");
+  require(probability > 0.0 && probability < 1.0, "probability", "in (0, 1)");
+  require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
+  require(max_points >= 1 && max_points < (std::size_t{1} << 31), "max_points", "in [1, 2^31)");
+}
+
+ObstacleDetector::ObstacleDetector(const DetectorParams& params)
+    : params_((params.validate(), params)),
+      voxel_grid_(static_cast<float>(params.voxel_size)),
+      clusterer_(ClusterParams{params.cluster_tolerance, params.min_cluster_size, params.max_cluster_size}) {}
+
+std::vector<ObstacleEllipsoid> ObstacleDetector::detect(std::span<const Eigen::Vector3f> points,
+                                                        const Eigen::Vector3d& sensor_origin, int dimensions) {
+  stats_ = {};
+  stats_.input_points = points.size();
+  if (!sensor_origin.allFinite()) throw std::invalid_argument("perception: sensor origin is not finite");
+  if (points.size() > params_.max_points)
+    throw std::invalid_argument("perception: cloud of " + std::to_string(points.size()) +
+                                " points exceeds max_points = " + std::to_string(params_.max_points));
+  if (dimensions != 0 && dimensions != 2 && dimensions != 3)
+    throw std::invalid_argument("perception: dimensions must be 0 (infer), 2 or 3");
+  StageTimer timer;
+
+  // 1. Finite points within range (checked once, here).
+  const Eigen::Vector3f origin = sensor_origin.cast<float>();
+  const float max_range2 = static_cast<float>(params_.max_range * params_.max_range);
+  finite_.clear();
+  finite_.reserve(points.size());
+  bool all_planar = true;
+  for (const auto& p : points) {
+    const float d2 = (p - origin).squaredNorm();
+    if (!(d2 <= max_range2)) continue;  // also false for NaN / inf
+    finite_.push_back(p);
+    all_planar &= p.z() == 0.0f;
+  }
+  stats_.dropped_invalid = points.size() - finite_.size();
+  if (dimensions == 0) dimensions = all_planar ? 2 : 3;
+  if (dimensions == 2)
+    for (auto& p : finite_) p.z() = 0.0f;
+  stats_.ms_filter = timer.lap();
+
+  // 2. + 3. Voxel grid, then ground removal.
+  voxel_grid_.filter(finite_, voxels_);
+  stats_.voxels = voxels_.size();
+  if (dimensions == 3 && params_.remove_ground) {
+    const float ground = static_cast<float>(params_.ground_z);
+    std::erase_if(voxels_, [&](const Eigen::Vector3f& v) { return v.z() <= ground; });
+    stats_.ground_voxels = stats_.voxels - voxels_.size();
+  }
+  stats_.ms_voxel = timer.lap();
+
+  // 4. Euclidean clusters.
+  clusterer_.extract(voxels_, clusters_);
+  stats_.clusters = clusters_.size();
+  stats_.clustered_points = clusters_.indices.size();
+  stats_.ms_cluster = timer.lap();
+
+  // 5. Split at see-through gaps.
+  if (params_.split_gaps) {
+    splitGaps(sensor_origin);
+  } else {
+    parts_ = clusters_;
+  }
+  stats_.ms_split = timer.lap();
+
+  // 6. One ellipsoid per part.
+  const EllipsoidFitParams fit{params_.probability, params_.range_noise_sigma, params_.voxel_size,
+                               params_.enclose_points};
+  std::vector<ObstacleEllipsoid> obstacles;
+  obstacles.reserve(parts_.size());
+  for (std::size_t i = 0; i < parts_.size(); ++i)
+    obstacles.push_back(fitEllipsoid(voxels_, parts_[i], sensor_origin, dimensions, fit));
+  stats_.obstacles = obstacles.size();
+  stats_.ms_fit = timer.lap();
+  return obstacles;
+}
+
+// The paper counts an obstacle per continuous edge seen by the sensor: a cluster whose points,
+// ordered by azimuth around the sensor, leave an angular gap that beams passed through is two
+// obstacles. A gap between azimuth-neighbours i, j counts when
+//   delta_azimuth > max(gap_min_width / min(r_i, r_j), gap_min_beams * beam_spacing)
+// (r: horizontal range), i.e. it is wider than gap_min_width at that range and than a few beam
+// steps, so the natural spacing of beams and voxels never splits a surface.
+void ObstacleDetector::splitGaps(const Eigen::Vector3d& origin) {
+  parts_.clear();
+  const double two_pi = 2.0 * std::numbers::pi;
+  const double min_angle = params_.gap_min_beams * params_.beam_spacing;
+  std::vector<std::size_t> cuts;
+  for (std::size_t c = 0; c < clusters_.size(); ++c) {
+    const auto cluster = clusters_[c];
+    bearings_.clear();
+    for (int i : cluster) {
+      const double dx = voxels_[i].x() - origin.x(), dy = voxels_[i].y() - origin.y();
+      bearings_.push_back({static_cast<float>(std::atan2(dy, dx)),
+                           static_cast<float>(std::max(1e-3, std::hypot(dx, dy))), i});
+    }
+    std::sort(bearings_.begin(), bearings_.end(),
+              [](const Bearing& a, const Bearing& b) { return a.azimuth < b.azimuth; });
+    const std::size_t n = bearings_.size();
+    cuts.clear();  // a cut at k: a gap between bearings_[k - 1] and bearings_[k] (circularly)
+    for (std::size_t k = 0; k < n; ++k) {
+      const Bearing& prev = bearings_[(k + n - 1) % n];
+      const Bearing& next = bearings_[k];
+      double delta = next.azimuth - prev.azimuth;
+      if (k == 0) delta += two_pi;
+      const double range = std::min(prev.range, next.range);
+      if (delta > std::max(params_.gap_min_width / range, min_angle)) cuts.push_back(k);
+    }
+    auto emit = [&](std::size_t begin, std::size_t count) {  // circular run of bearings_
+      if (count < params_.min_cluster_size) return;
+      for (std::size_t k = 0; k < count; ++k) parts_.indices.push_back(bearings_[(begin + k) % n].index);
+      parts_.offsets.push_back(static_cast<int>(parts_.indices.size()));
+    };
+    if (cuts.size() <= 1) {  // one run around the circle (a single cut is the cluster's own edge)
+      emit(cuts.empty() ? 0 : cuts[0], n);
+      continue;
+    }
+    for (std::size_t g = 0; g < cuts.size(); ++g) {
+      const std::size_t begin = cuts[g], end = cuts[(g + 1) % cuts.size()];
+      emit(begin, (end + n - begin) % n);
+    }
+  }
+}
+
+}  // namespace ddsnav::perception
