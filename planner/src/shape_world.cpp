@@ -336,43 +336,72 @@ double ShapeWorld::distanceLowerBound(const Shape& s, const Vec3& p) const {
   return 0.0;
 }
 
+bool ShapeWorld::segmentTouches(const Shape& shape, int index, const Vec3& a, const Vec3& b,
+                                std::uint64_t& evaluations) const {
+  const Vec3 delta = b - a;
+  const double length = delta.norm();
+  if (shape.type == ObstacleType::Hill) {
+    // The terrain is not convex: sample at the check resolution, skipping ahead where the cheap lower
+    // bound proves the gap free. (A smooth hill bends by well under a millimetre between samples.)
+    const double resolution = checkResolution();
+    double travelled = 0.0;
+    while (true) {
+      const Vec3 p = a + (length > 0.0 ? Vec3(delta * (travelled / length)) : Vec3::Zero());
+      ++evaluations;
+      const double margin = distanceLowerBound(shape, p) - radius_;
+      if (margin <= 0.0 && freeAgainst(p, &index, 1) == false) return true;
+      if (travelled >= length) return false;
+      travelled = std::min(length, travelled + std::max(resolution, margin));
+    }
+  }
+  // Box, sphere and ellipsoid are convex, so their signed distance along the segment is a convex,
+  // 1-Lipschitz (in arc length) function of t: golden-section search finds its minimum, and the search
+  // stops as soon as a probe touches (distance <= radius) or the Lipschitz bound proves the rest clear.
+  auto distance = [&](double t) {
+    ++evaluations;
+    return signedDistance(shape, dims_, a + delta * t);
+  };
+  const double r = radius_;
+  constexpr double kPhi = 0.6180339887498949;
+  constexpr double kTolerance = 1e-9;  // metres along the segment
+  double lo = 0.0, hi = 1.0;
+  double c = hi - kPhi * (hi - lo), d = lo + kPhi * (hi - lo);
+  double fc = distance(c), fd = distance(d);
+  while (true) {
+    const double best = std::min(fc, fd);
+    if (best <= r) return true;
+    if (best - (hi - lo) * length > r) return false;  // every point of the bracket is within (hi-lo)L of a probe
+    if ((hi - lo) * length < kTolerance) return false;
+    if (fc < fd) {
+      hi = d, d = c, fd = fc, c = hi - kPhi * (hi - lo), fc = distance(c);
+    } else {
+      lo = c, c = d, fc = fd, d = lo + kPhi * (hi - lo), fd = distance(d);
+    }
+  }
+}
+
 bool ShapeWorld::isSegmentFree(const Vec3& a, const Vec3& b) const {
-  const double length = (b - a).norm();
-  const double resolution = checkResolution();
+  // The far end first: most rejected edges fail there.
+  if (!isFree(b)) return false;
   // The shrunk bounds box (and the half-space above the ground) is convex: both ends inside means the
   // whole segment is.
-  if (!insideBounds(b)) return countCheck(), false;
-  if (!insideBounds(a)) return countCheck(2), false;
-  // Broad phase once per segment.
+  countCheck();
+  if (!insideBounds(a)) return false;
   thread_local std::vector<int> near;
   gather(a.cwiseMin(b), a.cwiseMax(b), near);
-  if (near.empty()) {
-    countCheck(2);
-    return true;
-  }
-  // Walk from the far end (most rejected edges fail there) to `a`. Each visited state is checked against
-  // the obstacles near the segment; where a cheap lower bound on the distance to every one of them
-  // exceeds the robot radius by more than the resolution, the states in between are provably free and
-  // the walk skips ahead by that margin. Otherwise it steps by the check resolution, so the segment is
-  // never checked more coarsely than checkResolution().
-  const int count = static_cast<int>(near.size());
-  const Vec3 direction = length > 0.0 ? Vec3((a - b) / length) : Vec3::Zero();
-  std::uint64_t visited = 0;
-  double travelled = 0.0;
-  while (true) {
-    const Vec3 p = b + direction * travelled;
-    ++visited;
-    double margin = kInf;
-    for (int k = 0; k < count && margin > 0.0; ++k) margin = std::min(margin, distanceLowerBound(shapes_[near[k]], p) - radius_);
-    if (margin <= 0.0 && !freeAgainst(p, near.data(), count)) {
-      countCheck(visited);
-      return false;
+  std::uint64_t evaluations = 0;
+  bool touches = false;
+  for (int i : near) {
+    // Cheap rejection: the shape's lower bound at the midpoint minus half the length exceeds the radius.
+    const double half = 0.5 * (b - a).norm();
+    if (distanceLowerBound(shapes_[i], 0.5 * (a + b)) - half > radius_) continue;
+    if (segmentTouches(shapes_[i], i, a, b, evaluations)) {
+      touches = true;
+      break;
     }
-    if (travelled >= length) break;
-    travelled = std::min(length, travelled + std::max(resolution, margin));
   }
-  countCheck(visited);
-  return true;
+  countCheck(evaluations);
+  return !touches;
 }
 
 double ShapeWorld::clearance(const Vec3& p) const {

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <vector>
 
 namespace ddsnav::planner::detail {
@@ -53,6 +54,8 @@ class ShapeWorld final : public CollisionWorld {
   bool insideBounds(const Vec3& p) const;
   bool collides(const Shape& s, const Vec3& p) const;  // the robot at p touches s
   double distanceLowerBound(const Shape& s, const Vec3& p) const;  // <= distance from p to s, cheap
+  // Whether the robot moving along a-b touches shape `index` (exact for convex shapes).
+  bool segmentTouches(const Shape& s, int index, const Vec3& a, const Vec3& b, std::uint64_t& evaluations) const;
   bool freeAgainst(const Vec3& p, const int* candidates, int count) const;
   int cellIndex(int cx, int cy) const { return cy * nx_ + cx; }
   int cellX(double x) const;

@@ -1,0 +1,210 @@
+// Every planner of this file's set solves small scenarios with paths that an independent check accepts,
+// is deterministic per seed, and rejects bad problems.
+#include "ddsnav/planner/collision_world.hpp"
+#include "ddsnav/planner/planner.hpp"
+#include "ddsnav/planner/scenario.hpp"
+#include "ddsnav/planner/unicycle.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace ddsnav::planner {
+namespace {
+
+Scenario shipped(const std::string& name) {
+  return loadScenario(std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/" + name + ".yaml");
+}
+
+PlanProblem problemFor(const Scenario& s, const CollisionWorld& world, std::uint64_t seed) {
+  PlanProblem p;
+  p.world = &world;
+  p.start.position = s.start;
+  p.start.heading = s.start_heading.value_or(std::atan2(s.goal.y() - s.start.y(), s.goal.x() - s.start.x()));
+  p.goal = s.goal;
+  p.goal_radius = s.goal_radius;
+  p.vehicle = s.vehicle;
+  p.seed = seed;
+  p.time_limit_s = 20.0;
+  p.max_iterations = 2'000'000;
+  return p;
+}
+
+// Checks the path against a freshly built world with a finer step than the planner's: every state free,
+// every segment free when sampled at 1 cm, starts at the start, ends in the goal region, cost = length.
+void expectValidPath(const Scenario& s, const PlanResult& r) {
+  ASSERT_TRUE(r.solved);
+  ASSERT_GE(r.path.size(), 2u);
+  const auto world = makeScenarioWorld(s);
+  EXPECT_EQ(r.path.front().position, s.start);
+  EXPECT_LE((r.path.back().position - s.goal).norm(), s.goal_radius);
+  EXPECT_TRUE(r.exact);
+  double length = 0.0;
+  for (std::size_t i = 0; i + 1 < r.path.size(); ++i) {
+    const Vec3 a = r.path[i].position, b = r.path[i + 1].position;
+    length += (b - a).norm();
+    const int steps = std::max(1, static_cast<int>(std::ceil((b - a).norm() / 0.01)));
+    for (int k = 0; k <= steps; ++k) {
+      ASSERT_TRUE(world->isFree(a + (b - a) * (double(k) / steps))) << "edge " << i << " state " << k;
+    }
+  }
+  EXPECT_NEAR(r.cost, length, 1e-9);
+}
+
+struct Case {
+  std::string planner;
+  std::string scenario;
+  bool kinodynamic;
+};
+
+class PlannerSolves : public ::testing::TestWithParam<Case> {};
+
+TEST_P(PlannerSolves, PathIsValidAndStatsAreFilled) {
+  const Case c = GetParam();
+  const Scenario s = shipped(c.scenario);
+  const auto world = makeScenarioWorld(s);
+  PlanProblem problem = problemFor(s, *world, 7);
+  problem.kinodynamic = c.kinodynamic;
+  const PlanResult r = makePlanner(c.planner)->solve(problem);
+  EXPECT_EQ(r.planner, c.planner);
+  EXPECT_EQ(r.kinodynamic, c.kinodynamic);
+  expectValidPath(s, r);
+  if (c.kinodynamic) {
+    const PathCheck check = checkUnicyclePath(r.path, forwardRegion(*s.vehicle, s.dimensions), world.get());
+    EXPECT_TRUE(check.ok) << check.reason;
+    EXPECT_DOUBLE_EQ(r.path.front().heading, problem.start.heading);
+  }
+  const PlanStats& st = r.stats;
+  EXPECT_GT(st.iterations, 0u);
+  EXPECT_EQ(st.vertices, r.tree.size() + 1);
+  EXPECT_GT(st.validity_checks, 0u);
+  EXPECT_EQ(st.iterations_to_first_solution, st.first_directive_connect);
+  EXPECT_GE(st.time_to_first_solution_s, 0.0);
+  EXPECT_LE(st.time_to_first_solution_s, st.time_s);
+  EXPECT_DOUBLE_EQ(st.pous, double(st.vertices - 1) / double(st.iterations));
+  EXPECT_GE(st.first_glance_connect, 0);
+  EXPECT_LE(st.first_glance_connect, st.first_directive_connect);
+  EXPECT_GT(st.coverage, 0.0);
+  EXPECT_LE(st.coverage, 1.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Planners, PlannerSolves,
+    ::testing::Values(Case{"rrt", "demo_2d", false}, Case{"rrt", "stunnel_0.5", false}, Case{"rrt", "demo_2d", true},
+                      Case{"rrt", "stunnel_0.5", true}, Case{"rrtstar", "demo_2d", false},
+                      Case{"rrtstar", "bugtrap_1.0", false}, Case{"rrtstar", "gart_terrain_3d", false},
+                      Case{"rrtstar", "demo_2d", true}, Case{"rrtstar", "stunnel_1.0", true},
+                      Case{"apgd-rrtstar", "demo_2d", false}, Case{"apgd-rrtstar", "stunnel_1.0", false},
+                      Case{"rrrt", "demo_2d", false}, Case{"rrrt", "stunnel_0.5", false}, Case{"rrrt", "gart_terrain_3d", false},
+                      Case{"ddrrt", "demo_2d", false}, Case{"ddrrt", "bugtrap_1.0", false}),
+    [](const auto& info) {
+      std::string n = info.param.planner + "_" + info.param.scenario + (info.param.kinodynamic ? "_unicycle" : "");
+      for (char& ch : n) ch = std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_';
+      return n;
+    });
+
+TEST(Planners, SameSeedSameResultBitForBit) {
+  const Scenario s = shipped("stunnel_0.5");
+  const auto world = makeScenarioWorld(s);
+  for (const std::string name : {"rrt", "rrtstar", "apgd-rrtstar", "rrrt", "ddrrt"}) {
+    SCOPED_TRACE(name);
+    PlanProblem p = problemFor(s, *world, 11);
+    const PlanResult a = makePlanner(name)->solve(p);
+    const PlanResult b = makePlanner(name)->solve(p);
+    ASSERT_TRUE(a.solved);
+    ASSERT_EQ(a.path.size(), b.path.size());
+    for (std::size_t i = 0; i < a.path.size(); ++i) {
+      EXPECT_EQ(a.path[i].position, b.path[i].position);
+      EXPECT_EQ(a.path[i].heading, b.path[i].heading);
+    }
+    EXPECT_EQ(a.stats.iterations, b.stats.iterations);
+    EXPECT_EQ(a.stats.vertices, b.stats.vertices);
+    p.seed = 12;
+    const PlanResult c = makePlanner(name)->solve(p);
+    EXPECT_FALSE(c.path.size() == a.path.size() && c.stats.iterations == a.stats.iterations && c.cost == a.cost);
+  }
+}
+
+TEST(Planners, RrtStarAnytimeImprovesAndRewires) {
+  const Scenario s = shipped("demo_2d");
+  const auto world = makeScenarioWorld(s);
+  PlanProblem p = problemFor(s, *world, 3);
+  const PlanResult first = makePlanner("rrtstar")->solve(p);
+  p.anytime = true;
+  p.max_iterations = 4000;
+  const PlanResult better = makePlanner("rrtstar")->solve(p);
+  expectValidPath(s, better);
+  EXPECT_EQ(better.stats.iterations, 4000u);
+  EXPECT_LT(better.cost, first.cost);
+  EXPECT_GT(better.stats.rewires, 0u);
+  EXPECT_GT(better.stats.por, 0.0);
+  // The straight-line distance bounds every path from below.
+  EXPECT_GT(better.cost, (s.goal - s.start).norm() - s.goal_radius);
+}
+
+TEST(Planners, UnsolvableProblemEndsUnsolvedAtTheLimit) {
+  Scenario s = shipped("demo_2d");
+  // Wall the goal in.
+  for (const auto& [c, size] : {std::pair{Vec3(36, 38.5, 0), Vec3(8, 1, 0)}, std::pair{Vec3(36, 31.5, 0), Vec3(8, 1, 0)},
+                                std::pair{Vec3(32.5, 35, 0), Vec3(1, 8, 0)}, std::pair{Vec3(39.5, 35, 0), Vec3(1, 8, 0)}}) {
+    Obstacle o;
+    o.center = c;
+    o.size = size;
+    s.obstacles.push_back(o);
+  }
+  const auto world = makeScenarioWorld(s);
+  for (const std::string name : {"rrt", "rrtstar", "apgd-rrtstar", "rrrt", "ddrrt"}) {
+    PlanProblem p = problemFor(s, *world, 1);
+    p.max_iterations = 3000;
+    const PlanResult r = makePlanner(name)->solve(p);
+    EXPECT_FALSE(r.solved) << name;
+    EXPECT_FALSE(r.exact) << name;
+    EXPECT_TRUE(r.path.empty()) << name;
+    EXPECT_EQ(r.stats.iterations, 3000u) << name;
+    EXPECT_EQ(r.stats.iterations_to_first_solution, -1) << name;
+  }
+}
+
+TEST(Planners, BadProblemsAreRejected) {
+  const Scenario s = shipped("demo_2d");
+  const auto world = makeScenarioWorld(s);
+  auto expectRejected = [&](const std::string& planner, PlanProblem p, const std::string& words) {
+    try {
+      makePlanner(planner)->solve(p);
+      ADD_FAILURE() << "accepted: " << words;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  for (const std::string name : {"rrt", "rrtstar", "apgd-rrtstar", "rrrt", "ddrrt"}) {
+    PlanProblem p = problemFor(s, *world, 1);
+    p.start.position = Vec3(11, 10, 0);  // inside the first box
+    expectRejected(name, p, "start");
+    p = problemFor(s, *world, 1);
+    p.goal = Vec3(50, 10, 0);
+    expectRejected(name, p, "outside the bounds");
+    p = problemFor(s, *world, 1);
+    p.goal = Vec3(NAN, 3, 0);
+    expectRejected(name, p, "non-finite");
+    p = problemFor(s, *world, 1);
+    p.time_limit_s = 0.0;
+    expectRejected(name, p, "time limit");
+    p = problemFor(s, *world, 1);
+    p.world = nullptr;
+    expectRejected(name, p, "world");
+  }
+  PlanProblem p = problemFor(s, *world, 1);
+  p.kinodynamic = true;
+  p.vehicle.reset();
+  expectRejected("rrt", p, "vehicle");
+  try {
+    makePlanner("a-star");
+    ADD_FAILURE();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("rrtstar"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace ddsnav::planner
