@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <ostream>
 #include <string>
 
 namespace ddsnav::planner {
@@ -57,6 +58,8 @@ struct Case {
   std::string scenario;
   bool kinodynamic;
 };
+
+void PrintTo(const Case& c, std::ostream* os) { *os << c.planner << " on " << c.scenario << (c.kinodynamic ? " (unicycle)" : ""); }
 
 class PlannerSolves : public ::testing::TestWithParam<Case> {};
 
