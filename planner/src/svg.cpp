@@ -96,6 +96,25 @@ void drawView(std::ostringstream& out, const View& v, const SvgScene& scene, boo
     for (const State& st : scene.path) out << v.px(st.position) << ',' << v.py(st.position) << ' ';
     out << "'/>\n";
   }
+  for (const EllipsoidObstacle& e : scene.ellipses) {
+    // The ellipse's outline in this view: the rim of its projection, traced as a polygon.
+    out << "<polygon class='perceived' points='";
+    for (int i = 0; i < 72; ++i) {
+      const double t = 2.0 * M_PI * i / 72.0;
+      const Vec3 local = top ? Vec3(e.semi_axes.x() * std::cos(t), e.semi_axes.y() * std::sin(t), 0.0)
+                             : Vec3(e.semi_axes.x() * std::cos(t), 0.0, e.semi_axes.z() * std::sin(t));
+      const Vec3 p = e.center + e.axes * local;
+      out << v.px(p) << ',' << v.py(p) << ' ';
+    }
+    out << "'/>\n";
+  }
+  for (const SvgPolyline& line : scene.polylines) {
+    if (line.points.empty()) continue;
+    out << "<polyline fill='none' stroke-linejoin='round' stroke='" << line.colour << "' stroke-width='" << line.width_px << "'"
+        << (line.dashed ? " stroke-dasharray='6,4'" : "") << " points='";
+    for (const Vec3& p : line.points) out << v.px(p) << ',' << v.py(p) << ' ';
+    out << "'/>\n";
+  }
   const double goal_r = std::max(2.0, s.goal_radius * v.scale);
   out << "<circle cx='" << v.px(s.goal) << "' cy='" << v.py(s.goal) << "' r='" << goal_r << "' class='goal'/>\n";
   out << "<circle cx='" << v.px(s.start) << "' cy='" << v.py(s.start) << "' r='4' class='start'/>\n";
@@ -143,8 +162,17 @@ std::string renderSvg(const SvgScene& scene, int width_px) {
       << "<style>.bounds{fill:#fff;stroke:#000;stroke-width:1}.obs{fill:#8a8f99;stroke:#444;stroke-width:0.5}"
          ".hill{fill:none;stroke:#8a6d3b;stroke-width:1}.tree{fill:none;stroke:#7fb2e5;stroke-width:0.5}"
          ".path{fill:none;stroke:#d62728;stroke-width:2.5;stroke-linejoin:round}.goal{fill:#2ca02c;fill-opacity:0.5;stroke:#2ca02c}"
-         ".start{fill:#1f77b4}text{font-family:sans-serif;font-size:14px}</style>\n";
+         ".start{fill:#1f77b4}.perceived{fill:#ff7f0e;fill-opacity:0.15;stroke:#ff7f0e;stroke-width:1.2}text{font-family:sans-serif;font-size:14px}</style>\n";
   if (!scene.title.empty()) out << "<text x='" << margin << "' y='18'>" << escapeXml(scene.title) << "</text>\n";
+  // Legend for the labelled overlays, right-aligned in the title row.
+  double legend_x = width_px - margin;
+  for (auto it = scene.polylines.rbegin(); it != scene.polylines.rend(); ++it) {
+    if (it->label.empty()) continue;
+    legend_x -= 8.0 * it->label.size() + 34.0;
+    out << "<line x1='" << legend_x << "' y1='13' x2='" << legend_x + 22 << "' y2='13' stroke='" << it->colour
+        << "' stroke-width='3'" << (it->dashed ? " stroke-dasharray='6,4'" : "") << "/><text x='" << legend_x + 26
+        << "' y='18'>" << escapeXml(it->label) << "</text>\n";
+  }
   drawView(out, top, scene, true);
   if (three_d) drawView(out, side, scene, false);
   out << "</svg>\n";

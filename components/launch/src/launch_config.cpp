@@ -187,6 +187,20 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
     config.variables[key] = value;
   }
 
+  // Variables may use each other (and launch_dir); expand until nothing changes, rejecting cycles.
+  for (int pass = 0;; ++pass) {
+    bool changed = false;
+    for (auto& [key, value] : config.variables) {
+      if (value.find("${") == std::string::npos) continue;
+      const auto node = root["variables"] ? root["variables"][key] : YAML::Node();
+      auto expanded = substitute(value, config.variables, reader, node ? node : root, key);
+      changed = changed || expanded != value;
+      value = std::move(expanded);
+    }
+    if (!changed) break;
+    if (pass > 16) reader.fail(root["variables"], "variables", "variables refer to each other in a cycle");
+  }
+
   const auto list = root["processes"];
   if (!list || !list.IsSequence() || list.size() == 0) reader.fail(root, "processes", "expected a non-empty list of processes");
   std::set<std::string> names;

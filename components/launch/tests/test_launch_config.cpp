@@ -79,3 +79,13 @@ TEST(LaunchConfig, RejectsUnknownDependenciesAndCycles) {
 TEST(LaunchConfig, CommandLineOverridesMustNameDeclaredVariables) {
   EXPECT_THROW(parseLaunchConfig("processes: [{name: a, command: x}]\n", "set.yaml", {{"typo", "1"}}), LaunchError);
 }
+
+TEST(LaunchConfig, VariablesExpandOtherVariablesAndLaunchDir) {
+  const auto config = parseLaunchConfig(R"(
+variables: {root: /data, world: "${root}/w.yaml", here: "${launch_dir}/x"}
+processes: [{name: a, command: x, args: ["${world}", "${here}"]}]
+)", "/etc/ddsnav/set.yaml");
+  EXPECT_EQ(config.processes[0].args, (std::vector<std::string>{"/data/w.yaml", "/etc/ddsnav/x"}));
+  EXPECT_THROW(parseLaunchConfig("variables: {a: \"${b}\", b: \"${a}\"}\nprocesses: [{name: a, command: x}]\n", "s.yaml"),
+               LaunchError);
+}

@@ -1,0 +1,64 @@
+#pragma once
+// Conversions between the bus messages (idl/) and the library types, one place per type, so components
+// stay thin and every library stays free of DDS.
+
+#include <ddsnav/msg/messages.hpp>
+#include <ddsnav/planner/collision_world.hpp>
+#include <ddsnav/planner/planner.hpp>
+#include <ddsnav/tracker/trajectory.hpp>
+#include <ddsnav/tracker/vehicle.hpp>
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace ddsnav::sim {
+struct PointCloud;
+}
+namespace ddsnav::mapper {
+struct Scan;
+}
+namespace ddsnav::perception {
+struct ObstacleEllipsoid;
+}
+
+namespace ddsnav::nodes {
+
+inline constexpr const char* kWorldFrame = "map";
+
+msg::Vec3 toMsg(const Eigen::Vector3d& v);
+Eigen::Vector3d fromMsg(const msg::Vec3& v);
+
+// Sensor data. The world frame is "map" on the bus.
+msg::PointCloud toMsg(const sim::PointCloud& cloud, std::int64_t stamp_ns);
+// Points as float triples (non-finite ones kept: the consumers clean them and count them).
+std::vector<Eigen::Vector3f> pointsOf(const msg::PointCloud& cloud);
+mapper::Scan toScan(const msg::PointCloud& cloud, double max_range);
+
+// Vehicle.
+msg::VehicleState toMsg(const tracker::VehicleState& state, std::int64_t stamp_ns);
+tracker::VehicleState fromMsg(const msg::VehicleState& state);
+msg::VelocityCommand toMsg(const tracker::VehicleCommand& command, std::int64_t stamp_ns);
+tracker::VehicleCommand fromMsg(const msg::VelocityCommand& command);
+
+// Obstacles.
+msg::ObstacleEllipsoid toMsg(const perception::ObstacleEllipsoid& obstacle);
+std::vector<planner::EllipsoidObstacle> toEllipsoidObstacles(const msg::ObstacleArray& array);
+// Removes the obstacles that a robot of `radius` at `position` would touch (ellipsoid grown by the radius
+// along each axis, a slight over-approximation). The robot is physically there, so such an ellipse is
+// perception's over-estimate of an obstacle's extent, not a wall around the robot; keeping it would leave
+// the planner with a start in collision. Returns how many were removed.
+std::size_t clearFootprint(std::vector<planner::EllipsoidObstacle>& obstacles, const Eigen::Vector3d& position, double radius,
+                           int dimensions);
+
+// Planning.
+msg::PathState toMsg(const planner::State& state);
+planner::State fromMsg(const msg::PathState& state);
+msg::Path toMsg(const planner::PlanResult& result, std::uint32_t request_id, std::int64_t stamp_ns);
+std::vector<planner::State> statesOf(const msg::Path& path);
+// Samples only: the analytic curve stays with the tracker.
+msg::Trajectory toMsg(const tracker::Trajectory& trajectory, std::uint32_t request_id, std::int64_t start_ns);
+
+}  // namespace ddsnav::nodes

@@ -1,0 +1,211 @@
+#include "ddsnav/nodes/convert.hpp"
+
+#include <ddsnav/mapper/occupancy_mapper.hpp>
+#include <ddsnav/perception/obstacle.hpp>
+#include <ddsnav/sim/range_sensor.hpp>
+
+#include <cmath>
+
+namespace ddsnav::nodes {
+
+msg::Vec3 toMsg(const Eigen::Vector3d& v) {
+  msg::Vec3 out;
+  out.x(v.x());
+  out.y(v.y());
+  out.z(v.z());
+  return out;
+}
+
+Eigen::Vector3d fromMsg(const msg::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+namespace {
+msg::Header header(std::int64_t stamp_ns) {
+  msg::Header h;
+  h.stamp_ns(stamp_ns);
+  h.frame_id(kWorldFrame);
+  return h;
+}
+}  // namespace
+
+msg::PointCloud toMsg(const sim::PointCloud& cloud, std::int64_t stamp_ns) {
+  msg::PointCloud out;
+  out.header(header(stamp_ns));
+  out.sensor_origin(toMsg(cloud.origin));
+  auto& xyz = out.xyz();
+  xyz.resize(cloud.points.size() * 3);
+  for (size_t i = 0; i < cloud.points.size(); ++i) {
+    xyz[3 * i + 0] = cloud.points[i].x();
+    xyz[3 * i + 1] = cloud.points[i].y();
+    xyz[3 * i + 2] = cloud.points[i].z();
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3f> pointsOf(const msg::PointCloud& cloud) {
+  const auto& xyz = cloud.xyz();
+  std::vector<Eigen::Vector3f> points(xyz.size() / 3);
+  for (size_t i = 0; i < points.size(); ++i) points[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+  return points;
+}
+
+mapper::Scan toScan(const msg::PointCloud& cloud, double max_range) {
+  mapper::Scan scan;
+  const auto& xyz = cloud.xyz();
+  scan.points.resize(xyz.size() / 3);
+  for (size_t i = 0; i < scan.points.size(); ++i) scan.points[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+  const auto& o = cloud.sensor_origin();
+  scan.origin = {static_cast<float>(o.x()), static_cast<float>(o.y()), static_cast<float>(o.z())};
+  scan.max_range = max_range;
+  return scan;
+}
+
+msg::VehicleState toMsg(const tracker::VehicleState& state, std::int64_t stamp_ns) {
+  msg::VehicleState out;
+  out.header(header(stamp_ns));
+  out.position(toMsg(state.position));
+  out.heading(state.heading);
+  out.velocity(toMsg({state.v * std::cos(state.heading), state.v * std::sin(state.heading), state.vz}));
+  out.yaw_rate(state.omega);
+  return out;
+}
+
+tracker::VehicleState fromMsg(const msg::VehicleState& state) {
+  tracker::VehicleState out;
+  out.position = fromMsg(state.position());
+  out.heading = state.heading();
+  const auto& v = state.velocity();
+  out.v = std::cos(state.heading()) * v.x() + std::sin(state.heading()) * v.y();
+  out.vz = v.z();
+  out.omega = state.yaw_rate();
+  out.time = static_cast<double>(state.header().stamp_ns()) * 1e-9;
+  return out;
+}
+
+msg::VelocityCommand toMsg(const tracker::VehicleCommand& command, std::int64_t stamp_ns) {
+  msg::VelocityCommand out;
+  out.stamp_ns(stamp_ns);
+  out.v(command.v);
+  out.omega(command.omega);
+  out.vz(command.vz);
+  return out;
+}
+
+tracker::VehicleCommand fromMsg(const msg::VelocityCommand& command) {
+  return {command.v(), command.omega(), command.vz()};
+}
+
+msg::ObstacleEllipsoid toMsg(const perception::ObstacleEllipsoid& obstacle) {
+  msg::ObstacleEllipsoid out;
+  out.id(static_cast<std::uint32_t>(obstacle.id));
+  out.centre(toMsg(obstacle.center));
+  out.semi_axes(toMsg(obstacle.semi_axes));
+  msg::Quaternion q;
+  q.x(obstacle.orientation.x());
+  q.y(obstacle.orientation.y());
+  q.z(obstacle.orientation.z());
+  q.w(obstacle.orientation.w());
+  out.orientation(q);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out.covariance()[3 * r + c] = obstacle.covariance(r, c);
+  out.probability_bound(obstacle.probability);
+  out.point_count(static_cast<std::uint32_t>(obstacle.point_count));
+  return out;
+}
+
+std::vector<planner::EllipsoidObstacle> toEllipsoidObstacles(const msg::ObstacleArray& array) {
+  std::vector<planner::EllipsoidObstacle> out;
+  out.reserve(array.obstacles().size());
+  for (const auto& o : array.obstacles()) {
+    planner::EllipsoidObstacle e;
+    e.id = static_cast<int>(o.id());
+    e.center = fromMsg(o.centre());
+    e.semi_axes = fromMsg(o.semi_axes());
+    const auto& q = o.orientation();
+    Eigen::Quaterniond rotation(q.w(), q.x(), q.y(), q.z());
+    // A zero quaternion would make a NaN rotation: treat it as "axis aligned" rather than poison the world.
+    e.axes = rotation.norm() > 1e-9 ? rotation.normalized().toRotationMatrix() : Eigen::Matrix3d::Identity();
+    out.push_back(e);
+  }
+  return out;
+}
+
+std::size_t clearFootprint(std::vector<planner::EllipsoidObstacle>& obstacles, const Eigen::Vector3d& position, double radius,
+                           int dimensions) {
+  const auto before = obstacles.size();
+  std::erase_if(obstacles, [&](const planner::EllipsoidObstacle& e) {
+    const Eigen::Vector3d local = e.axes.transpose() * (position - e.center);
+    double sum = 0.0;
+    for (int i = 0; i < dimensions; ++i) {
+      const double axis = e.semi_axes[i] + radius;
+      sum += (local[i] / axis) * (local[i] / axis);
+    }
+    return sum <= 1.0;
+  });
+  return before - obstacles.size();
+}
+
+msg::PathState toMsg(const planner::State& state) {
+  msg::PathState out;
+  out.x(state.position.x());
+  out.y(state.position.y());
+  out.z(state.position.z());
+  out.heading(state.heading);
+  return out;
+}
+
+planner::State fromMsg(const msg::PathState& state) {
+  return {{state.x(), state.y(), state.z()}, state.heading()};
+}
+
+msg::Path toMsg(const planner::PlanResult& result, std::uint32_t request_id, std::int64_t stamp_ns) {
+  msg::Path out;
+  out.header(header(stamp_ns));
+  out.request_id(request_id);
+  out.planner(result.planner);
+  out.solved(result.solved);
+  out.exact(result.exact);
+  for (const auto& s : result.path) out.states().push_back(toMsg(s));
+  out.cost(std::isfinite(result.cost) ? result.cost : -1.0);
+  auto& st = out.statistics();
+  const auto& in = result.stats;
+  st.iterations(in.iterations);
+  st.vertices(in.vertices);
+  st.validity_checks(in.validity_checks);
+  st.rewires(in.rewires);
+  st.time_s(in.time_s);
+  st.time_to_first_solution_s(in.time_to_first_solution_s);
+  st.iterations_to_first_solution(in.iterations_to_first_solution);
+  st.first_directive_connect(in.first_directive_connect);
+  st.first_glance_connect(in.first_glance_connect);
+  st.pous(in.pous);
+  st.por(in.por);
+  st.coverage(in.coverage);
+  st.growth(in.growth);
+  return out;
+}
+
+std::vector<planner::State> statesOf(const msg::Path& path) {
+  std::vector<planner::State> out;
+  out.reserve(path.states().size());
+  for (const auto& s : path.states()) out.push_back(fromMsg(s));
+  return out;
+}
+
+msg::Trajectory toMsg(const tracker::Trajectory& trajectory, std::uint32_t request_id, std::int64_t start_ns) {
+  msg::Trajectory out;
+  out.header(header(start_ns));
+  out.request_id(request_id);
+  out.samples().reserve(trajectory.samples.size());
+  for (const auto& s : trajectory.samples) {
+    msg::TrajectorySample m;
+    m.time_from_start_ns(static_cast<std::int64_t>(std::llround(s.time * 1e9)));
+    m.position(toMsg(s.position));
+    m.heading(s.heading);
+    m.velocity(toMsg(s.velocity()));
+    m.yaw_rate(s.yaw_rate);
+    out.samples().push_back(std::move(m));
+  }
+  return out;
+}
+
+}  // namespace ddsnav::nodes

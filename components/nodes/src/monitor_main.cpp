@@ -1,0 +1,170 @@
+// ddsnav-monitor: watches a running pipeline and writes what happened as a report a person can open:
+// out_dir/report.html (the world, the perceived ellipses, every planned path, the trajectory and the
+// driven track, with the numbers), report.svg and summary.json. Ends with status 0 when the tracker
+// reports the goal reached, 1 when timeout_s passes first.
+
+#include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/node_context.hpp"
+
+#include <ddsnav/planner/svg.hpp>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <optional>
+
+using namespace ddsnav;
+
+namespace {
+
+struct Observations {
+  std::vector<Eigen::Vector3d> track;
+  std::optional<msg::ObstacleArray> obstacles;
+  std::vector<msg::Path> paths;
+  std::optional<msg::Trajectory> trajectory;
+  std::optional<msg::TrackingStatus> status;
+  std::optional<msg::OccupancyMap> map;
+  std::size_t clouds = 0;
+  std::size_t cloud_points = 0;
+};
+
+void writeFile(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return nodes::runNode(argc, argv, "monitor", "Watches the pipeline and writes an HTML/SVG report.", [](nodes::NodeContext& ctx) {
+    const auto scenario = planner::loadScenario(ctx.requiredString("scenario"));
+    const std::filesystem::path out_dir = ctx.paramString("out_dir", "out/demo");
+    const double timeout = ctx.paramDouble("timeout_s", 120.0);
+    if (!(timeout > 0)) throw std::invalid_argument("parameter timeout_s: expected > 0");
+    std::filesystem::create_directories(out_dir);
+
+    std::mutex mutex;
+    Observations seen;
+    auto& bus = ctx.bus();
+    auto s1 = bus.subscribe<msg::VehicleState>("vehicle/state", bus::Qos::sensorData(), [&](const msg::VehicleState& m) {
+      std::lock_guard lock(mutex);
+      const auto p = nodes::fromMsg(m.position());
+      if (seen.track.empty() || (seen.track.back() - p).norm() > 0.05) seen.track.push_back(p);
+    });
+    auto s2 = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& m) {
+      std::lock_guard lock(mutex);
+      seen.obstacles = m;
+    });
+    auto s3 = bus.subscribe<msg::Path>("planning/path", bus::Qos::state(), [&](const msg::Path& m) {
+      std::lock_guard lock(mutex);
+      seen.paths.push_back(m);
+    });
+    auto s4 = bus.subscribe<msg::Trajectory>("control/trajectory", bus::Qos::state(), [&](const msg::Trajectory& m) {
+      std::lock_guard lock(mutex);
+      seen.trajectory = m;
+    });
+    auto s5 = bus.subscribe<msg::TrackingStatus>("control/tracking_status", bus::Qos::sensorData(), [&](const msg::TrackingStatus& m) {
+      std::lock_guard lock(mutex);
+      seen.status = m;
+    });
+    auto s6 = bus.subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [&](const msg::OccupancyMap& m) {
+      std::lock_guard lock(mutex);
+      seen.map = m;
+    });
+    auto s7 = bus.subscribe<msg::PointCloud>("sensors/points", bus::Qos::sensorData(), [&](const msg::PointCloud& m) {
+      std::lock_guard lock(mutex);
+      ++seen.clouds;
+      seen.cloud_points += m.xyz().size() / 3;
+    });
+
+    ctx.ready();
+    const auto started = std::chrono::steady_clock::now();
+    auto last_log = started;
+    bool reached = false;
+    while (ctx.sleepFor(std::chrono::milliseconds(100))) {
+      std::lock_guard lock(mutex);
+      reached = seen.status && seen.status->goal_reached();
+      const auto now = std::chrono::steady_clock::now();
+      if (reached || now - started > std::chrono::duration<double>(timeout)) break;
+      if (now - last_log > std::chrono::seconds(3)) {
+        last_log = now;
+        spdlog::info("{:.0f} s: {} clouds, {} obstacles, {} paths, progress {:.0f} %, cross-track error {:.3f} m",
+                     std::chrono::duration<double>(now - started).count(), seen.clouds,
+                     seen.obstacles ? seen.obstacles->obstacles().size() : 0, seen.paths.size(),
+                     seen.status ? 100.0 * seen.status->progress() : 0.0, seen.status ? seen.status->cross_track_error() : 0.0);
+      }
+    }
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    s1 = s2 = s3 = s4 = s5 = s6 = s7 = bus::Subscription();
+
+    // The picture.
+    planner::SvgScene scene;
+    scene.scenario = &scenario;
+    scene.title = scenario.name + (reached ? ": goal reached" : ": goal NOT reached");
+    if (seen.obstacles) scene.ellipses = nodes::toEllipsoidObstacles(*seen.obstacles);
+    for (std::size_t i = 0; i < seen.paths.size(); ++i) {
+      planner::SvgPolyline line;
+      for (const auto& s : seen.paths[i].states()) line.points.emplace_back(s.x(), s.y(), s.z());
+      line.colour = "#d62728";
+      line.width_px = i + 1 == seen.paths.size() ? 2.0 : 1.0;
+      line.dashed = i + 1 != seen.paths.size();
+      line.label = i + 1 == seen.paths.size() ? "planned path" : "";
+      scene.polylines.push_back(std::move(line));
+    }
+    if (seen.trajectory) {
+      planner::SvgPolyline line;
+      for (const auto& s : seen.trajectory->samples()) line.points.push_back(nodes::fromMsg(s.position()));
+      line.colour = "#2ca02c";
+      line.width_px = 2.0;
+      line.label = "smoothed trajectory";
+      scene.polylines.push_back(std::move(line));
+    }
+    scene.polylines.push_back({seen.track, "#1f77b4", 2.0, true, "driven track"});
+    const std::string svg = planner::renderSvg(scene, 900);
+
+    nlohmann::json summary;
+    summary["scenario"] = scenario.name;
+    summary["goal_reached"] = reached;
+    summary["elapsed_s"] = elapsed;
+    summary["clouds"] = seen.clouds;
+    summary["cloud_points"] = seen.cloud_points;
+    summary["obstacles"] = seen.obstacles ? seen.obstacles->obstacles().size() : 0;
+    summary["plans"] = seen.paths.size();
+    if (!seen.paths.empty()) {
+      const auto& p = seen.paths.back();
+      summary["planner"] = p.planner();
+      summary["path_cost_m"] = p.cost();
+      summary["plan_time_s"] = p.statistics().time_s();
+      summary["plan_iterations"] = p.statistics().iterations();
+    }
+    if (seen.trajectory) summary["trajectory_samples"] = seen.trajectory->samples().size();
+    if (seen.status) {
+      summary["mean_cross_track_error_m"] = seen.status->mean_cross_track_error();
+      summary["max_cross_track_error_m"] = seen.status->max_cross_track_error();
+      summary["progress"] = seen.status->progress();
+    }
+    if (seen.map) {
+      summary["map_bytes"] = seen.map->octree().size();
+      summary["map_resolution_m"] = seen.map->resolution();
+    }
+    writeFile(out_dir / "summary.json", summary.dump(2) + "\n");
+    writeFile(out_dir / "report.svg", svg);
+    std::string rows;
+    for (const auto& [key, value] : summary.items()) rows += "<tr><th>" + key + "</th><td>" + value.dump() + "</td></tr>\n";
+    writeFile(out_dir / "report.html",
+              "<!doctype html><html><head><meta charset='utf-8'><title>ddsnav demo: " + scenario.name +
+                  "</title><style>body{font-family:sans-serif;margin:2em}th{text-align:left;padding-right:2em}"
+                  "</style></head><body><h1>ddsnav demo: " + scenario.name + "</h1>\n" + svg +
+                  "<p>Grey: the world's true obstacles. Orange: the ellipses perception reported (probability bound "
+                  "from the obstacle message). Red: planned paths (dashed: replaced by a replan).</p>\n<table>\n" + rows +
+                  "</table></body></html>\n");
+    spdlog::info("{}: {} after {:.1f} s; report in {}", scenario.name, reached ? "goal reached" : "goal NOT reached", elapsed,
+                 (out_dir / "report.html").string());
+    std::printf("%s\n", summary.dump().c_str());
+    return reached ? 0 : 1;
+  });
+}

@@ -1,0 +1,79 @@
+// ddsnav-perception: sensors/points -> perception/obstacles. Each cloud is clustered into obstacle
+// ellipses/ellipsoids holding the obstacle with probability p, fused with the obstacles already tracked,
+// and the whole tracked set is published (transient local, so a late planner gets it).
+
+#include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/node_context.hpp"
+
+#include <ddsnav/perception/obstacle_detector.hpp>
+#include <ddsnav/perception/obstacle_tracker.hpp>
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+
+using namespace ddsnav;
+
+int main(int argc, char** argv) {
+  return nodes::runNode(argc, argv, "perception", "Turns point clouds into tracked obstacle uncertainty ellipsoids.",
+                        [](nodes::NodeContext& ctx) {
+    perception::DetectorParams detector_params;
+    detector_params.voxel_size = ctx.paramDouble("voxel_size", detector_params.voxel_size);
+    detector_params.cluster_tolerance = ctx.paramDouble("cluster_tolerance", detector_params.cluster_tolerance);
+    detector_params.min_cluster_size = static_cast<std::size_t>(ctx.paramInt("min_cluster_size", 3));
+    detector_params.ground_z = ctx.paramDouble("ground_z", detector_params.ground_z);
+    detector_params.probability = ctx.paramDouble("probability", detector_params.probability);
+    detector_params.range_noise_sigma = ctx.paramDouble("range_noise_sigma", detector_params.range_noise_sigma);
+    detector_params.max_range = ctx.paramDouble("max_range", detector_params.max_range);
+    detector_params.beam_spacing = ctx.paramDouble("beam_spacing_rad", 2.0 * M_PI / 720.0);
+    detector_params.validate();
+    perception::TrackerParams tracker_params;
+    tracker_params.gate_probability = ctx.paramDouble("gate_probability", tracker_params.gate_probability);
+    tracker_params.validate();
+    const std::string world_frame = ctx.paramString("frame", nodes::kWorldFrame);
+
+    perception::ObstacleDetector detector(detector_params);
+    perception::ObstacleTracker obstacle_tracker(tracker_params);
+    auto obstacles = ctx.bus().publisher<msg::ObstacleArray>("perception/obstacles", bus::Qos::state());
+
+    // Runs on the bus thread; one subscription's callbacks never overlap, so the detector needs no lock.
+    auto clouds = ctx.bus().subscribe<msg::PointCloud>("sensors/points", bus::Qos::sensorData(), [&](const msg::PointCloud& cloud) {
+      if (cloud.header().frame_id() != world_frame) {
+        spdlog::warn("sensors/points: skipping a cloud in frame '{}' (expected '{}')", cloud.header().frame_id(), world_frame);
+        return;
+      }
+      if (cloud.xyz().size() % 3 != 0) {
+        spdlog::warn("sensors/points: skipping a cloud whose xyz has {} values (not a multiple of 3)", cloud.xyz().size());
+        return;
+      }
+      const auto origin = nodes::fromMsg(cloud.sensor_origin());
+      if (!origin.allFinite()) {
+        spdlog::warn("sensors/points: skipping a cloud with a non-finite sensor origin");
+        return;
+      }
+      try {
+        const auto points = nodes::pointsOf(cloud);
+        const auto detections = detector.detect(points, origin);
+        const auto& tracked = obstacle_tracker.update(detections);
+        msg::ObstacleArray out;
+        out.header(cloud.header());
+        out.planar(tracked.empty() ? std::all_of(points.begin(), points.end(), [](const Eigen::Vector3f& p) { return !(p.z() != 0.0f); })
+                                   : tracked.front().dimensions == 2);
+        for (const auto& o : tracked) out.obstacles().push_back(nodes::toMsg(o));
+        obstacles.publish(out);
+        const auto& stats = detector.stats();
+        spdlog::debug("cloud: {} points, {} dropped, {} voxels, {} detections, {} tracked ({} new)", stats.input_points,
+                      stats.dropped_invalid, stats.voxels, detections.size(), tracked.size(),
+                      obstacle_tracker.lastUpdate().created);
+      } catch (const std::exception& e) {
+        spdlog::warn("sensors/points: skipping a cloud: {}", e.what());
+      }
+    });
+
+    ctx.ready();
+    while (ctx.sleepFor(std::chrono::milliseconds(200))) {
+    }
+    return 0;
+  });
+}

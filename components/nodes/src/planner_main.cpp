@@ -1,0 +1,120 @@
+// ddsnav-planner: planning/request -> planning/path. Plans on the newest world it has heard of:
+// perception/obstacles (ellipse/ellipsoid world, the default), map/octomap (OctoMap world) or the
+// scenario's exact geometry (ground truth, for comparisons). Bounds, robot radius and vehicle limits come
+// from the scenario file.
+
+#include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/node_context.hpp"
+
+#include <ddsnav/planner/planner.hpp>
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <mutex>
+#include <optional>
+
+using namespace ddsnav;
+
+namespace {
+
+enum class WorldSource { Obstacles, Map, Scenario };
+
+WorldSource parseWorldSource(const std::string& text) {
+  if (text == "obstacles") return WorldSource::Obstacles;
+  if (text == "map") return WorldSource::Map;
+  if (text == "scenario") return WorldSource::Scenario;
+  throw std::invalid_argument("parameter world: '" + text + "' is not one of obstacles, map, scenario");
+}
+
+bool finite(const msg::PathState& s) {
+  return std::isfinite(s.x()) && std::isfinite(s.y()) && std::isfinite(s.z()) && std::isfinite(s.heading());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return nodes::runNode(argc, argv, "planner", "Answers plan requests with sampling-based planners.", [](nodes::NodeContext& ctx) {
+    const auto scenario = planner::loadScenario(ctx.requiredString("scenario"));
+    const auto source = parseWorldSource(ctx.paramString("world", "obstacles"));
+    const bool kinodynamic = ctx.paramBool("kinodynamic", scenario.vehicle.has_value());
+    const double max_budget = ctx.paramDouble("max_time_budget_s", 30.0);
+    if (kinodynamic && !scenario.vehicle) throw std::invalid_argument("parameter kinodynamic: the scenario has no vehicle block");
+
+    std::mutex mutex;
+    std::optional<msg::ObstacleArray> latest_obstacles;
+    std::optional<msg::OccupancyMap> latest_map;
+    auto obstacles = ctx.bus().subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& a) {
+      std::lock_guard lock(mutex);
+      latest_obstacles = a;
+    });
+    auto maps = ctx.bus().subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [&](const msg::OccupancyMap& m) {
+      std::lock_guard lock(mutex);
+      latest_map = m;
+    });
+    auto paths = ctx.bus().publisher<msg::Path>("planning/path", bus::Qos::state());
+
+    auto makeWorld = [&](const Eigen::Vector3d& start) -> std::unique_ptr<planner::CollisionWorld> {
+      std::lock_guard lock(mutex);
+      switch (source) {
+        case WorldSource::Scenario:
+          return planner::makeScenarioWorld(scenario);
+        case WorldSource::Obstacles: {
+          auto ellipses = latest_obstacles ? nodes::toEllipsoidObstacles(*latest_obstacles) : std::vector<planner::EllipsoidObstacle>{};
+          if (const auto cleared = nodes::clearFootprint(ellipses, start, scenario.robot_radius, scenario.dimensions))
+            spdlog::info("ignoring {} obstacle ellipse(s) that cover the start", cleared);
+          return planner::makeEllipsoidWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius,
+                                             std::move(ellipses));
+        }
+        case WorldSource::Map:
+          if (!latest_map) return nullptr;
+          return planner::makeOctoMapWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius,
+                                           latest_map->octree());
+      }
+      return nullptr;
+    };
+
+    auto answer = [&](const msg::PlanRequest& request) {
+      const auto fail = [&](const std::string& why) {
+        spdlog::warn("planning/request {}: {}", request.request_id(), why);
+        planner::PlanResult failed;
+        failed.planner = request.planner();
+        paths.publish(nodes::toMsg(failed, request.request_id(), ctx.nowNs()));
+      };
+      if (!finite(request.start()) || !finite(request.goal()) || !std::isfinite(request.goal_radius()) ||
+          !(request.goal_radius() > 0) || !(request.time_budget_s() > 0) || !std::isfinite(request.time_budget_s()))
+        return fail("non-finite or non-positive numbers in the request");
+      std::unique_ptr<planner::Planner> algorithm;
+      try {
+        algorithm = planner::makePlanner(request.planner());
+      } catch (const std::exception& e) {
+        return fail(e.what());
+      }
+      auto world = makeWorld(nodes::fromMsg(request.start()).position);
+      if (!world) return fail("no map/octomap received yet");
+      planner::PlanProblem problem;
+      problem.world = world.get();
+      problem.start = nodes::fromMsg(request.start());
+      problem.goal = nodes::fromMsg(request.goal()).position;
+      problem.goal_radius = request.goal_radius();
+      problem.vehicle = scenario.vehicle;
+      problem.kinodynamic = kinodynamic;
+      problem.seed = request.seed();
+      problem.time_limit_s = std::min(request.time_budget_s(), max_budget);
+      try {
+        const auto result = algorithm->solve(problem);
+        spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result.planner,
+                     result.solved ? "solved" : "failed", result.stats.time_s, result.stats.iterations, result.cost);
+        paths.publish(nodes::toMsg(result, request.request_id(), ctx.nowNs()));
+      } catch (const std::exception& e) {
+        fail(e.what());
+      }
+    };
+    auto requests = ctx.bus().subscribe<msg::PlanRequest>("planning/request", bus::Qos::commands(), answer);
+
+    ctx.ready();
+    while (ctx.sleepFor(std::chrono::milliseconds(200))) {
+    }
+    return 0;
+  });
+}

@@ -1,0 +1,187 @@
+// ddsnav-tracker: drives the vehicle to the scenario's goal. Asks for a plan (planning/request), smooths
+// the answer into a trajectory (control/trajectory), follows it with the trajectory controller
+// (control/cmd_vel, control/tracking_status), and asks again from the current state when the vehicle
+// deviates or newly perceived obstacles block the rest of the trajectory.
+
+#include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/node_context.hpp"
+
+#include <ddsnav/tracker/smoother.hpp>
+#include <ddsnav/tracker/tracker.hpp>
+
+#include <spdlog/spdlog.h>
+
+#include <mutex>
+#include <optional>
+
+using namespace ddsnav;
+
+int main(int argc, char** argv) {
+  return nodes::runNode(argc, argv, "tracker", "Smooths planned paths and drives the vehicle along them.", [](nodes::NodeContext& ctx) {
+    const auto scenario = planner::loadScenario(ctx.requiredString("scenario"));
+    if (!scenario.vehicle) throw std::invalid_argument(scenario.source + ": the tracker needs a 'vehicle' block");
+    const auto limits = *scenario.vehicle;
+    const std::string planner_name = ctx.paramString("planner", "gart");
+    const double control_rate = ctx.paramDouble("control_rate_hz", 20.0);
+    const double time_budget = ctx.paramDouble("time_budget_s", 5.0);
+    const auto seed = static_cast<std::uint64_t>(ctx.paramInt("seed", 1));
+    const int max_attempts = static_cast<int>(ctx.paramInt("max_plan_attempts", 5));
+    const bool wait_for_obstacles = ctx.paramBool("wait_for_obstacles", true);
+    const double replan_check_period = ctx.paramDouble("replan_check_period_s", 0.5);
+    tracker::TrackerConfig tracker_config;
+    tracker_config.replan_deviation = ctx.paramDouble("replan_deviation", tracker_config.replan_deviation);
+    tracker_config.replan_horizon = ctx.paramDouble("replan_horizon_s", 8.0);
+    tracker::SmootherConfig smoother_config;
+    smoother_config.sample_dt = ctx.paramDouble("sample_dt", smoother_config.sample_dt);
+    if (!(control_rate > 0 && control_rate <= 1000)) throw std::invalid_argument("parameter control_rate_hz: expected (0, 1000]");
+    if (!(time_budget > 0)) throw std::invalid_argument("parameter time_budget_s: expected > 0");
+
+    std::mutex mutex;
+    std::optional<tracker::VehicleState> vehicle;
+    std::optional<msg::ObstacleArray> obstacles;
+    std::optional<msg::Path> new_path;
+    auto state_sub = ctx.bus().subscribe<msg::VehicleState>("vehicle/state", bus::Qos::sensorData(), [&](const msg::VehicleState& s) {
+      std::lock_guard lock(mutex);
+      vehicle = nodes::fromMsg(s);
+    });
+    auto obstacle_sub = ctx.bus().subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& a) {
+      std::lock_guard lock(mutex);
+      obstacles = a;
+    });
+    auto path_sub = ctx.bus().subscribe<msg::Path>("planning/path", bus::Qos::state(), [&](const msg::Path& p) {
+      std::lock_guard lock(mutex);
+      new_path = p;
+    });
+    auto requests = ctx.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
+    auto trajectories = ctx.bus().publisher<msg::Trajectory>("control/trajectory", bus::Qos::state());
+    auto commands = ctx.bus().publisher<msg::VelocityCommand>("control/cmd_vel", bus::Qos::commands());
+    auto statuses = ctx.bus().publisher<msg::TrackingStatus>("control/tracking_status", bus::Qos::sensorData());
+
+    // The same world the planner plans on (planner_main.cpp), seen from the vehicle's position.
+    auto currentWorld = [&](const Eigen::Vector3d& vehicle_position) {
+      std::lock_guard lock(mutex);
+      auto ellipses = obstacles ? nodes::toEllipsoidObstacles(*obstacles) : std::vector<planner::EllipsoidObstacle>{};
+      nodes::clearFootprint(ellipses, vehicle_position, scenario.robot_radius, scenario.dimensions);
+      return planner::makeEllipsoidWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius,
+                                         std::move(ellipses));
+    };
+
+    std::uint32_t request_id = 0;
+    int attempts = 0;
+    std::optional<std::int64_t> pending_since;
+    auto requestPlan = [&](const tracker::VehicleState& from, const std::string& why) {
+      msg::PlanRequest request;
+      msg::Header header;
+      header.stamp_ns(ctx.nowNs());
+      header.frame_id(nodes::kWorldFrame);
+      request.header(header);
+      request.request_id(++request_id);
+      request.start(nodes::toMsg(planner::State{from.position, from.heading}));
+      request.goal(nodes::toMsg(planner::State{scenario.goal, 0.0}));
+      request.goal_radius(scenario.goal_radius);
+      request.planner(planner_name);
+      request.time_budget_s(time_budget);
+      request.seed(seed + request_id - 1);
+      ++attempts;
+      pending_since = ctx.nowNs();
+      spdlog::info("requesting plan {} with {} ({})", request_id, planner_name, why);
+      requests.publish(request);
+    };
+    auto stop = [&] { commands.publish(nodes::toMsg(tracker::VehicleCommand{}, ctx.nowNs())); };
+
+    // Wait for the vehicle (and the first obstacles) before the first request; readiness first, so the
+    // launcher can start whoever waits for us.
+    ctx.ready();
+    if (!requests.waitForSubscribers(1, std::chrono::seconds(20))) spdlog::warn("no planner subscribed to planning/request yet");
+    std::optional<tracker::TrajectoryTracker> follower;
+    bool goal_reached = false;
+    const double dt = 1.0 / control_rate;
+    const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / control_rate));
+    double since_replan_check = 0.0;
+    msg::TrackingStatus last_status;
+    while (ctx.sleepFor(period)) {
+      std::optional<tracker::VehicleState> state;
+      std::optional<msg::Path> path;
+      bool have_obstacles = false;
+      {
+        std::lock_guard lock(mutex);
+        state = vehicle;
+        path.swap(new_path);
+        have_obstacles = obstacles.has_value();
+      }
+      if (goal_reached) {
+        statuses.publish(last_status);  // keep saying so: the status topic is best effort
+        continue;
+      }
+      if (!state) continue;
+      if (request_id == 0) {
+        if (!have_obstacles && wait_for_obstacles) continue;
+        requestPlan(*state, "start");
+        continue;
+      }
+      if (path && path->request_id() == request_id) {
+        pending_since.reset();
+        if (!path->solved()) {
+          spdlog::warn("plan {} failed", request_id);
+          if (attempts >= max_attempts) throw std::runtime_error("no plan after " + std::to_string(attempts) + " attempts");
+          requestPlan(*state, "previous attempt failed");
+          continue;
+        }
+        try {
+          auto world = currentWorld(state->position);
+          smoother_config.initial_heading = state->heading;
+          auto trajectory = tracker::smoothPath(nodes::statesOf(*path), *world, limits, smoother_config);
+          spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m", request_id,
+                       trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
+                       trajectory.report.min_clearance);
+          trajectories.publish(nodes::toMsg(trajectory, request_id, ctx.nowNs()));
+          follower.emplace(std::move(trajectory), limits, tracker_config);
+          attempts = 0;
+        } catch (const std::exception& e) {
+          spdlog::warn("cannot smooth plan {}: {}", request_id, e.what());
+          if (attempts >= max_attempts) throw std::runtime_error("no drivable trajectory after " + std::to_string(attempts) + " attempts");
+          requestPlan(*state, "smoothing failed");
+          continue;
+        }
+      }
+      if (!follower) {
+        // A request may be lost while the planner restarts: ask again after twice its budget.
+        if (pending_since && (ctx.nowNs() - *pending_since) * 1e-9 > 2 * time_budget + 2) requestPlan(*state, "no answer");
+        continue;
+      }
+      const auto command = follower->update(*state, dt);
+      const auto& status = follower->status();
+      commands.publish(nodes::toMsg(command, ctx.nowNs()));
+      msg::TrackingStatus out;
+      out.stamp_ns(ctx.nowNs());
+      out.request_id(request_id);
+      out.cross_track_error(status.cross_track_error);
+      out.along_track_error(status.along_track_error);
+      out.mean_cross_track_error(status.mean_cross_track_error);
+      out.max_cross_track_error(status.max_cross_track_error);
+      out.progress(status.progress);
+      out.goal_reached(status.goal_reached);
+      statuses.publish(out);
+      last_status = out;
+      if (status.goal_reached) {
+        goal_reached = true;
+        stop();
+        spdlog::info("goal reached: mean cross-track error {:.3f} m, max {:.3f} m", status.mean_cross_track_error,
+                     status.max_cross_track_error);
+        continue;
+      }
+      since_replan_check += dt;
+      if (since_replan_check >= replan_check_period) {
+        since_replan_check = 0.0;
+        const auto decision = follower->checkReplan(*currentWorld(state->position));
+        if (decision.needed) {
+          stop();
+          follower.reset();
+          requestPlan(*state, decision.message);
+        }
+      }
+    }
+    stop();
+    return 0;
+  });
+}
