@@ -1,0 +1,343 @@
+// ddsnav-bench-bus: ping-pong round-trip time and one-way stream throughput between two processes, for
+// 1 KB / 1 MB / 8 MB samples, over Fast DDS (shared memory and UDP), Cyclone DDS and across vendors,
+// each through the ddsnav bus AND through the vendor's own API in the same run, so that the bus's cost
+// is a ratio. The second process is this executable started again with --role pong.
+//
+//   ddsnav-bench-bus                                  # everything (~2 min on 2 cores)
+//   ddsnav-bench-bus --pairs cyclone --sizes 1k --impls bus,native
+#include "link.hpp"
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+using namespace ddsnav::bench;
+using Clock = std::chrono::steady_clock;  // CLOCK_MONOTONIC: comparable between processes on one host
+
+namespace {
+
+std::int64_t monoNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+}
+
+std::unique_ptr<Link> makeLink(const std::string& impl, const LinkOptions& o) {
+  if (impl == "bus") return makeBusLink(o);
+  return o.cyclone ? makeNativeCycloneLink(o) : makeNativeFastLink(o);
+}
+
+// ---- the second process -------------------------------------------------------------------------
+
+int runPong(const std::string& impl, bool cyclone, bool shm, std::size_t size, int domain, long stream_count) {
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  std::mutex m;
+  std::condition_variable cv;
+  long received = 0;
+  std::int64_t bytes = 0, last_ns = 0;
+  std::atomic<Link*> self{nullptr};
+  LinkOptions o;
+  o.cyclone = cyclone;
+  o.shared_memory = shm;
+  o.domain = domain;
+  o.payload = size;
+  o.pinger = false;
+  o.on_receive = [&](int topic, std::int64_t seq, std::size_t payload) {
+    if (topic == kPing) {
+      if (Link* l = self.load()) while (!l->send(kPong, seq)) std::this_thread::yield();
+      return;
+    }
+    std::lock_guard lock(m);
+    ++received;
+    bytes += static_cast<std::int64_t>(payload);
+    last_ns = monoNs();
+    cv.notify_all();
+  };
+  std::unique_ptr<Link> link = makeLink(impl, o);
+  self = link.get();
+  std::cout << "READY" << std::endl;
+  {
+    // The stream ends when every sample arrived, or 2 s after the last one (keep-last may drop some).
+    std::unique_lock lock(m);
+    cv.wait_for(lock, std::chrono::seconds(120), [&] { return received > 0; });
+    while (received < stream_count) {
+      long before = received;
+      cv.wait_for(lock, std::chrono::seconds(2), [&] { return received >= stream_count; });
+      if (received == before) break;
+    }
+    std::cout << "STREAM " << received << " " << bytes << " " << last_ns << std::endl;
+  }
+  int sig = 0;
+  sigwait(&signals, &sig);
+  self = nullptr;
+  return 0;
+}
+
+// ---- the measuring process ----------------------------------------------------------------------
+
+class Child {
+ public:
+  explicit Child(const std::vector<std::string>& args) {
+    int fds[2];
+    if (pipe(fds) != 0) throw std::runtime_error("pipe");
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(fds[1], STDOUT_FILENO);
+      close(fds[0]);
+      close(fds[1]);
+      std::vector<char*> argv;
+      for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      execv("/proc/self/exe", argv.data());
+      _exit(127);
+    }
+    close(fds[1]);
+    fd_ = fds[0];
+  }
+  ~Child() {
+    kill(pid_, SIGTERM);
+    for (int i = 0; i < 500 && waitpid(pid_, nullptr, WNOHANG) == 0; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    if (waitpid(pid_, nullptr, WNOHANG) == 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    close(fd_);
+  }
+  std::optional<std::string> line(std::chrono::milliseconds timeout) {
+    auto deadline = Clock::now() + timeout;
+    while (true) {
+      if (auto nl = buf_.find('\n'); nl != std::string::npos) {
+        std::string l = buf_.substr(0, nl);
+        buf_.erase(0, nl + 1);
+        return l;
+      }
+      auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) return std::nullopt;
+      pollfd p{fd_, POLLIN, 0};
+      if (poll(&p, 1, static_cast<int>(left)) <= 0) continue;
+      char c[256];
+      ssize_t n = read(fd_, c, sizeof(c));
+      if (n <= 0) return std::nullopt;
+      buf_.append(c, static_cast<std::size_t>(n));
+    }
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int fd_ = -1;
+  std::string buf_;
+};
+
+struct Pair {
+  std::string name;
+  bool ping_cyclone, pong_cyclone, shm;
+};
+
+struct Result {
+  std::string pair, impl;
+  std::size_t size = 0;
+  double rtt_median_us = NAN, rtt_p99_us = NAN;
+  int rtt_lost = 0;
+  double stream_mb_s = NAN;
+  double delivered = NAN;  // fraction of stream samples received
+  std::string error;
+};
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  std::size_t i = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - 1;
+  return v[std::min(i, v.size() - 1)];
+}
+
+struct Plan {
+  int warmup, rounds;
+  long stream;
+};
+
+Plan planFor(std::size_t size, double scale) {
+  Plan p = size <= 64 * 1024 ? Plan{200, 2000, 20000} : size <= 2 * 1024 * 1024 ? Plan{20, 300, 400} : Plan{5, 50, 60};
+  p.rounds = std::max(10, static_cast<int>(p.rounds * scale));
+  p.stream = std::max(10L, static_cast<long>(static_cast<double>(p.stream) * scale));
+  return p;
+}
+
+Result measure(const std::string& impl, const Pair& pair, std::size_t size, int domain, double scale) {
+  Result r;
+  r.pair = pair.name;
+  r.impl = impl;
+  r.size = size;
+  const Plan plan = planFor(size, scale);
+  Child child({"ddsnav-bench-bus", "--role", "pong", "--impls", impl, "--pong-cyclone", pair.pong_cyclone ? "1" : "0",
+               "--shm", pair.shm ? "1" : "0", "--size", std::to_string(size), "--domain", std::to_string(domain),
+               "--stream-count", std::to_string(plan.stream)});
+  if (child.line(std::chrono::seconds(20)) != std::optional<std::string>("READY")) {
+    r.error = "pong process did not start";
+    return r;
+  }
+  std::mutex m;
+  std::condition_variable cv;
+  std::int64_t last_pong = -1;
+  LinkOptions o;
+  o.cyclone = pair.ping_cyclone;
+  o.shared_memory = pair.shm;
+  o.domain = domain;
+  o.payload = size;
+  o.pinger = true;
+  o.on_receive = [&](int topic, std::int64_t seq, std::size_t) {
+    std::lock_guard lock(m);
+    last_pong = seq;
+    cv.notify_all();
+  };
+  std::unique_ptr<Link> link = makeLink(impl, o);
+  auto deadline = Clock::now() + std::chrono::seconds(20);
+  while (link->matchedReaders() < 2 && Clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  if (link->matchedReaders() < 2) {
+    r.error = "no match";
+    return r;
+  }
+  // The pong side's writer must have matched us too: a first round trip proves it.
+  std::vector<double> rtts;
+  for (int i = 0; i < plan.warmup + plan.rounds; ++i) {
+    auto t0 = Clock::now();
+    while (!link->send(kPing, i)) std::this_thread::yield();
+    std::unique_lock lock(m);
+    bool ok = cv.wait_for(lock, std::chrono::seconds(i == 0 ? 10 : 3), [&] { return last_pong >= i; });
+    auto t1 = Clock::now();
+    if (!ok) {
+      ++r.rtt_lost;
+      if (r.rtt_lost > 5) {
+        r.error = "pongs lost";
+        break;
+      }
+      continue;
+    }
+    if (i >= plan.warmup) rtts.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+  }
+  r.rtt_median_us = percentile(rtts, 0.5);
+  r.rtt_p99_us = percentile(rtts, 0.99);
+
+  const std::int64_t start_ns = monoNs();
+  for (long i = 0; i < plan.stream; ++i)
+    while (!link->send(kStream, i)) std::this_thread::sleep_for(std::chrono::microseconds(50));
+  std::optional<std::string> line = child.line(std::chrono::seconds(150));
+  long received = 0;
+  std::int64_t bytes = 0, last_ns = 0;
+  std::string tag;
+  if (line && (std::istringstream(*line) >> tag >> received >> bytes >> last_ns) && tag == "STREAM" && received > 0) {
+    r.stream_mb_s = static_cast<double>(bytes) / (static_cast<double>(last_ns - start_ns) * 1e-9) / 1e6;
+    r.delivered = static_cast<double>(received) / static_cast<double>(plan.stream);
+  } else if (r.error.empty()) {
+    r.error = "no stream result";
+  }
+  return r;
+}
+
+std::string sizeName(std::size_t s) {
+  if (s >= 1024 * 1024) return fmt::format("{} MB", s / (1024 * 1024));
+  return fmt::format("{} KB", s / 1024);
+}
+
+std::size_t parseSize(const std::string& s) {
+  std::size_t n = std::stoul(s);
+  char unit = s.empty() ? ' ' : static_cast<char>(std::tolower(s.back()));
+  if (unit == 'k') return n * 1024;
+  if (unit == 'm') return n * 1024 * 1024;
+  return n;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ddsnav bus benchmark: RTT and throughput, bus vs. native vendor APIs"};
+  std::string role = "ping", json_path;
+  std::vector<std::string> impls = {"bus", "native"};
+  std::vector<std::string> pair_names = {"fast-shm", "fast-udp", "cyclone", "fast-cyclone", "cyclone-fast"};
+  std::vector<std::string> size_names = {"1k", "1m", "8m"};
+  int domain = 200;
+  double scale = 1.0;
+  bool pong_cyclone = false, shm = true;
+  std::size_t size = 1024;
+  long stream_count = 0;
+  app.add_option("--impls", impls, "bus and/or native")->delimiter(',');
+  app.add_option("--pairs", pair_names, "fast-shm fast-udp cyclone fast-cyclone cyclone-fast")->delimiter(',');
+  app.add_option("--sizes", size_names, "payload sizes, e.g. 1k,1m,8m")->delimiter(',');
+  app.add_option("--domain", domain, "first DDS domain id (one per case, counting up)");
+  app.add_option("--scale", scale, "multiplies round and stream counts");
+  app.add_option("--json", json_path, "also write the results as JSON");
+  app.add_option("--role", role)->group("");  // internal: the second process
+  app.add_option("--pong-cyclone", pong_cyclone)->group("");
+  app.add_option("--shm", shm)->group("");
+  app.add_option("--size", size)->group("");
+  app.add_option("--stream-count", stream_count)->group("");
+  CLI11_PARSE(app, argc, argv);
+
+  if (role == "pong") return runPong(impls.at(0), pong_cyclone, shm, size, domain, stream_count);
+
+  const std::map<std::string, Pair> known = {{"fast-shm", {"Fast SHM ↔ Fast SHM", false, false, true}},
+                                             {"fast-udp", {"Fast UDP ↔ Fast UDP", false, false, false}},
+                                             {"cyclone", {"Cyclone ↔ Cyclone", true, true, true}},
+                                             {"fast-cyclone", {"Fast → Cyclone", false, true, true}},
+                                             {"cyclone-fast", {"Cyclone → Fast", true, false, true}}};
+  std::vector<Result> results;
+  int case_domain = domain;
+  std::cout << "| pair | API | size | RTT median µs | RTT p99 µs | stream MB/s | delivered |\n|---|---|---|---|---|---|---|\n";
+  for (const std::string& sz : size_names) {
+    for (const std::string& pn : pair_names) {
+      auto it = known.find(pn);
+      if (it == known.end()) {
+        std::cerr << "unknown pair '" << pn << "'\n";
+        return 2;
+      }
+      for (const std::string& impl : impls) {
+        Result r = measure(impl, it->second, parseSize(sz), case_domain, scale);
+        case_domain = case_domain >= 232 ? domain : case_domain + 1;
+        std::cout << fmt::format("| {} | {} | {} | {:.0f} | {:.0f} | {:.1f} | {:.0f}% |{}\n", r.pair, r.impl,
+                                 sizeName(r.size), r.rtt_median_us, r.rtt_p99_us, r.stream_mb_s, 100 * r.delivered,
+                                 r.error.empty() ? "" : " " + r.error)
+                  << std::flush;
+        results.push_back(r);
+      }
+    }
+  }
+  // Bus cost as a ratio to the native API of the same pair and size.
+  std::cout << "\n| pair | size | RTT median bus/native | RTT p99 bus/native | throughput bus/native |\n|---|---|---|---|---|\n";
+  for (const Result& b : results) {
+    if (b.impl != "bus") continue;
+    for (const Result& n : results)
+      if (n.impl == "native" && n.pair == b.pair && n.size == b.size)
+        std::cout << fmt::format("| {} | {} | {:.3f} | {:.3f} | {:.3f} |\n", b.pair, sizeName(b.size),
+                                 b.rtt_median_us / n.rtt_median_us, b.rtt_p99_us / n.rtt_p99_us,
+                                 b.stream_mb_s / n.stream_mb_s);
+  }
+  if (!json_path.empty()) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const Result& r : results)
+      j.push_back({{"pair", r.pair}, {"api", r.impl}, {"size", r.size}, {"rtt_median_us", r.rtt_median_us},
+                   {"rtt_p99_us", r.rtt_p99_us}, {"stream_mb_s", r.stream_mb_s}, {"delivered", r.delivered},
+                   {"error", r.error}});
+    std::ofstream(json_path) << j.dump(2) << "\n";
+  }
+  return 0;
+}
