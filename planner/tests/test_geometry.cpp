@@ -214,6 +214,22 @@ TEST(Geometry, EllipsoidWorldMatchesScenarioGeometry) {
   EXPECT_THROW(makeEllipsoidWorld(2, Vec3(0, 0, 0), Vec3(0, 20, 0), 0.5, {}), std::invalid_argument);
 }
 
+TEST(Geometry, EllipsoidWorldIn3DWithAnyOrientation) {
+  EllipsoidObstacle e;
+  e.id = 3;
+  e.center = Vec3(0, 0, 0);
+  e.semi_axes = Vec3(3, 1, 1);
+  e.axes << 0, 0, 1, 0, 1, 0, -1, 0, 0;  // columns (0,0,-1), (0,1,0), (1,0,0): the long axis along z
+  const auto world = makeEllipsoidWorld(3, Vec3(-10, -10, -10), Vec3(10, 10, 10), 0.5, {e});
+  EXPECT_TRUE(world->isFree(Vec3(0, 0, 3.6)));
+  EXPECT_FALSE(world->isFree(Vec3(0, 0, 3.4)));
+  EXPECT_FALSE(world->isFree(Vec3(1.4, 0, 0)));
+  EXPECT_TRUE(world->isFree(Vec3(1.6, 0, 0)));
+  EXPECT_NEAR(world->clearance(Vec3(0, 4, 0)), 4 - 1 - 0.5, 1e-9);
+  EXPECT_FALSE(world->isSegmentFree(Vec3(-5, 0, 2.0), Vec3(5, 0, 2.0)));  // crosses the ellipsoid at z = 2
+  EXPECT_TRUE(world->isSegmentFree(Vec3(-5, 1.6, 0), Vec3(5, 1.6, 0)));
+}
+
 TEST(Geometry, HundredsOfObstaclesStayCorrectWithTheGrid) {
   // Brute force over every obstacle must agree with the broad phase.
   std::vector<Obstacle> obstacles;
