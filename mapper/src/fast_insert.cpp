@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <chrono>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <thread>
 
 namespace ddsnav::mapper::detail {
@@ -12,14 +15,6 @@ namespace {
 constexpr std::uint64_t kEmpty = ~0ull;
 constexpr unsigned kTreeDepth = 16;  // OcTree keys are 16 bits per axis
 
-// Bit position of a 3-bit coordinate inside a 9-bit Morton index (x at bit 0, y at 1, z at 2, as OctoMap
-// numbers a node's children: computeChildIdx).
-constexpr std::array<std::uint32_t, 8> kSpread3 = {0, 1, 8, 9, 64, 65, 72, 73};
-
-std::uint32_t localIndex(const octomap::OcTreeKey& k) {
-  return kSpread3[k[0] & 7] | (kSpread3[k[1] & 7] << 1) | (kSpread3[k[2] & 7] << 2);
-}
-
 // Spreads the low 13 bits of v to every third bit.
 std::uint64_t spread13(std::uint64_t v) {
   std::uint64_t r = 0;
@@ -27,8 +22,8 @@ std::uint64_t spread13(std::uint64_t v) {
   return r;
 }
 
-std::uint64_t packBrick(const octomap::OcTreeKey& k) {
-  return std::uint64_t(k[0] >> 3) | (std::uint64_t(k[1] >> 3) << 13) | (std::uint64_t(k[2] >> 3) << 26);
+std::uint64_t packBrick(const BrickMap::Brick& b) {
+  return std::uint64_t(b.bx) | (std::uint64_t(b.by) << 13) | (std::uint64_t(b.bz) << 26);
 }
 
 std::uint64_t brickMorton(std::uint64_t packed) {
@@ -39,61 +34,112 @@ std::size_t slotOf(std::uint64_t packed, std::size_t mask) {
   return static_cast<std::size_t>((packed * 0x9E3779B97F4A7C15ull) >> 20) & mask;
 }
 
-// Key of the voxel at Morton code m (48 bits: brick Morton << 9 | local index).
-octomap::OcTreeKey keyOfMorton(std::uint64_t m) {
-  octomap::OcTreeKey k(0, 0, 0);
-  for (unsigned i = 0; i < kTreeDepth; ++i) {
-    k[0] |= static_cast<octomap::key_type>(((m >> (3 * i)) & 1u) << i);
-    k[1] |= static_cast<octomap::key_type>(((m >> (3 * i + 1)) & 1u) << i);
-    k[2] |= static_cast<octomap::key_type>(((m >> (3 * i + 2)) & 1u) << i);
+// Inverse of BrickMap's in-brick index: bit i of the 9-bit Morton index -> (x, y, z) offsets.
+struct LocalOffsets {
+  std::array<std::uint8_t, 512> x{}, y{}, z{};
+  constexpr LocalOffsets() {
+    for (unsigned i = 0; i < 512; ++i) {
+      x[i] = static_cast<std::uint8_t>(((i >> 0) & 1) | (((i >> 3) & 1) << 1) | (((i >> 6) & 1) << 2));
+      y[i] = static_cast<std::uint8_t>(((i >> 1) & 1) | (((i >> 4) & 1) << 1) | (((i >> 7) & 1) << 2));
+      z[i] = static_cast<std::uint8_t>(((i >> 2) & 1) | (((i >> 5) & 1) << 1) | (((i >> 8) & 1) << 2));
+    }
   }
-  return k;
-}
+};
+constexpr LocalOffsets kLocal;
 
 unsigned childIndex(const octomap::OcTreeKey& k, unsigned level) {
   return ((k[0] >> level) & 1u) | (((k[1] >> level) & 1u) << 1) | (((k[2] >> level) & 1u) << 2);
 }
 
-// OcTreeBaseImpl keeps the root pointer protected and has no public way to create it; a pointer to member
-// formed inside a derived class reaches it without changing the tree's type (it stays a plain OcTree, so
-// writeBinary and every OctoMap tool see the usual "OcTree").
+// OcTreeBaseImpl keeps the root pointer, the node count and a node's child array protected; a pointer to
+// member formed inside a derived class reaches them without changing any type (the tree stays a plain
+// OcTree, so writeBinary and every OctoMap tool see the usual "OcTree").
 struct TreeAccess : octomap::OcTree {
   static octomap::OcTreeNode*& rootOf(octomap::OcTree& t) { return t.*(&TreeAccess::root); }
   static std::size_t& sizeOf(octomap::OcTree& t) { return t.*(&TreeAccess::tree_size); }
   static bool& sizeChangedOf(octomap::OcTree& t) { return t.*(&TreeAccess::size_changed); }
 };
+struct NodeAccess : octomap::OcTreeNode {
+  static octomap::AbstractOcTreeNode**& childrenOf(octomap::OcTreeNode& n) { return n.*(&NodeAccess::children); }
+};
 
-// The walk over Morton-ordered voxels described in fast_insert.hpp.
+// OcTreeBaseImpl::createNodeChild / expandNode / pruneNode, allocation for allocation, except that the
+// change in node count goes to a per-thread counter instead of the tree's (so disjoint subtrees can be
+// updated from several threads); the caller adds the counters to the tree afterwards.
+class NodeOps {
+ public:
+  explicit NodeOps(const octomap::OcTree& tree) : tree_(tree) {}
+
+  octomap::OcTreeNode* createChild(octomap::OcTreeNode* node, unsigned pos) {
+    octomap::AbstractOcTreeNode**& children = NodeAccess::childrenOf(*node);
+    if (children == nullptr) {
+      children = new octomap::AbstractOcTreeNode*[8];
+      for (unsigned i = 0; i < 8; ++i) children[i] = nullptr;
+    }
+    auto* child = new octomap::OcTreeNode();
+    children[pos] = child;
+    ++node_delta_;
+    return child;
+  }
+  void expand(octomap::OcTreeNode* node) {
+    for (unsigned k = 0; k < 8; ++k) createChild(node, k)->copyData(*node);
+  }
+  bool prune(octomap::OcTreeNode* node) {
+    if (!tree_.isNodeCollapsible(node)) return false;
+    node->copyData(*tree_.getNodeChild(node, 0));
+    octomap::AbstractOcTreeNode**& children = NodeAccess::childrenOf(*node);
+    for (unsigned i = 0; i < 8; ++i) {
+      delete static_cast<octomap::OcTreeNode*>(children[i]);
+      children[i] = nullptr;
+    }
+    delete[] children;
+    children = nullptr;
+    node_delta_ -= 8;
+    return true;
+  }
+  // Settles a node whose subtree will not change any more: pruned when its 8 children are equal leaves,
+  // else given the max of its children (OctoMap's non-lazy update does this after every change).
+  void settle(octomap::OcTreeNode* node) {
+    if (!tree_.nodeHasChildren(node)) return;
+    if (!prune(node)) node->updateOccupancyChildren();
+  }
+  long nodeDelta() const { return node_delta_; }
+
+ private:
+  const octomap::OcTree& tree_;
+  long node_delta_ = 0;
+};
+
+// The walk over Morton-ordered voxels described in fast_insert.hpp, below one subtree root.
 class TreeWalk {
  public:
-  explicit TreeWalk(octomap::OcTree& tree)
+  TreeWalk(const octomap::OcTree& tree, NodeOps& ops)
       : tree_(tree),
+        ops_(ops),
         hit_(tree.getProbHitLog()),
         miss_(tree.getProbMissLog()),
         clamp_min_(tree.getClampingThresMinLog()),
-        clamp_max_(tree.getClampingThresMaxLog()) {
-    octomap::OcTreeNode*& root = TreeAccess::rootOf(tree_);
-    if (root == nullptr) {
-      root = new octomap::OcTreeNode();
-      ++TreeAccess::sizeOf(tree_);
-      TreeAccess::sizeChangedOf(tree_) = true;
-      fresh_[0] = true;
-    }
-    path_[0] = root;
-    valid_ = 0;
+        clamp_max_(tree.getClampingThresMaxLog()) {}
+
+  // Starts a subtree: `node` sits at `depth` and every following voxel lies below it. `fresh`: the node
+  // was created in this scan (a childless fresh node gets children created, not expanded).
+  void begin(octomap::OcTreeNode* node, int depth, bool fresh) {
+    base_ = valid_ = depth;
+    path_[depth] = node;
+    fresh_[depth] = fresh;
+    has_previous_ = false;
   }
 
-  void update(std::uint64_t morton, bool occupied) {
-    const octomap::OcTreeKey key = keyOfMorton(morton);
-    int keep = 0;
+  void update(std::uint64_t morton, const octomap::OcTreeKey& key, bool occupied) {
+    int keep = base_;
     if (has_previous_) {
       const unsigned level = (63u - static_cast<unsigned>(std::countl_zero(morton ^ previous_))) / 3u;
-      keep = static_cast<int>(kTreeDepth - 1 - level);  // depth of the deepest shared ancestor
+      keep = std::max(keep, static_cast<int>(kTreeDepth - 1 - level));  // deepest shared ancestor
     }
     previous_ = morton;
     has_previous_ = true;
     keep = std::min(keep, valid_);
-    finishDownTo(keep);
+    settleDownTo(keep);
 
     const float delta = occupied ? hit_ : miss_;
     int d = keep;
@@ -109,9 +155,9 @@ class TreeWalk {
             valid_ = d;
             return;
           }
-          tree_.expandNode(node);
+          ops_.expand(node);
         } else {
-          tree_.createNodeChild(node, pos);
+          ops_.createChild(node, pos);
           created = true;
         }
       }
@@ -125,11 +171,8 @@ class TreeWalk {
     tree_.updateNodeLogOdds(node, delta);
   }
 
-  // Finishes every node still on the path (call once after the last update).
-  void finish() {
-    finishDownTo(-1);
-    valid_ = -1;
-  }
+  // Settles every node still on the path, the subtree root included.
+  void finish() { settleDownTo(base_ - 1); }
 
  private:
   bool atClamp(const octomap::OcTreeNode* node, float delta) const {
@@ -137,44 +180,234 @@ class TreeWalk {
     return (delta >= 0 && v >= clamp_max_) || (delta <= 0 && v <= clamp_min_);
   }
 
-  // The walk has left the subtrees of the path nodes deeper than `depth`: nothing below them changes any
-  // more in this scan, so settle them bottom-up as OctoMap's non-lazy update does after each change.
-  void finishDownTo(int depth) {
+  // The walk has left the subtrees of the path nodes deeper than `depth`: settle them bottom-up.
+  void settleDownTo(int depth) {
     for (int d = valid_; d > depth; --d) {
-      octomap::OcTreeNode* node = path_[d];
-      if (d == static_cast<int>(kTreeDepth) || !tree_.nodeHasChildren(node)) continue;
-      if (!tree_.pruneNode(node)) node->updateOccupancyChildren();
+      if (d < static_cast<int>(kTreeDepth)) ops_.settle(path_[d]);
     }
     valid_ = std::min(valid_, depth);
   }
 
-  octomap::OcTree& tree_;
+  const octomap::OcTree& tree_;
+  NodeOps& ops_;
   const float hit_, miss_, clamp_min_, clamp_max_;
   std::array<octomap::OcTreeNode*, kTreeDepth + 1> path_{};
   std::array<bool, kTreeDepth + 1> fresh_{};
-  int valid_ = -1;  // path_[0..valid_] is the path of the previous voxel
+  int base_ = 0;
+  int valid_ = 0;  // path_[base_..valid_] is the path of the previous voxel
   std::uint64_t previous_ = 0;
   bool has_previous_ = false;
 };
 
+// Feeds the voxels of Morton-sorted bricks [first, last) to a walk.
+void walkBricks(const std::vector<BrickMap::Brick>& bricks, const std::uint64_t* first, const std::uint64_t* last,
+                TreeWalk& walk) {
+  for (const std::uint64_t* e = first; e != last; ++e) {
+    const BrickMap::Brick& b = bricks[*e & 0xffffff];
+    const std::uint64_t base = b.morton << 9;
+    const unsigned kx = unsigned(b.bx) << 3, ky = unsigned(b.by) << 3, kz = unsigned(b.bz) << 3;
+    for (unsigned w = 0; w < 8; ++w) {
+      std::uint64_t any = b.free[w] | b.occupied[w];
+      while (any != 0) {
+        const unsigned local = (w << 6) | static_cast<unsigned>(std::countr_zero(any));
+        any &= any - 1;
+        const octomap::OcTreeKey key(static_cast<octomap::key_type>(kx | kLocal.x[local]),
+                                     static_cast<octomap::key_type>(ky | kLocal.y[local]),
+                                     static_cast<octomap::key_type>(kz | kLocal.z[local]));
+        walk.update(base | local, key, (b.occupied[w] >> (local & 63)) & 1u);
+      }
+    }
+  }
+}
+
+// A run of sorted bricks below one tree node at the split depth, handed to one thread.
+struct Subtree {
+  std::size_t first = 0, last = 0;  // into the sorted brick list
+  std::size_t cells = 0;
+  octomap::OcTreeNode* node = nullptr;
+  bool fresh = false;
+};
+
+// Applies the sorted bricks to the tree: on one thread as one walk from the root, or on several, each
+// walking whole subtrees below a split depth after the paths down to that depth exist.
+// Returns the number of threads that walked.
+int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& bricks,
+                const std::vector<std::uint64_t>& sorted, std::size_t cells, int threads) {
+  octomap::OcTreeNode*& root = TreeAccess::rootOf(tree);
+  NodeOps main_ops(tree);
+  bool root_fresh = false;
+  if (root == nullptr) {
+    root = new octomap::OcTreeNode();
+    ++TreeAccess::sizeOf(tree);
+    root_fresh = true;
+  }
+  TreeAccess::sizeChangedOf(tree) = true;
+
+  // Split depth: the shallowest depth (<= 12, a 2^4-voxel cube) whose subtrees number at least 4 per
+  // thread, so the shares can be balanced.
+  std::vector<Subtree> subtrees;
+  int split_depth = 0;
+  if (threads > 1 && cells >= 16384) {
+    for (int depth = 1; depth <= 12; ++depth) {
+      const unsigned shift = 3u * (13u - depth);  // brick Morton codes cover depths 1..13
+      subtrees.clear();
+      for (std::size_t i = 0; i < sorted.size(); ++i) {
+        const std::uint64_t prefix = bricks[sorted[i] & 0xffffff].morton >> shift;
+        if (subtrees.empty() || (bricks[sorted[subtrees.back().first] & 0xffffff].morton >> shift) != prefix) {
+          if (!subtrees.empty()) subtrees.back().last = i;
+          subtrees.push_back({i, i, 0, nullptr, false});
+        }
+        const BrickMap::Brick& b = bricks[sorted[i] & 0xffffff];
+        for (int w = 0; w < 8; ++w) subtrees.back().cells += std::popcount(b.free[w] | b.occupied[w]);
+      }
+      if (!subtrees.empty()) subtrees.back().last = sorted.size();
+      if (subtrees.size() >= 4u * threads) {
+        split_depth = depth;
+        break;
+      }
+    }
+  }
+
+  // Paths from the root down to every subtree node, created where missing. A pruned leaf above the split
+  // depth would need OctoMap's early-abort/expand logic for a whole share: then stay on one thread.
+  auto keyOf = [&](const Subtree& st) {
+    const BrickMap::Brick& b = bricks[sorted[st.first] & 0xffffff];
+    return octomap::OcTreeKey(static_cast<octomap::key_type>(b.bx << 3), static_cast<octomap::key_type>(b.by << 3),
+                              static_cast<octomap::key_type>(b.bz << 3));
+  };
+  for (const Subtree& st : subtrees) {  // read-only check first: nothing may change before the fallback
+    if (split_depth == 0) break;
+    const octomap::OcTreeKey key = keyOf(st);
+    const octomap::OcTreeNode* node = root;
+    for (int d = 0; d < split_depth; ++d) {
+      const unsigned pos = childIndex(key, kTreeDepth - 1 - d);
+      if (tree.nodeChildExists(node, pos)) {
+        node = tree.getNodeChild(node, pos);
+        continue;
+      }
+      if (!tree.nodeHasChildren(node) && !(d == 0 && root_fresh)) split_depth = 0;  // a pruned leaf
+      break;  // below a missing child everything is new
+    }
+  }
+  std::vector<std::vector<octomap::OcTreeNode*>> above(split_depth);  // nodes to settle, per depth
+  if (split_depth > 0) {
+    for (Subtree& st : subtrees) {
+      const octomap::OcTreeKey key = keyOf(st);
+      octomap::OcTreeNode* node = root;
+      bool fresh = root_fresh;
+      for (int d = 0; d < split_depth; ++d) {
+        if (above[d].empty() || above[d].back() != node) above[d].push_back(node);
+        const unsigned pos = childIndex(key, kTreeDepth - 1 - d);
+        fresh = !tree.nodeChildExists(node, pos);
+        if (fresh) main_ops.createChild(node, pos);
+        node = tree.getNodeChild(node, pos);
+      }
+      st.node = node;
+      st.fresh = fresh;
+    }
+  }
+
+  if (split_depth == 0) {
+    TreeWalk walk(tree, main_ops);
+    walk.begin(root, 0, root_fresh);
+    walkBricks(bricks, sorted.data(), sorted.data() + sorted.size(), walk);
+    walk.finish();
+    TreeAccess::sizeOf(tree) += main_ops.nodeDelta();
+    return 1;
+  }
+
+  // Contiguous shares of subtrees with about equal voxel counts.
+  std::vector<std::size_t> share_end;
+  std::size_t done = 0, total = 0;
+  for (const Subtree& st : subtrees) total += st.cells;
+  for (std::size_t i = 0; i < subtrees.size(); ++i) {
+    done += subtrees[i].cells;
+    if (share_end.size() + 1 < static_cast<std::size_t>(threads) && done * threads >= total * (share_end.size() + 1)) {
+      share_end.push_back(i + 1);
+    }
+  }
+  share_end.push_back(subtrees.size());
+  std::vector<NodeOps> ops(share_end.size(), NodeOps(tree));
+  auto work = [&](std::size_t share) {
+    TreeWalk walk(tree, ops[share]);
+    for (std::size_t i = share == 0 ? 0 : share_end[share - 1]; i < share_end[share]; ++i) {
+      const Subtree& st = subtrees[i];
+      walk.begin(st.node, split_depth, st.fresh);
+      walkBricks(bricks, sorted.data() + st.first, sorted.data() + st.last, walk);
+      walk.finish();
+    }
+  };
+  std::vector<std::thread> workers;
+  for (std::size_t t = 1; t < share_end.size(); ++t) workers.emplace_back(work, t);
+  work(0);
+  for (std::thread& w : workers) w.join();
+
+  // The nodes above the split, deepest first, once their subtrees are final.
+  for (int d = split_depth - 1; d >= 0; --d) {
+    for (octomap::OcTreeNode* node : above[d]) main_ops.settle(node);
+  }
+  long delta = main_ops.nodeDelta();
+  for (const NodeOps& o : ops) delta += o.nodeDelta();
+  TreeAccess::sizeOf(tree) += delta;
+  return static_cast<int>(share_end.size());
+}
+
+// OcTreeBaseImpl::computeRayKeys, statement for statement and in the same precision (float vectors, double
+// tMax / tDelta), but marking the keys straight into the brick map instead of a KeyRay. Returns false, marking
+// nothing, when the end point is outside the map (the origin was checked by the caller).
+bool traceRay(const octomap::OcTree& tree, const octomap::point3d& origin, const octomap::OcTreeKey& key_origin,
+              const octomap::point3d& end, BrickMap& map) {
+  octomap::OcTreeKey key_end;
+  if (!tree.coordToKeyChecked(end, key_end)) return false;
+  if (key_origin == key_end) return true;  // same cell: no free cells
+  map.markFree(key_origin);
+
+  octomap::point3d direction = (end - origin);
+  const float length = static_cast<float>(direction.norm());
+  direction /= length;
+  const double resolution = tree.getResolution();
+  int step[3];
+  double t_max[3], t_delta[3];
+  octomap::OcTreeKey current = key_origin;
+  for (unsigned i = 0; i < 3; ++i) {
+    step[i] = direction(i) > 0.0 ? 1 : (direction(i) < 0.0 ? -1 : 0);
+    if (step[i] != 0) {
+      double voxel_border = tree.keyToCoord(current[i]);
+      voxel_border += static_cast<float>(step[i] * resolution * 0.5);
+      t_max[i] = (voxel_border - origin(i)) / direction(i);
+      t_delta[i] = resolution / std::fabs(direction(i));
+    } else {
+      t_max[i] = std::numeric_limits<double>::max();
+      t_delta[i] = std::numeric_limits<double>::max();
+    }
+  }
+  while (true) {
+    unsigned dim;
+    if (t_max[0] < t_max[1]) dim = t_max[0] < t_max[2] ? 0 : 2;
+    else dim = t_max[1] < t_max[2] ? 1 : 2;
+    current[dim] = static_cast<octomap::key_type>(current[dim] + step[dim]);
+    t_max[dim] += t_delta[dim];
+    if (current == key_end) return true;
+    // Past the end point's distance without reaching its key (rounding): stop, as OctoMap does.
+    if (std::min(std::min(t_max[0], t_max[1]), t_max[2]) > length) return true;
+    map.markFree(current);
+  }
+}
+
 // One thread's share of OccupancyOcTreeBase::computeUpdate, with the same tests in the same precision.
 void markRays(const octomap::OcTree& tree, const octomap::point3d* points, std::size_t count,
               const octomap::point3d& origin, double max_range, BrickMap& map) {
-  octomap::KeyRay ray;
-  octomap::OcTreeKey key;
+  octomap::OcTreeKey key_origin, key;
+  if (!tree.coordToKeyChecked(origin, key_origin)) return;  // OctoMap: every ray fails
   for (std::size_t i = 0; i < count; ++i) {
     const octomap::point3d& p = points[i];
     if (max_range < 0.0 || (p - origin).norm() <= max_range) {
-      if (tree.computeRayKeys(origin, p, ray)) {
-        for (const octomap::OcTreeKey& k : ray) map.markFree(k);
-      }
+      traceRay(tree, origin, key_origin, p, map);
       if (tree.coordToKeyChecked(p, key)) map.markOccupied(key);
     } else {
       const octomap::point3d direction = (p - origin).normalized();
       const octomap::point3d new_end = origin + direction * static_cast<float>(max_range);
-      if (tree.computeRayKeys(origin, new_end, ray)) {
-        for (const octomap::OcTreeKey& k : ray) map.markFree(k);
-      }
+      traceRay(tree, origin, key_origin, new_end, map);
     }
   }
 }
@@ -198,6 +431,9 @@ std::uint32_t BrickMap::findOrAdd(std::uint64_t packed) {
       Brick& b = bricks_.emplace_back();
       std::memset(&b, 0, sizeof(Brick));
       b.morton = brickMorton(packed);
+      b.bx = static_cast<std::uint16_t>(packed & 0x1fff);
+      b.by = static_cast<std::uint16_t>((packed >> 13) & 0x1fff);
+      b.bz = static_cast<std::uint16_t>(packed >> 26);
       return slot_bricks_[s];
     }
   }
@@ -210,8 +446,7 @@ void BrickMap::grow() {
   const std::size_t mask = capacity - 1;
   // Re-derive the packed coordinates from each brick's Morton code.
   for (std::uint32_t i = 0; i < bricks_.size(); ++i) {
-    const octomap::OcTreeKey k = keyOfMorton(bricks_[i].morton << 9);
-    const std::uint64_t packed = packBrick(k);
+    const std::uint64_t packed = packBrick(bricks_[i]);
     std::size_t s = slotOf(packed, mask);
     while (slot_keys_[s] != kEmpty) s = (s + 1) & mask;
     slot_keys_[s] = packed;
@@ -219,21 +454,9 @@ void BrickMap::grow() {
   }
 }
 
-void BrickMap::bitsFor(const octomap::OcTreeKey& key, bool occupied) {
-  const std::uint64_t packed = packBrick(key);
-  if (packed != cached_packed_) {
-    cached_brick_ = findOrAdd(packed);
-    cached_packed_ = packed;
-  }
-  Brick& b = bricks_[cached_brick_];
-  const std::uint32_t bit = localIndex(key);
-  (occupied ? b.occupied : b.free)[bit >> 6] |= 1ull << (bit & 63);
-}
-
 void BrickMap::mergeFrom(const BrickMap& other) {
   for (const Brick& src : other.bricks_) {
-    const octomap::OcTreeKey k = keyOfMorton(src.morton << 9);
-    Brick& dst = bricks_[findOrAdd(packBrick(k))];
+    Brick& dst = bricks_[findOrAdd(packBrick(src))];
     for (int w = 0; w < 8; ++w) {
       dst.free[w] |= src.free[w];
       dst.occupied[w] |= src.occupied[w];
@@ -268,6 +491,14 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
     cloud = &discrete_points_;
   }
 
+  using Clock = std::chrono::steady_clock;
+  auto lap = [t = Clock::now()]() mutable {
+    const auto now = Clock::now();
+    const double s = std::chrono::duration<double>(now - t).count();
+    t = now;
+    return s;
+  };
+  InsertCounts counts;
   // 1. Ray keys, one contiguous share of the points per thread (lidar points are ordered by beam, so a
   //    share is an angular sector and its rays are coherent).
   const int n_threads = std::clamp<int>(threads, 1, 64);
@@ -286,12 +517,13 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
     }
     markRays(tree, cloud->data(), std::min(n, share), origin, max_range, maps_[0]);
     for (std::thread& w : workers) w.join();
+    counts.seconds_rays = lap();
     for (int t = 1; t < n_threads; ++t) maps_[0].mergeFrom(maps_[t]);
   }
+  if (counts.seconds_rays == 0.0) counts.seconds_rays = lap();
 
   // 2. Occupied wins over free; bricks in Morton order.
   std::vector<BrickMap::Brick>& bricks = maps_[0].bricks();
-  InsertCounts counts;
   for (BrickMap::Brick& b : bricks) {
     for (int w = 0; w < 8; ++w) {
       b.free[w] &= ~b.occupied[w];
@@ -303,22 +535,11 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   sort_buffer_.clear();
   for (std::uint32_t i = 0; i < bricks.size(); ++i) sort_buffer_.push_back((bricks[i].morton << 24) | i);
   std::sort(sort_buffer_.begin(), sort_buffer_.end());
+  counts.seconds_merge = lap();
 
-  // 3. One depth-first walk over the updated voxels.
-  TreeWalk walk(tree);
-  for (std::uint64_t entry : sort_buffer_) {
-    const BrickMap::Brick& b = bricks[entry & 0xffffff];
-    const std::uint64_t base = b.morton << 9;
-    for (int w = 0; w < 8; ++w) {
-      std::uint64_t any = b.free[w] | b.occupied[w];
-      while (any != 0) {
-        const unsigned bit = static_cast<unsigned>(std::countr_zero(any));
-        any &= any - 1;
-        walk.update(base | (static_cast<std::uint64_t>(w) << 6) | bit, (b.occupied[w] >> bit) & 1u);
-      }
-    }
-  }
-  walk.finish();
+  // 3. Depth-first walks over the updated voxels.
+  counts.walk_threads = applyToTree(tree, bricks, sort_buffer_, counts.free_cells + counts.occupied_cells, n_threads);
+  counts.seconds_tree = lap();
   return counts;
 }
 

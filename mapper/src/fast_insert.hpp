@@ -33,6 +33,7 @@ class BrickMap {
     std::uint64_t free[8];
     std::uint64_t occupied[8];
     std::uint64_t morton;  // Morton code of the brick coordinates (key >> 3 on each axis)
+    std::uint16_t bx, by, bz;
   };
 
   void clear();
@@ -45,7 +46,19 @@ class BrickMap {
   std::size_t memoryUsage() const;
 
  private:
-  void bitsFor(const octomap::OcTreeKey& key, bool occupied);
+  void bitsFor(const octomap::OcTreeKey& key, bool occupied) {
+    const std::uint64_t packed =
+        std::uint64_t(key[0] >> 3) | (std::uint64_t(key[1] >> 3) << 13) | (std::uint64_t(key[2] >> 3) << 26);
+    if (packed != cached_packed_) {
+      cached_brick_ = findOrAdd(packed);
+      cached_packed_ = packed;
+    }
+    Brick& b = bricks_[cached_brick_];
+    // 9-bit Morton index inside the brick: x at bit 0, y at 1, z at 2 (OctoMap's child numbering).
+    const std::uint32_t bit = kSpread3[key[0] & 7] | (kSpread3[key[1] & 7] << 1) | (kSpread3[key[2] & 7] << 2);
+    (occupied ? b.occupied : b.free)[bit >> 6] |= 1ull << (bit & 63);
+  }
+  static constexpr std::uint32_t kSpread3[8] = {0, 1, 8, 9, 64, 65, 72, 73};
   std::uint32_t findOrAdd(std::uint64_t packed);
   void grow();
 
@@ -59,6 +72,10 @@ class BrickMap {
 struct InsertCounts {
   std::size_t free_cells = 0;
   std::size_t occupied_cells = 0;
+  double seconds_rays = 0.0;   // ray keys + de-duplication (parallel part)
+  double seconds_merge = 0.0;  // merging the thread maps, occupied-wins, Morton sort
+  double seconds_tree = 0.0;   // the tree walk
+  int walk_threads = 0;        // threads that walked the tree (1 when the scan was small or not splittable)
 };
 
 class FastInserter {

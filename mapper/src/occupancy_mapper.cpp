@@ -127,6 +127,10 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
         impl_->inserter.insert(tree, cleaned, origin, scan.max_range, config_.discretize, config_.threads);
     result.free_cells = counts.free_cells;
     result.occupied_cells = counts.occupied_cells;
+    result.seconds_rays = counts.seconds_rays;
+    result.seconds_merge = counts.seconds_merge;
+    result.seconds_tree = counts.seconds_tree;
+    result.walk_threads = counts.walk_threads;
   } else {
     octomap::Pointcloud cloud;
     cloud.reserve(cleaned.size());

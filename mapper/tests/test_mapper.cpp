@@ -27,7 +27,7 @@ struct Case {
 };
 
 // Inserts the same scans with ours and with OcTree::insertPointCloud, then compares everything.
-void expectIdentical(const Case& c, bool lazy_reference = false) {
+void expectIdentical(const Case& c, bool lazy_reference = false, int expect_walk_threads = 0) {
   const CityBlock city = makeCityBlock(7);
   OccupancyMapper mapper(c.config);
   octomap::OcTree reference(c.config.resolution);
@@ -40,6 +40,7 @@ void expectIdentical(const Case& c, bool lazy_reference = false) {
     ASSERT_TRUE(r.inserted) << r.message;
     EXPECT_GT(r.free_cells, 0u);
     EXPECT_GT(r.occupied_cells, 0u);
+    if (expect_walk_threads > 0) EXPECT_EQ(r.walk_threads, expect_walk_threads);
     reference.insertPointCloud(toOctomapCloud(scan, c.config), toOrigin(scan, c.config), c.max_range, lazy_reference,
                                c.config.discretize);
   }
@@ -69,7 +70,7 @@ LidarPattern lidar3d(int rings, int columns) {
 TEST(MapperIdentical, ThreeDimensionalScansAt02) {
   Case c{"3-D 0.2 m", {}, lidar3d(16, 600), 15.0, {{0, 0, 1.8f}, {1.5f, 0.4f, 1.8f}, {3.1f, 0.9f, 1.9f}}};
   c.config.resolution = 0.2;
-  expectIdentical(c);
+  expectIdentical(c, false, /*walk_threads=*/2);  // big enough to split the tree walk between 2 threads
 }
 
 TEST(MapperIdentical, ThreeDimensionalDenseScanAt01) {
@@ -81,7 +82,7 @@ TEST(MapperIdentical, SingleThreadMatchesToo) {
   Case c{"3-D one thread", {}, lidar3d(8, 400), 12.0, {{0, 0, 1.8f}, {-2.0f, 1.0f, 1.8f}}};
   c.config.resolution = 0.15;
   c.config.threads = 1;
-  expectIdentical(c);
+  expectIdentical(c, false, /*walk_threads=*/1);
 }
 
 TEST(MapperIdentical, DiscretizeMatchesOctoMapDiscretize) {
@@ -113,7 +114,8 @@ TEST(MapperIdentical, ThreeDimensionalRepeatedScansPruneAndExpand) {
   c.config.resolution = 0.2;
   for (int i = 0; i < 10; ++i) c.poses.push_back({0.1f * (i % 3), 0.07f * (i % 5), 1.8f});
   c.poses.push_back({2.0f, 1.0f, 1.8f});
-  expectIdentical(c);
+  c.config.threads = 3;  // three shares of subtrees, each with prune/expand work
+  expectIdentical(c, false, /*walk_threads=*/3);
 }
 
 TEST(MapperIdentical, AnswersEqualLazyEvalReference) {

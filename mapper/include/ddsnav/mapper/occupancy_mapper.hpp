@@ -68,6 +68,9 @@ struct InsertResult {
   std::size_t free_cells = 0;      // distinct voxels updated as free
   std::size_t occupied_cells = 0;  // distinct voxels updated as occupied
   double seconds = 0.0;
+  // kFast only: where the time went (ray keys on all threads; merge + sort; tree walk).
+  double seconds_rays = 0.0, seconds_merge = 0.0, seconds_tree = 0.0;
+  int walk_threads = 0;  // threads that applied the updates to the tree (subtrees split between them)
 };
 
 // What the map/octomap message carries.

@@ -1,0 +1,324 @@
+// ddsnav-bench-mapper: OctoMap's insertPointCloud in each of its modes vs the mapper's insertion, on the same
+// simulated lidar scans of a city block, in one run; then point-occupancy query throughput of OcTree::search
+// vs the planner's OctoMap collision world on the resulting map. Every fast result is checked against the
+// OctoMap result it claims to equal before its time is reported.
+#include "ddsnav/mapper/occupancy_mapper.hpp"
+#include "ddsnav/mapper/synthetic_scan.hpp"
+#include "ddsnav/planner/collision_world.hpp"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <octomap/OcTree.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <malloc.h>
+#include <iostream>
+#include <random>
+#include <sstream>
+
+namespace {
+
+using namespace ddsnav::mapper;
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+std::string fullBytes(const octomap::OcTree& tree) {
+  std::ostringstream s;
+  tree.write(s);
+  return s.str();
+}
+
+struct Run {
+  std::string method;
+  std::vector<double> seconds;  // per scan
+  std::size_t memory = 0;       // OcTree::memoryUsage after the last scan
+  std::size_t scratch = 0;      // ours: scratch buffers kept between scans
+  std::size_t cells = 0;        // distinct voxel updates over all scans
+  double rays = 0, merge = 0, tree = 0;  // ours: summed phase times, s
+  bool identical = true;        // the map equals the reference it claims to equal
+  std::string reference;
+  double meanMs() const {
+    double s = 0;
+    for (double x : seconds) s += x;
+    return 1000.0 * s / seconds.size();
+  }
+  double cellsPerSecond() const {
+    double s = 0;
+    for (double x : seconds) s += x;
+    return cells / s;
+  }
+};
+
+struct Pattern {
+  int rings, columns;
+};
+
+Pattern parsePattern(const std::string& s) {
+  Pattern p{};
+  if (std::sscanf(s.c_str(), "%dx%d", &p.rings, &p.columns) != 2 || p.rings < 1 || p.columns < 1) {
+    throw CLI::ValidationError("--patterns", "expected RINGSxCOLUMNS such as 16x1800, got '" + s + "'");
+  }
+  return p;
+}
+
+int queryMismatches(const octomap::OcTree& a, const octomap::OcTree& b, int points, int rays, unsigned seed) {
+  double x0, y0, z0, x1, y1, z1;
+  a.getMetricMin(x0, y0, z0);
+  a.getMetricMax(x1, y1, z1);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(x0, x1), uy(y0, y1), uz(z0, z1), angle(-3.14159, 3.14159);
+  int mismatches = 0;
+  for (int i = 0; i < points; ++i) {
+    const double x = ux(rng), y = uy(rng), z = uz(rng);
+    const octomap::OcTreeNode* na = a.search(x, y, z);
+    const octomap::OcTreeNode* nb = b.search(x, y, z);
+    if ((na == nullptr) != (nb == nullptr) || (na && a.isNodeOccupied(na) != b.isNodeOccupied(nb))) ++mismatches;
+  }
+  for (int i = 0; i < rays; ++i) {
+    const octomap::point3d o(ux(rng) * 0.3, uy(rng) * 0.3, 1.8f);
+    const double yaw = angle(rng), pitch = 0.2 * angle(rng);
+    const octomap::point3d d(std::cos(pitch) * std::cos(yaw), std::cos(pitch) * std::sin(yaw), std::sin(pitch));
+    octomap::point3d ea, eb;
+    const bool ha = a.castRay(o, d, ea, true, 20.0), hb = b.castRay(o, d, eb, true, 20.0);
+    if (ha != hb || !(ea == eb)) ++mismatches;
+  }
+  return mismatches;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"OctoMap insertion and occupancy queries: OctoMap's own paths vs ddsnav's mapper, same scans"};
+  std::vector<std::string> pattern_names{"16x1800", "64x1800"};
+  std::vector<double> resolutions{0.1, 0.2};
+  int scans = 3;
+  double max_range = 20.0;
+  int threads = 2;
+  int queries = 1'000'000;
+  std::string json_path;
+  bool profile_ours = false;
+  app.add_option("--patterns", pattern_names, "lidar patterns RINGSxCOLUMNS")->delimiter(',');
+  app.add_option("--resolutions", resolutions, "map resolutions, m")->delimiter(',')->check(CLI::Range(0.01, 10.0));
+  app.add_option("--scans", scans, "scans per configuration (the vehicle moves 1 m between scans)")->check(CLI::Range(1, 1000));
+  app.add_option("--max-range", max_range, "insertion max range, m")->check(CLI::Range(0.5, 1000.0));
+  app.add_option("--threads", threads, "threads for our ray key computation")->check(CLI::Range(1, 64));
+  app.add_option("--queries", queries, "random point queries for the query benchmark")->check(CLI::Range(1000, 100'000'000));
+  app.add_option("--json", json_path, "also write the results as JSON to this file");
+  app.add_flag("--profile-ours", profile_ours, "only run our insertion (no OctoMap runs, no checks): for profilers");
+  CLI11_PARSE(app, argc, argv);
+
+  std::vector<Pattern> patterns;
+  try {
+    for (const std::string& s : pattern_names) patterns.push_back(parsePattern(s));
+  } catch (const CLI::Error& e) {
+    return app.exit(e);
+  }
+
+  const CityBlock city = makeCityBlock(7);
+  nlohmann::json out = nlohmann::json::array();
+  std::vector<std::uint8_t> query_map;  // the finest map, for the query benchmark
+  double query_map_resolution = 0.0;
+  bool all_identical = true;
+
+  std::printf("| scan | res m | method | ms/scan | M cell updates/s | speed-up vs fastest OctoMap | phases ms: rays / merge+sort / tree | tree MB | working MB | identical to |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Pattern& pattern : patterns) {
+    LidarPattern lidar;
+    lidar.rings = pattern.rings;
+    lidar.columns = pattern.columns;
+    lidar.min_elevation_deg = pattern.rings >= 32 ? -25.0 : -15.0;
+    lidar.max_elevation_deg = 15.0;
+    lidar.range_noise = 0.02;
+    std::vector<Scan> scan_list;
+    for (int i = 0; i < scans; ++i) {
+      Scan s = simulateScan(city, lidar, {float(i) * 1.0f, 0.3f * float(i % 2), 1.8f}, 100 + i);
+      s.max_range = max_range;
+      scan_list.push_back(std::move(s));
+    }
+    std::size_t points = 0;
+    for (const Scan& s : scan_list) points += s.points.size();
+
+    for (double res : resolutions) {
+      MapperConfig config;
+      config.resolution = res;
+      config.threads = threads;
+      std::vector<octomap::Pointcloud> clouds;
+      for (const Scan& s : scan_list) {
+        octomap::Pointcloud c;
+        for (const Point3f& p : s.points) c.push_back(p.x, p.y, p.z);
+        clouds.push_back(std::move(c));
+      }
+
+      auto runOctoMap = [&](const std::string& name, bool lazy, bool discretize, octomap::OcTree& tree) {
+        applySensorModel(tree, config);
+        Run run;
+        run.method = name;
+        for (std::size_t i = 0; i < clouds.size(); ++i) {
+          const Scan& s = scan_list[i];
+          const auto t = Clock::now();
+          tree.insertPointCloud(clouds[i], octomap::point3d(s.origin.x, s.origin.y, s.origin.z), max_range, lazy,
+                                discretize);
+          if (lazy) tree.updateInnerOccupancy();  // the map is published after every scan
+          run.seconds.push_back(secondsSince(t));
+        }
+        run.memory = tree.memoryUsage();
+        return run;
+      };
+      auto runOurs = [&](const std::string& name, bool discretize, int n_threads, OccupancyMapper*& keep) {
+        MapperConfig c = config;
+        c.discretize = discretize;
+        c.threads = n_threads;
+        auto* mapper = new OccupancyMapper(c);
+        Run run;
+        run.method = name;
+        for (const Scan& s : scan_list) {
+          const auto t = Clock::now();
+          const InsertResult r = mapper->insert(s);
+          run.seconds.push_back(secondsSince(t));
+          run.cells += r.free_cells + r.occupied_cells;
+          run.rays += r.seconds_rays, run.merge += r.seconds_merge, run.tree += r.seconds_tree;
+          if (!r.inserted) spdlog::error("scan rejected: {}", r.message);
+        }
+        run.memory = mapper->octree().memoryUsage();
+        run.scratch = mapper->scratchMemoryUsage();
+        keep = mapper;
+        return run;
+      };
+
+      if (profile_ours) {
+        OccupancyMapper* m = nullptr;
+        const Run r = runOurs("ours", false, threads, m);
+        std::printf("| ours | %.2f | %.1f ms/scan | rays %.1f / merge %.1f / tree %.1f ms |\n", res, r.meanMs(),
+                    1e3 * r.rays / scans, 1e3 * r.merge / scans, 1e3 * r.tree / scans);
+        delete m;
+        continue;
+      }
+      octomap::OcTree plain(res), lazy(res), disc(res), lazy_disc(res);
+      std::vector<Run> runs;
+      runs.push_back(runOctoMap("octomap insertPointCloud", false, false, plain));
+      runs.push_back(runOctoMap("octomap lazy_eval", true, false, lazy));
+      runs.push_back(runOctoMap("octomap discretize", false, true, disc));
+      runs.push_back(runOctoMap("octomap lazy_eval+discretize", true, true, lazy_disc));
+      OccupancyMapper *ours = nullptr, *ours1 = nullptr, *ours_disc = nullptr;
+      runs.push_back(runOurs("ours", false, threads, ours));
+      runs.push_back(runOurs("ours, 1 thread", false, 1, ours1));
+      runs.push_back(runOurs("ours discretize", true, threads, ours_disc));
+      for (Run& r : runs) {
+        if (r.method.find("discretize") != std::string::npos) r.cells = runs[6].cells;
+        else if (r.method.rfind("octomap", 0) == 0) r.cells = runs[4].cells;
+      }
+      // The checks: whole trees (structure and every log-odds value) and query answers.
+      const std::string plain_bytes = fullBytes(plain), disc_bytes = fullBytes(disc);
+      runs[4].identical = fullBytes(ours->octree()) == plain_bytes && queryMismatches(ours->octree(), plain, 100000, 10000, 1) == 0 &&
+                          queryMismatches(ours->octree(), lazy, 100000, 10000, 2) == 0;
+      runs[4].reference = "insertPointCloud (tree bytes) and lazy_eval (100k points, 10k rays)";
+      runs[5].identical = fullBytes(ours1->octree()) == plain_bytes;
+      runs[5].reference = "insertPointCloud (tree bytes)";
+      runs[6].identical = fullBytes(ours_disc->octree()) == disc_bytes && queryMismatches(ours_disc->octree(), disc, 100000, 10000, 3) == 0;
+      runs[6].reference = "discretize (tree bytes, 100k points, 10k rays)";
+      double fastest_octomap = 1e300;
+      for (int i = 0; i < 4; ++i) fastest_octomap = std::min(fastest_octomap, runs[i].meanMs());
+
+      // OctoMap's working memory during one insertion: the two KeySets computeUpdate fills (heap bytes in use
+      // while they are alive, from mallinfo2), against our scratch buffers' capacity.
+      std::size_t octomap_keysets = 0;
+      for (std::size_t i = 0; i < clouds.size(); ++i) {
+        const std::size_t before = mallinfo2().uordblks;
+        octomap::KeySet free_cells, occupied_cells;
+        plain.computeUpdate(clouds[i], octomap::point3d(scan_list[i].origin.x, scan_list[i].origin.y, scan_list[i].origin.z),
+                            free_cells, occupied_cells, max_range);
+        octomap_keysets = std::max(octomap_keysets, static_cast<std::size_t>(mallinfo2().uordblks - before));
+      }
+      for (int i = 0; i < 4; ++i) runs[i].scratch = octomap_keysets;
+
+      const std::string scan_name = std::to_string(pattern.rings) + "x" + std::to_string(pattern.columns) + " (" +
+                                    std::to_string(points / scan_list.size()) + " pts)";
+      for (const Run& r : runs) {
+        all_identical = all_identical && r.identical;
+        const double n = double(r.seconds.size());
+        const std::string phases = r.method.rfind("ours", 0) == 0
+                                       ? fmt::format("{:.0f} / {:.0f} / {:.0f}", 1e3 * r.rays / n, 1e3 * r.merge / n, 1e3 * r.tree / n)
+                                       : "-";
+        std::printf("| %s | %.2f | %s | %.1f | %.2f | %.2fx | %s | %.1f | %.1f | %s |\n", scan_name.c_str(), res,
+                    r.method.c_str(), r.meanMs(), r.cellsPerSecond() / 1e6, fastest_octomap / r.meanMs(), phases.c_str(),
+                    r.memory / 1e6, r.scratch / 1e6, r.reference.empty() ? "-" : (r.identical ? ("yes: " + r.reference).c_str() : "NO"));
+        out.push_back({{"scan", scan_name}, {"resolution", res}, {"method", r.method}, {"ms_per_scan", r.meanMs()},
+                       {"cell_updates_per_s", r.cellsPerSecond()}, {"speedup_vs_fastest_octomap", fastest_octomap / r.meanMs()},
+                       {"tree_bytes", r.memory}, {"scratch_bytes", r.scratch}, {"identical", r.identical},
+                       {"scans", scans}, {"max_range", max_range}});
+      }
+      std::fflush(stdout);
+      if (query_map.empty() || res < query_map_resolution || (res == query_map_resolution)) {
+        const ExportedMap m = ours->exportMap();
+        query_map = m.octree_binary;
+        query_map_resolution = res;
+      }
+      delete ours;
+      delete ours1;
+      delete ours_disc;
+    }
+  }
+
+  if (profile_ours) return 0;
+  // Query throughput on the last finest map: OcTree::search vs the planner's OctoMap world (radius 0).
+  {
+    octomap::OcTree tree(0.1);
+    std::istringstream in(std::string(query_map.begin(), query_map.end()));
+    tree.readBinary(in);
+    double x0, y0, z0, x1, y1, z1;
+    tree.getMetricMin(x0, y0, z0);
+    tree.getMetricMax(x1, y1, z1);
+    using ddsnav::planner::Vec3;
+    const Vec3 lo(x0, y0, z0), hi(x1, y1, z1);
+    auto t = Clock::now();
+    const auto world = ddsnav::planner::makeOctoMapWorld(3, lo - Vec3::Constant(1), hi + Vec3::Constant(1), 0.0, query_map);
+    const double load_s = secondsSince(t);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> ux(x0, x1), uy(y0, y1), uz(z0, z1);
+    std::vector<Vec3> pts(queries);
+    for (Vec3& p : pts) p = Vec3(ux(rng), uy(rng), uz(rng));
+    std::vector<char> a(queries), b(queries);
+    t = Clock::now();
+    for (int i = 0; i < queries; ++i) {
+      const octomap::OcTreeNode* n = tree.search(pts[i].x(), pts[i].y(), pts[i].z());
+      a[i] = n != nullptr && tree.isNodeOccupied(n);
+    }
+    const double search_s = secondsSince(t);
+    t = Clock::now();
+    for (int i = 0; i < queries; ++i) b[i] = !world->isFree(pts[i]);
+    const double world_s = secondsSince(t);
+    const bool same = a == b;
+    all_identical = all_identical && same;
+    const std::size_t occupied = std::count(a.begin(), a.end(), 1);
+
+    const auto robot = ddsnav::planner::makeOctoMapWorld(3, lo - Vec3::Constant(1), hi + Vec3::Constant(1), 0.3, query_map);
+    t = Clock::now();
+    std::size_t robot_blocked = 0;
+    for (int i = 0; i < queries; ++i) robot_blocked += !robot->isFree(pts[i]);
+    const double robot_s = secondsSince(t);
+
+    std::printf("\n| query (%d random points in the %.2f m map, %zu occupied) | M queries/s | ns/query | ratio |\n", queries,
+                query_map_resolution, occupied);
+    std::printf("|---|---|---|---|\n");
+    std::printf("| OcTree::search + isNodeOccupied | %.2f | %.0f | 1.00x |\n", queries / search_s / 1e6, 1e9 * search_s / queries);
+    std::printf("| OctoMap world isFree, radius 0 (identical answers: %s) | %.2f | %.0f | %.2fx |\n", same ? "yes" : "NO",
+                queries / world_s / 1e6, 1e9 * world_s / queries, search_s / world_s);
+    std::printf("| OctoMap world isFree, robot radius 0.3 m (%zu blocked) | %.2f | %.0f | %.2fx |\n", robot_blocked,
+                queries / robot_s / 1e6, 1e9 * robot_s / queries, search_s / robot_s);
+    std::printf("\nworld load (readBinary + flatten): %.1f ms for %zu bytes\n", 1000 * load_s, query_map.size());
+    out.push_back({{"query", "point occupancy"}, {"queries", queries}, {"octree_search_per_s", queries / search_s},
+                   {"world_isfree_per_s", queries / world_s}, {"ratio", search_s / world_s}, {"identical", same},
+                   {"world_radius_0.3_per_s", queries / robot_s}, {"world_load_s", load_s}});
+  }
+  if (!json_path.empty()) std::ofstream(json_path) << out.dump(2) << "\n";
+  if (!all_identical) {
+    std::fprintf(stderr, "MISMATCH: a fast result differs from its OctoMap reference\n");
+    return 1;
+  }
+  return 0;
+}
