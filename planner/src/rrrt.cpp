@@ -37,13 +37,10 @@ class RrrtPlanner final : public Planner {
         run.addNode(to, nearest, run.tree.node(nearest).cost + length);
         continue;
       }
-      // Contact: march from the tree towards the sample to the last free state.
-      const int steps = std::max(1, static_cast<int>(std::ceil(length / resolution)));
-      int last_free = 0;
-      for (int i = 1; i <= steps && world.isFree(from.position + (to.position - from.position) * (double(i) / steps)); ++i) last_free = i;
-      Vec3 q = from.position + (to.position - from.position) * (double(last_free) / steps);
+      // Contact: the last free state on the way to the sample, within one check resolution.
+      Vec3 q = lastFreeState(world, from.position, to.position, resolution);
       int node = nearest;
-      if ((q - from.position).norm() > margin) {
+      if ((q - from.position).norm() > margin && world.isSegmentFree(from.position, q)) {
         node = run.addNode(State{q, edgeHeading(from.position, q, from.heading)}, nearest, run.tree.node(nearest).cost + (q - from.position).norm());
       } else {
         q = from.position;
@@ -56,6 +53,24 @@ class RrrtPlanner final : public Planner {
  private:
   static constexpr double kGoalBias = 0.05;
   static constexpr int kRetractionSteps = 4;
+
+  // Walks from `a` (free) towards `b`, skipping ahead by the clearance (every state closer than the
+  // clearance is free), and refines the last stretch at the check resolution.
+  static Vec3 lastFreeState(const CollisionWorld& world, const Vec3& a, const Vec3& b, double resolution) {
+    const double length = (b - a).norm();
+    const Vec3 direction = (b - a) / length;
+    double free_until = 0.0, s = 0.0;
+    while (true) {
+      const double c = world.clearance(a + direction * s);
+      if (!(c > 0.0) || !world.isFree(a + direction * s)) break;
+      free_until = s;
+      if (s >= length) return b;
+      s = std::min(length, s + std::max(resolution, c));
+    }
+    // The contact lies in (free_until, s]: march it at the resolution.
+    for (double t = free_until + resolution; t < s && world.isFree(a + direction * t); t += resolution) free_until = t;
+    return a + direction * free_until;
+  }
 
   void retract(PlannerRun& run, int node, const Vec3& target, double max_step, double margin) {
     const CollisionWorld& world = run.world;

@@ -3,6 +3,7 @@
 #include "ddsnav/planner/unicycle.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -132,9 +133,14 @@ double treeCoverage(const SearchTree& tree, const CollisionWorld& world, std::si
   const double volume = dims == 3 ? extent.x() * extent.y() * extent.z() : extent.x() * extent.y();
   const double target = dims == 3 ? 13824.0 : 4096.0;
   const double delta = std::pow(volume / target, 1.0 / dims);
-  // An index over the first node_count nodes only (insertion order = growth order).
-  NearestIndex index(dims);
-  for (std::size_t i = 0; i < node_count; ++i) index.add(tree.node(static_cast<int>(i)).state.position);
+  // An index over the first node_count nodes only (insertion order = growth order); the tree's own
+  // index when that is all of them.
+  std::optional<NearestIndex> partial;
+  if (node_count < tree.size()) {
+    partial.emplace(dims);
+    for (std::size_t i = 0; i < node_count; ++i) partial->add(tree.node(static_cast<int>(i)).state.position);
+  }
+  const NearestIndex& index = partial ? *partial : tree.index();
   const int nx = std::max(1, static_cast<int>(std::floor(extent.x() / delta)) + 1);
   const int ny = std::max(1, static_cast<int>(std::floor(extent.y() / delta)) + 1);
   const int nz = dims == 3 ? std::max(1, static_cast<int>(std::floor(extent.z() / delta)) + 1) : 1;
@@ -159,10 +165,15 @@ double treeGrowth(const SearchTree& tree, const CollisionWorld& world) {
 }
 
 std::int64_t firstGlanceConnect(const SearchTree& tree, const PlanProblem& problem,
-                                const std::vector<std::int64_t>& node_iteration) {
-  for (std::size_t i = 0; i < tree.size(); ++i) {
-    const Vec3& p = tree.node(static_cast<int>(i)).state.position;
-    if (problem.world->isSegmentFree(p, problem.goal)) return i < node_iteration.size() ? node_iteration[i] : 0;
+                                const std::vector<std::int64_t>& node_iteration, std::int64_t up_to_iteration) {
+  // Nodes are stored in insertion order, so the first one that sees the goal gives the answer. A solved
+  // run only needs the nodes added up to its first solution; an unsolved one scans at most kMaxScan nodes
+  // so the metric never costs much more than the search.
+  constexpr std::size_t kMaxScan = 100000;
+  for (std::size_t i = 0; i < tree.size() && i < kMaxScan; ++i) {
+    const std::int64_t iteration = i < node_iteration.size() ? node_iteration[i] : 0;
+    if (up_to_iteration >= 0 && iteration > up_to_iteration) break;
+    if (problem.world->isSegmentFree(tree.node(static_cast<int>(i)).state.position, problem.goal)) return iteration;
   }
   return -1;
 }
@@ -180,7 +191,7 @@ void finishResult(PlanResult& result, const SearchTree& tree, const PlanProblem&
   s.por = added > 0.0 ? static_cast<double>(s.rewires) / added : 0.0;
   s.coverage = treeCoverage(tree, *problem.world, tree.size());
   s.growth = treeGrowth(tree, *problem.world);
-  s.first_glance_connect = firstGlanceConnect(tree, problem, node_iteration);
+  s.first_glance_connect = firstGlanceConnect(tree, problem, node_iteration, s.iterations_to_first_solution);
   s.first_directive_connect = s.iterations_to_first_solution;
   result.tree = tree.edges();
   if (!result.path.empty()) {

@@ -100,9 +100,11 @@ double treeGrowth(const SearchTree& tree, const CollisionWorld& world);
 
 // First-glance-connect: the iteration at which the first node was added from which the goal is visible
 // (the straight segment node-goal is free). `node_iteration[i]` is the iteration that added node i.
-// -1 when no node sees the goal. Runs after the search; its checks are not counted in the stats.
+// Only nodes added up to `up_to_iteration` are scanned (the first solution's iteration; -1: all, but at
+// most the first 100000 nodes). -1 when no scanned node sees the goal. Runs after the search; its checks
+// are not counted in the stats.
 std::int64_t firstGlanceConnect(const SearchTree& tree, const PlanProblem& problem,
-                                const std::vector<std::int64_t>& node_iteration);
+                                const std::vector<std::int64_t>& node_iteration, std::int64_t up_to_iteration = -1);
 
 // Fills the derived statistics of a finished run (vertices, POUS, POR, c(G), g(G), FGC, validity
 // checks, time, tree edges) from the tree and the counters already in `result.stats`.
