@@ -61,6 +61,7 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
   if (!(c.max_lateral_accel > 0.0)) fail("max_lateral_accel must be > 0");
   if (!std::isfinite(c.corner_radius)) fail("corner_radius must be finite");
   if (!(c.shortcut_clearance >= 0.0)) fail("shortcut_clearance must be >= 0");
+  if (!(c.clearance_target >= 0.0) || !std::isfinite(c.clearance_target)) fail("clearance_target must be a number >= 0");
   if (c.initial_heading && !std::isfinite(*c.initial_heading)) fail("initial_heading must be finite");
 }
 
@@ -93,6 +94,52 @@ bool clearanceAtLeast(const CollisionWorld& world, const Vec3& a, const Vec3& b,
     if (t >= length) return true;
     t = std::min(length, t + std::max(c - required, min_step));
   }
+}
+
+// Moves the polyline away from obstacles where it runs closer than `wanted`, so that tracking errors do not
+// become collisions: edges that come closer are split into pieces of at most `spacing`, and each interior
+// point climbs the clearance field (away from its nearest obstacle) while that increases its clearance and
+// keeps both of its edges free. Points stop at `wanted`, or in the middle of passages narrower than that.
+std::vector<Vec3> keepAwayFromObstacles(const std::vector<Vec3>& pts, const CollisionWorld& world, double wanted,
+                                        double spacing) {
+  if (wanted <= 0.0 || pts.size() < 2) return pts;
+  std::vector<Vec3> out{pts.front()};
+  for (std::size_t i = 1; i < pts.size(); ++i) {
+    const Vec3 a = pts[i - 1], b = pts[i];
+    if (!clearanceAtLeast(world, a, b, wanted)) {
+      const int pieces = std::max(1, static_cast<int>(std::ceil((b - a).norm() / spacing)));
+      for (int k = 1; k < pieces; ++k) out.push_back(a + (b - a) * (static_cast<double>(k) / pieces));
+    }
+    out.push_back(b);
+  }
+  const bool flat = world.dimensions() == 2;
+  std::vector<double> clear(out.size());
+  for (std::size_t i = 0; i < out.size(); ++i) clear[i] = world.clearance(out[i]);
+  for (int round = 0; round < 25; ++round) {
+    bool moved = false;
+    for (std::size_t i = 1; i + 1 < out.size(); ++i) {
+      if (clear[i] >= wanted) continue;
+      const auto near = world.obstaclesNear(out[i], world.robotRadius() + wanted);
+      if (near.empty()) continue;
+      Vec3 away = out[i] - near.front().nearest_point;
+      if (flat) away.z() = 0.0;
+      if (away.norm() < 1e-9) continue;
+      // Halve the step until it helps: a full step can overshoot the middle of a narrow passage.
+      for (double step = std::max(0.004, 0.5 * (wanted - clear[i])); step >= 0.002; step *= 0.5) {
+        const Vec3 q = out[i] + away.normalized() * step;
+        const double cq = world.clearance(q);
+        if (cq <= clear[i] + 1e-4 || !world.isFree(q) || !world.isSegmentFree(out[i - 1], q) ||
+            !world.isSegmentFree(q, out[i + 1]))
+          continue;
+        out[i] = q;
+        clear[i] = cq;
+        moved = true;
+        break;
+      }
+    }
+    if (!moved) break;
+  }
+  return out;
 }
 
 // Direction change at the middle point, rad.
@@ -130,13 +177,19 @@ double cornerSizeFor(double angle, double radius) {
   return radius * 2.0 * std::sin(angle / 2) / (c * c);
 }
 
-Corners makeCorners(const std::vector<Vec3>& points, double radius) {
+Corners makeCorners(const std::vector<Vec3>& points, double radius, const CollisionWorld& world, double clearance_target) {
   Corners c{points, std::vector<double>(points.size(), 0.0)};
   for (std::size_t k = 1; k + 1 < points.size(); ++k) {
     const double in = (points[k] - points[k - 1]).norm(), out = (points[k + 1] - points[k]).norm();
-    const double want = cornerSizeFor(deflection(points[k - 1], points[k], points[k + 1]), radius);
+    const double angle = deflection(points[k - 1], points[k], points[k + 1]);
     // Neighbouring corners share an edge: each takes at most 45% of it.
-    c.size[k] = std::min({want, 0.45 * in, 0.45 * out});
+    c.size[k] = std::min({cornerSizeFor(angle, radius), 0.45 * in, 0.45 * out});
+    // Where the corner is tight on space, the curve may leave the polyline by at most half the corner's
+    // clearance: the deviation is at most d sin(angle) / 6.
+    if (clearance_target > 0.0) {
+      const double room = world.clearance(points[k]);
+      if (room < clearance_target) c.size[k] = std::min(c.size[k], 3.0 * std::max(room, 0.0) / std::max(std::sin(angle), 1e-3));
+    }
   }
   return c;
 }
@@ -467,11 +520,12 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   traj.dt = config.sample_dt;
   traj.report.input_waypoints = points.size();
   if (config.shortcut) points = shortcutPolyline(points, world, config.shortcut_clearance);
+  points = keepAwayFromObstacles(points, world, config.clearance_target, 0.5);
   points = dropCollinear(points);
   traj.report.shortcut_waypoints = points.size();
 
   const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
-  Corners corners = makeCorners(points, radius);
+  Corners corners = makeCorners(points, radius, world, config.clearance_target);
   const double step = std::min(0.05, world.checkResolution());
 
   for (int iteration = 0;; ++iteration) {

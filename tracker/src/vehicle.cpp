@@ -90,14 +90,16 @@ const VehicleState& UnicycleVehicle::step(const VehicleCommand& command, double 
   state_.vz = config_.dimensions == 3 ? rateLimit(state_.vz, target.vz, config_.max_vertical_accel, dt) : 0.0;
 
   const auto& n = config_.noise;
-  // The disturbance moves the vehicle but a stopped vehicle stays stopped (no slip without motion).
+  // The disturbance acts on motion that is happening: no forward creep while turning in place or stopped,
+  // no turning while stopped. The processes keep running so their statistics do not depend on the path.
+  const double dv = disturbance(noise_v_, n.sigma_v, dt);
+  const double domega = disturbance(noise_omega_, n.sigma_omega, dt);
+  const double dvz = config_.dimensions == 3 ? disturbance(noise_vz_, n.sigma_vz, dt) : 0.0;
   const bool moving = state_.v > 1e-6 || std::abs(state_.omega) > 1e-6 || std::abs(state_.vz) > 1e-6;
   double v = state_.v, omega = state_.omega, vz = state_.vz;
-  if (moving) {
-    v = std::max(0.0, v + disturbance(noise_v_, n.sigma_v, dt));
-    omega += disturbance(noise_omega_, n.sigma_omega, dt);
-    if (config_.dimensions == 3) vz += disturbance(noise_vz_, n.sigma_vz, dt);
-  }
+  if (state_.v > 1e-6) v = std::max(0.0, v + dv);
+  if (moving) omega += domega;
+  if (moving && config_.dimensions == 3) vz += dvz;
 
   // Exact integration of the unicycle for constant (v, omega) over dt: a straight line or a circular arc.
   const double theta0 = state_.heading;

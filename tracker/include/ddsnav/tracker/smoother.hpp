@@ -33,6 +33,10 @@ struct SmootherConfig {
   // Shortcuts must keep at least this clearance (m) from obstacles; the planner's own edges are kept
   // as they are even when closer.
   double shortcut_clearance = 0.1;
+  // Where the (shortcut) path runs closer than this to obstacles (m, from the robot's boundary), its points
+  // are moved away, up to the middle of narrower passages, so that tracking errors stay off the walls.
+  // 0 keeps the planner's geometry.
+  double clearance_target = 0.2;
   // Target turn radius at corners, m: < 0 means v_max / omega_max (corners at full speed when there is
   // room); 0 means no rounding: the polyline itself, stopping and turning in place at every corner.
   double corner_radius = -1.0;
