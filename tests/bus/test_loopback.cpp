@@ -1,6 +1,7 @@
 // Proof that the default participants stay on loopback: after traffic has flowed, none of this
 // process's UDP sockets is bound to a non-loopback address, none is bound to the RTPS multicast ports,
-// there are no IPv6 sockets, and no socket is a member of the SPDP multicast group.
+// there are no IPv6 sockets, and no socket is a member of the SPDP multicast group -- even with vendor
+// environment variables set that would enable multicast.
 #include "samples.hpp"
 #include "test_support.hpp"
 
@@ -80,8 +81,33 @@ bool joinedGroup(int fd, const char* group) {
   return setsockopt(fd, IPPROTO_IP, IP_DROP_MEMBERSHIP, &req, sizeof(req)) == 0;
 }
 
+// Vendor environment variables that would turn multicast on if the bus honoured them: it must not.
+class StrayVendorConfig {
+ public:
+  StrayVendorConfig() {
+    std::ofstream(path_) << "<?xml version=\"1.0\" encoding=\"UTF-8\" ?>\n"
+                            "<profiles xmlns=\"http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles\">\n"
+                            "<participant profile_name=\"stray\" is_default_profile=\"true\"><rtps/></participant>\n"
+                            "</profiles>\n";
+    setenv("FASTRTPS_DEFAULT_PROFILES_FILE", path_.c_str(), 1);
+    setenv("CYCLONEDDS_URI",
+           "<CycloneDDS><Domain id=\"any\"><General><AllowMulticast>true</AllowMulticast></General></Domain>"
+           "</CycloneDDS>",
+           1);
+  }
+  ~StrayVendorConfig() {
+    unsetenv("FASTRTPS_DEFAULT_PROFILES_FILE");
+    unsetenv("CYCLONEDDS_URI");
+    std::remove(path_.c_str());
+  }
+
+ private:
+  std::string path_ = "/tmp/ddsnav_stray_fastdds_" + std::to_string(getpid()) + ".xml";
+};
+
 void checkLoopbackOnly(Vendor vendor, int domain_offset) {
   const int domain = kDomainBase + domain_offset;
+  StrayVendorConfig stray;
   bus::Participant a(options(vendor, domain_offset, "loopback-a"));
   bus::Participant b(options(vendor, domain_offset, "loopback-b"));
   auto pub = a.publisher<msg::Path>("planning/path", bus::Qos::state());

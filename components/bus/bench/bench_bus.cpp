@@ -3,7 +3,7 @@
 // each through the ddsnav bus AND through the vendor's own API in the same run, so that the bus's cost
 // is a ratio. The second process is this executable started again with --role pong.
 //
-//   ddsnav-bench-bus                                  # everything (~2 min on 2 cores)
+//   ddsnav-bench-bus                                  # everything, 3 alternating repeats per case
 //   ddsnav-bench-bus --pairs cyclone --sizes 1k --impls bus,native
 #include "link.hpp"
 
@@ -277,6 +277,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> size_names = {"1k", "1m", "8m"};
   int domain = 200;
   double scale = 1.0;
+  int repeat = 3;
   bool pong_cyclone = false, shm = true;
   std::size_t size = 1024;
   long stream_count = 0;
@@ -285,6 +286,8 @@ int main(int argc, char** argv) {
   app.add_option("--sizes", size_names, "payload sizes, e.g. 1k,1m,8m")->delimiter(',');
   app.add_option("--domain", domain, "first DDS domain id (one per case, counting up)");
   app.add_option("--scale", scale, "multiplies round and stream counts");
+  app.add_option("--repeat", repeat, "runs per case, alternating API order; medians are reported")
+      ->check(CLI::PositiveNumber);
   app.add_option("--json", json_path, "also write the results as JSON");
   app.add_option("--role", role)->group("");  // internal: the second process
   app.add_option("--pong-cyclone", pong_cyclone)->group("");
@@ -310,9 +313,32 @@ int main(int argc, char** argv) {
         std::cerr << "unknown pair '" << pn << "'\n";
         return 2;
       }
+      // Repeats alternate the order of the APIs so that load drifts on a shared machine hit both alike;
+      // each figure reported is the median over the repeats.
+      std::map<std::string, std::vector<Result>> runs;
+      for (int rep = 0; rep < repeat; ++rep) {
+        std::vector<std::string> order = impls;
+        if (rep % 2 == 1) std::reverse(order.begin(), order.end());
+        for (const std::string& impl : order) {
+          runs[impl].push_back(measure(impl, it->second, parseSize(sz), case_domain, scale));
+          case_domain = case_domain >= 232 ? domain : case_domain + 1;
+        }
+      }
       for (const std::string& impl : impls) {
-        Result r = measure(impl, it->second, parseSize(sz), case_domain, scale);
-        case_domain = case_domain >= 232 ? domain : case_domain + 1;
+        const std::vector<Result>& rs = runs[impl];
+        Result r = rs.front();
+        auto med = [&](double Result::*field) {
+          std::vector<double> v;
+          for (const Result& x : rs)
+            if (!std::isnan(x.*field)) v.push_back(x.*field);
+          return percentile(v, 0.5);
+        };
+        r.rtt_median_us = med(&Result::rtt_median_us);
+        r.rtt_p99_us = med(&Result::rtt_p99_us);
+        r.stream_mb_s = med(&Result::stream_mb_s);
+        r.delivered = med(&Result::delivered);
+        for (const Result& x : rs)
+          if (!x.error.empty()) r.error = x.error;
         std::cout << fmt::format("| {} | {} | {} | {:.0f} | {:.0f} | {:.1f} | {:.0f}% |{}\n", r.pair, r.impl,
                                  sizeName(r.size), r.rtt_median_us, r.rtt_p99_us, r.stream_mb_s, 100 * r.delivered,
                                  r.error.empty() ? "" : " " + r.error)
