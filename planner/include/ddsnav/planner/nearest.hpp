@@ -7,6 +7,10 @@
 
 #include "ddsnav/planner/scenario.hpp"
 
+// nanoflann 1.4's dynamic index copies a partly initialised bounding box when it creates its sub-trees;
+// GCC flags that copy (harmless: the box is computed before it is read).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <nanoflann.hpp>
 
 #include <algorithm>
@@ -111,3 +115,5 @@ class NearestIndex {
 };
 
 }  // namespace ddsnav::planner
+
+#pragma GCC diagnostic pop
