@@ -217,3 +217,22 @@ TEST(Smoother, BadInputGivesClearErrors) {
   auto t = smoothPath(pathOf({{2, 5, 0}, {3, 12, 0}, {3, 12, 0}, {4, 15, 0}}), *world, limits());
   EXPECT_EQ(t.report.input_waypoints, 3u);
 }
+
+TEST(Smoother, PathHuggingAWallIsMovedAway) {
+  // A corridor 1 m wide (y in [4.5, 5.5]); the planner's path runs 5 cm above the robot-inflated floor.
+  auto sc = scenario2d(20, 0.2, "  - {type: box, min: [0, 0], max: [20, 4.5]}\n  - {type: box, min: [0, 5.5], max: [20, 20]}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto path = pathOf({{1, 4.75, 0}, {6, 4.75, 0}, {12, 4.75, 0}, {19, 5.0, 0}});
+  SmootherConfig keep;
+  keep.clearance_target = 0.0;
+  const auto hugging = smoothPath(path, *world, limits(), keep);
+  EXPECT_LT(hugging.report.min_clearance, 0.06);
+  SmootherConfig cfg;  // default target 0.2 m
+  const auto moved = smoothPath(path, *world, limits(), cfg);
+  // The start is where it is (5 cm); a little way in, the trajectory has the clearance it asked for.
+  double min_inside = 1e9;
+  for (const auto& s : moved.samples)
+    if (s.position.x() > 2.0 && s.position.x() < 18.0) min_inside = std::min(min_inside, world->clearance(s.position));
+  EXPECT_GT(min_inside, 0.15);
+  expectDrivable(moved, *world, limits(), cfg);
+}

@@ -139,3 +139,35 @@ TEST(ClosedLoop, WithoutNoiseTheErrorIsTiny) {
   EXPECT_TRUE(r.goal_reached);
   EXPECT_LT(r.status.mean_cross_track_error, 0.02);
 }
+
+TEST(ClosedLoop, PlannedPathOnTheDemoScenario) {
+  const auto sc = ddsnav::planner::loadScenario(std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  ddsnav::planner::PlanProblem problem;
+  problem.world = world.get();
+  problem.start.position = sc.start;
+  problem.start.heading = sc.start_heading.value_or(0.0);
+  problem.goal = sc.goal;
+  problem.goal_radius = sc.goal_radius;
+  problem.vehicle = sc.vehicle;
+  problem.seed = 3;
+  problem.max_iterations = 3000;
+  problem.anytime = true;
+  const auto plan = ddsnav::planner::makePlanner("rrtstar")->solve(problem);
+  ASSERT_TRUE(plan.solved);
+
+  SmootherConfig scfg;
+  scfg.initial_heading = sc.start_heading;
+  const auto traj = smoothPath(plan.path, *world, *sc.vehicle, scfg);
+  EXPECT_EQ(traj.report.samples_in_collision, 0u);
+  EXPECT_LE(traj.report.max_heading_jump, sc.vehicle->omega_max * traj.dt + 1e-9);
+  EXPECT_LE(traj.report.max_yaw_rate, sc.vehicle->omega_max);
+  EXPECT_LE(traj.report.max_speed, sc.vehicle->v_max);
+
+  auto cfg = loopConfig(*sc.vehicle);
+  const auto r = runClosedLoop(traj, cfg, world.get());
+  EXPECT_TRUE(r.goal_reached);
+  EXPECT_LE((r.track.back().position - sc.goal).norm(), sc.goal_radius);
+  EXPECT_LT(r.status.mean_cross_track_error, 0.1);
+  EXPECT_EQ(r.track_states_in_collision, 0u);
+}
