@@ -21,7 +21,11 @@ class ColumnMap {
 
   void reset(std::size_t columns) {
     std::size_t capacity = 16;
-    while (capacity < 2 * columns) capacity *= 2;
+    shift_ = 60;
+    while (capacity < 2 * columns) {
+      capacity *= 2;
+      --shift_;
+    }
     mask_ = capacity - 1;
     table_.assign(capacity, Entry{kEmpty, 0, 0});
   }
@@ -46,9 +50,11 @@ class ColumnMap {
  private:
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // (x, y) = (-1, -1) never maps here:
   // columnKey(-1, -1) equals kEmpty, so cell coordinates are offset to be >= 0 before use.
-  std::size_t hash(std::uint64_t key) const { return (key * 0x9E3779B97F4A7C15ull >> 20) & mask_; }
+  // Fibonacci hashing: the top bits of the product mix both x (high word) and y (low word).
+  std::size_t hash(std::uint64_t key) const { return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_); }
   std::vector<Entry> table_;
   std::size_t mask_ = 0;
+  int shift_ = 60;
 };
 
 }  // namespace
@@ -159,28 +165,36 @@ void EuclideanClusterer::extract(std::span<const Eigen::Vector3f> points, Cluste
     return false;
   };
 
-  // Join each cell with the occupied cells of the forward half of its 5x5x5 neighbourhood.
-  for (std::uint32_t a = 0; a < cell_count; ++a) {
-    const auto& ca = b.cell_of[a];
+  // Join each cell with the occupied cells of the forward half of its 5x5x5 neighbourhood, one
+  // column pair at a time: both columns are sorted by z, so the window [z - 2, z + 2] slides.
+  for (std::uint32_t begin = 0; begin < cell_count;) {
+    const std::int32_t x = b.cell_of[begin].x, y = b.cell_of[begin].y;
+    std::uint32_t end = begin + 1;
+    while (end < cell_count && b.cell_of[end].x == x && b.cell_of[end].y == y) ++end;
     for (int dx = 0; dx <= 2; ++dx) {
       for (int dy = (dx == 0 ? 0 : -2); dy <= 2; ++dy) {
-        const ColumnMap::Entry* column = b.columns.find(columnKey(ca.x + dx, ca.y + dy));
-        if (!column) continue;
         const bool same_column = dx == 0 && dy == 0;
-        const std::int32_t z_lo = same_column ? ca.z + 1 : ca.z - 2, z_hi = ca.z + 2;
-        // Cells of a column are sorted by z: find the first with z >= z_lo.
-        std::uint32_t lo = column->begin, hi = column->end;
-        while (lo < hi) {
-          const std::uint32_t mid = (lo + hi) / 2;
-          if (b.cell_of[mid].z < z_lo) lo = mid + 1; else hi = mid;
+        std::uint32_t other_begin = begin, other_end = end;
+        if (!same_column) {
+          const ColumnMap::Entry* column = b.columns.find(columnKey(x + dx, y + dy));
+          if (!column) continue;
+          other_begin = column->begin;
+          other_end = column->end;
         }
-        for (std::uint32_t c = lo; c < column->end && b.cell_of[c].z <= z_hi; ++c) {
-          const std::uint32_t ra = find(a), rc = find(c);
-          if (ra == rc || !anyPairClose(a, c)) continue;
-          b.parent[std::max(ra, rc)] = std::min(ra, rc);
+        std::uint32_t lo = other_begin;
+        for (std::uint32_t a = begin; a < end; ++a) {
+          const std::int32_t z = b.cell_of[a].z;
+          const std::int32_t z_lo = same_column ? z + 1 : z - 2;
+          while (lo < other_end && b.cell_of[lo].z < z_lo) ++lo;
+          for (std::uint32_t c = lo; c < other_end && b.cell_of[c].z <= z + 2; ++c) {
+            const std::uint32_t ra = find(a), rc = find(c);
+            if (ra == rc || !anyPairClose(a, c)) continue;
+            b.parent[std::max(ra, rc)] = std::min(ra, rc);
+          }
         }
       }
     }
+    begin = end;
   }
 
   // Components -> clusters, filtered by size, points in ascending input order.

@@ -65,7 +65,7 @@ RangeSensor::RangeSensor(const planner::Scenario& scenario, const RangeSensorCon
     if (planar_ && obstacle.type == planner::ObstacleType::Hill)
       throw std::invalid_argument("range sensor: scenario '" + scenario.name +
                                   "' is 2-D but has a hill (hills are 3-D only)");
-    Primitive p{obstacle, {}, 0.0};
+    Primitive p{obstacle, {}, 0.0, std::cos(obstacle.yaw), std::sin(obstacle.yaw)};
     boundingSphere(obstacle, planar_, p.bound_center, p.bound_radius);
     primitives_.push_back(p);
   }
@@ -93,14 +93,23 @@ Eigen::Vector3d RangeSensor::beamDirection(int ring, int column) const {
 void RangeSensor::castPrimitive(const Primitive& p, const Eigen::Vector3d& origin) {
   const int rings = config_.rings, columns = config_.columns;
   Ray ray{origin, {}};
+  const Eigen::Vector3d v = p.bound_center - origin;
+  const double radius2 = p.bound_radius * p.bound_radius;
+  const double v2 = v.squaredNorm();
   auto cast = [&](int r, int c) {
     const size_t i = static_cast<size_t>(r) * columns + c;
-    ray.direction = directions_[i];
-    const double t = intersect(ray, p.obstacle, planar_, config_.max_range);
+    const Eigen::Vector3d& d = directions_[i];
+    // Per-beam cull on the bounding sphere: skip when the beam misses it or already hit
+    // something closer than where it enters the sphere.
+    const double along = v.dot(d);
+    const double miss2 = v2 - along * along;  // squared distance of the sphere centre from the beam
+    if (miss2 > radius2) return;
+    if (along - std::sqrt(radius2 - miss2) >= ranges_[i]) return;
+    ray.direction = d;
+    const double t = intersect(ray, p.obstacle, p.cos_yaw, p.sin_yaw, planar_, config_.max_range);
     if (t < ranges_[i]) ranges_[i] = t;
   };
 
-  const Eigen::Vector3d v = p.bound_center - origin;
   const double dist = v.norm();
   if (dist - p.bound_radius > config_.max_range) return;  // entirely out of range
   if (dist <= p.bound_radius * (1.0 + 1e-9) + 1e-9) {      // sensor inside the bound: every beam

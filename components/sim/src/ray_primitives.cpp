@@ -6,9 +6,8 @@
 namespace ddsnav::sim {
 namespace {
 
-// Rotates a vector by -yaw about z: world frame -> primitive frame.
-Eigen::Vector3d unrotate(const Eigen::Vector3d& v, double yaw) {
-  const double c = std::cos(yaw), s = std::sin(yaw);
+// Rotates a vector by -yaw about z (given cos, sin of yaw): world frame -> primitive frame.
+Eigen::Vector3d unrotate(const Eigen::Vector3d& v, double c, double s) {
   return {c * v.x() + s * v.y(), -s * v.x() + c * v.y(), v.z()};
 }
 
@@ -37,8 +36,13 @@ double hillRadius(double height, double sigma) {
 
 double intersectBox(const Ray& ray, const Eigen::Vector3d& center, const Eigen::Vector3d& size,
                     double yaw, bool planar) {
-  const Eigen::Vector3d o = unrotate(ray.origin - center, yaw);
-  const Eigen::Vector3d d = unrotate(ray.direction, yaw);
+  return intersectBox(ray, center, size, std::cos(yaw), std::sin(yaw), planar);
+}
+
+double intersectBox(const Ray& ray, const Eigen::Vector3d& center, const Eigen::Vector3d& size,
+                    double cos_yaw, double sin_yaw, bool planar) {
+  const Eigen::Vector3d o = unrotate(ray.origin - center, cos_yaw, sin_yaw);
+  const Eigen::Vector3d d = unrotate(ray.direction, cos_yaw, sin_yaw);
   double t_near = -kNoHit, t_far = kNoHit;
   const int axes = planar ? 2 : 3;
   for (int k = 0; k < axes; ++k) {
@@ -70,8 +74,13 @@ double intersectSphere(const Ray& ray, const Eigen::Vector3d& center, double rad
 
 double intersectEllipsoid(const Ray& ray, const Eigen::Vector3d& center,
                           const Eigen::Vector3d& semi_axes, double yaw, bool planar) {
-  Eigen::Vector3d o = unrotate(ray.origin - center, yaw);
-  Eigen::Vector3d d = unrotate(ray.direction, yaw);
+  return intersectEllipsoid(ray, center, semi_axes, std::cos(yaw), std::sin(yaw), planar);
+}
+
+double intersectEllipsoid(const Ray& ray, const Eigen::Vector3d& center, const Eigen::Vector3d& semi_axes,
+                          double cos_yaw, double sin_yaw, bool planar) {
+  Eigen::Vector3d o = unrotate(ray.origin - center, cos_yaw, sin_yaw);
+  Eigen::Vector3d d = unrotate(ray.direction, cos_yaw, sin_yaw);
   const int axes = planar ? 2 : 3;
   for (int k = 0; k < 3; ++k) {
     if (k >= axes) {
@@ -104,7 +113,7 @@ double intersectHill(const Ray& ray, const Eigen::Vector3d& center, double heigh
   {
     const Eigen::Vector3d box_center(center.x(), center.y(), 0.5 * height - 1e6);
     const Eigen::Vector3d box_size(2 * radius, 2 * radius, height + 2e6);
-    const double t_enter = intersectBox(ray, box_center, box_size, 0.0, false);
+    const double t_enter = intersectBox(ray, box_center, box_size, 1.0, 0.0, false);
     if (t_enter == kNoHit || t_enter > t_max) return kNoHit;
     t0 = t_enter;
     // Leaving the cylinder's bounding box: march at most to the far side.
@@ -143,14 +152,19 @@ double intersectHill(const Ray& ray, const Eigen::Vector3d& center, double heigh
 }
 
 double intersect(const Ray& ray, const planner::Obstacle& obstacle, bool planar, double t_max) {
+  return intersect(ray, obstacle, std::cos(obstacle.yaw), std::sin(obstacle.yaw), planar, t_max);
+}
+
+double intersect(const Ray& ray, const planner::Obstacle& obstacle, double cos_yaw, double sin_yaw, bool planar,
+                 double t_max) {
   using planner::ObstacleType;
   switch (obstacle.type) {
     case ObstacleType::Box:
-      return intersectBox(ray, obstacle.center, obstacle.size, obstacle.yaw, planar);
+      return intersectBox(ray, obstacle.center, obstacle.size, cos_yaw, sin_yaw, planar);
     case ObstacleType::Sphere:
       return intersectSphere(ray, obstacle.center, obstacle.radius, planar);
     case ObstacleType::Ellipsoid:
-      return intersectEllipsoid(ray, obstacle.center, obstacle.semi_axes, obstacle.yaw, planar);
+      return intersectEllipsoid(ray, obstacle.center, obstacle.semi_axes, cos_yaw, sin_yaw, planar);
     case ObstacleType::Hill:
       if (planar) return kNoHit;
       return intersectHill(ray, obstacle.center, obstacle.height, obstacle.sigma, t_max);

@@ -80,6 +80,7 @@ class RangeSensor {
     planner::Obstacle obstacle;
     Eigen::Vector3d bound_center;
     double bound_radius = 0.0;
+    double cos_yaw = 1.0, sin_yaw = 0.0;
   };
 
   void castPrimitive(const Primitive& primitive, const Eigen::Vector3d& origin);

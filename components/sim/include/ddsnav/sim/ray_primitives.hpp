@@ -51,6 +51,14 @@ double intersectHill(const Ray& ray, const Eigen::Vector3d& center, double heigh
 // Dispatches on the obstacle type. Hills are 3-D only (planar hills return kNoHit).
 double intersect(const Ray& ray, const planner::Obstacle& obstacle, bool planar, double t_max);
 
+// The same with cos(yaw), sin(yaw) precomputed (the simulator's inner loop).
+double intersect(const Ray& ray, const planner::Obstacle& obstacle, double cos_yaw, double sin_yaw, bool planar,
+                 double t_max);
+double intersectBox(const Ray& ray, const Eigen::Vector3d& center, const Eigen::Vector3d& size, double cos_yaw,
+                    double sin_yaw, bool planar);
+double intersectEllipsoid(const Ray& ray, const Eigen::Vector3d& center, const Eigen::Vector3d& semi_axes,
+                          double cos_yaw, double sin_yaw, bool planar);
+
 // Axis-aligned bounding sphere of an obstacle (centre, radius), for the angular broad phase.
 // For a hill it bounds the cut-off cylinder described above.
 void boundingSphere(const planner::Obstacle& obstacle, bool planar, Eigen::Vector3d& center,
