@@ -107,7 +107,7 @@ std::vector<Vec3> keepAwayFromObstacles(const std::vector<Vec3>& pts, const Coll
   for (std::size_t i = 1; i < pts.size(); ++i) {
     const Vec3 a = pts[i - 1], b = pts[i];
     if (!clearanceAtLeast(world, a, b, wanted)) {
-      const int pieces = std::max(1, static_cast<int>(std::ceil((b - a).norm() / spacing)));
+      const int pieces = std::max(2, static_cast<int>(std::ceil((b - a).norm() / spacing)));
       for (int k = 1; k < pieces; ++k) out.push_back(a + (b - a) * (static_cast<double>(k) / pieces));
     }
     out.push_back(b);
@@ -186,9 +186,19 @@ Corners makeCorners(const std::vector<Vec3>& points, double radius, const Collis
     c.size[k] = std::min({cornerSizeFor(angle, radius), 0.45 * in, 0.45 * out});
     // Where the corner is tight on space, the curve may leave the polyline by at most half the corner's
     // clearance: the deviation is at most d sin(angle) / 6.
+    // The room is the least clearance of the polyline where this corner's curve runs (up to 2 d either
+    // side); shrinking d shrinks that stretch, so settle it in a few rounds.
     if (clearance_target > 0.0) {
-      const double room = world.clearance(points[k]);
-      if (room < clearance_target) c.size[k] = std::min(c.size[k], 3.0 * std::max(room, 0.0) / std::max(std::sin(angle), 1e-3));
+      const Vec3 u_in = (points[k] - points[k - 1]).normalized(), u_out = (points[k + 1] - points[k]).normalized();
+      for (int round = 0; round < 3; ++round) {
+        double room = world.clearance(points[k]);
+        for (double f : {0.25, 0.5, 1.0, 1.5, 2.0}) {
+          room = std::min(room, world.clearance(points[k] - f * c.size[k] * u_in));
+          room = std::min(room, world.clearance(points[k] + f * c.size[k] * u_out));
+        }
+        if (room >= clearance_target) break;
+        c.size[k] = std::min(c.size[k], 3.0 * std::max(room, 0.0) / std::max(std::sin(angle), 1e-3));
+      }
     }
   }
   return c;
@@ -549,9 +559,10 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
       // Samples lie on chords between checked curve points; check them too, they are what gets flown.
       for (const auto& s : traj.samples) {
         if (world.isFree(s.position)) continue;
-        const double frac = s.arc_length / std::max(prof.arc.back(), 1e-12);
-        bad.emplace(spline.firstControlPoint(spline.parameterMin() + frac * (spline.parameterMax() - spline.parameterMin())),
-                    s.position);
+        // The curve point at the same arc length tells which span the sample belongs to.
+        const auto at = std::lower_bound(prof.arc.begin(), prof.arc.end(), s.arc_length);
+        const std::size_t idx = std::min<std::size_t>(static_cast<std::size_t>(at - prof.arc.begin()), pts.size() - 1);
+        bad.emplace(spline.firstControlPoint(pts[idx].u), s.position);
       }
       if (bad.empty()) {
         traj.curve = std::move(spline);
