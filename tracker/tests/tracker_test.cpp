@@ -171,3 +171,20 @@ TEST(ClosedLoop, PlannedPathOnTheDemoScenario) {
   EXPECT_LT(r.status.mean_cross_track_error, 0.1);
   EXPECT_EQ(r.track_states_in_collision, 0u);
 }
+
+TEST(ClosedLoop, ThreeDimensionalClimb) {
+  const std::string text =
+      "name: t3\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [1, 1, 1]\n"
+      "goal: [20, 20, 10]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 2.0, omega_max: 0.6, vz_max: 0.5, dt: 1.0}\n"
+      "obstacles:\n  - {type: sphere, center: [15, 5, 5], radius: 2}\n";
+  const auto sc = ddsnav::planner::parseScenario(text, "t3");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto traj = smoothPath(pathOf({{2, 2, 1}, {10, 2, 8}, {10, 12, 8}, {20, 20, 3}}), *world, *sc.vehicle);
+  auto cfg = loopConfig(*sc.vehicle);
+  cfg.vehicle.dimensions = 3;
+  const auto r = runClosedLoop(traj, cfg, world.get());
+  EXPECT_TRUE(r.goal_reached);
+  EXPECT_LT(r.status.mean_cross_track_error, 0.1);
+  EXPECT_NEAR(r.track.back().position.z(), 3.0, 0.1);
+  EXPECT_EQ(r.track_states_in_collision, 0u);
+}
