@@ -134,10 +134,26 @@ void writePicture(const std::string& file, const planner::Scenario& sc, const st
   auto px = [&](const Vec3& p) { return 10.0 + (p.x() - sc.bounds_min.x()) * scale; };
   auto py = [&](const Vec3& p) { return 34.0 + (sc.bounds_max.y() - p.y()) * scale; };
   std::ostringstream o;
+  o.setf(std::ios::fixed);
+  o.precision(1);
+  // Points closer than half a pixel to the last drawn one add nothing to the picture.
+  auto polyline = [&](const std::vector<Vec3>& points) {
+    double lx = -1e9, ly = -1e9;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const double x = px(points[i]), y = py(points[i]);
+      if (std::hypot(x - lx, y - ly) < 0.5 && i + 1 != points.size()) continue;
+      o << x << ',' << y << ' ';
+      lx = x, ly = y;
+    }
+  };
+  std::vector<Vec3> pts;
+  for (const auto& s : traj.samples) pts.push_back(s.position);
   o << "<polyline fill='none' stroke='#1f77b4' stroke-width='1.5' points='";
-  for (const auto& s : traj.samples) o << px(s.position) << ',' << py(s.position) << ' ';
+  polyline(pts);
+  pts.clear();
+  for (const auto& s : track) pts.push_back(s.position);
   o << "'/>\n<polyline fill='none' stroke='#ff7f0e' stroke-width='1' stroke-dasharray='3,2' points='";
-  for (const auto& s : track) o << px(s.position) << ',' << py(s.position) << ' ';
+  polyline(pts);
   o << "'/>\n<text x='10' y='" << 34.0 + (sc.bounds_max.y() - sc.bounds_min.y()) * scale + 8
     << "' font-size='11'>red: planned path, blue: smoothed trajectory, orange dashed: driven (nominal noise)</text>\n";
   const auto end = svg.rfind("</svg>");
@@ -234,6 +250,7 @@ int main(int argc, char** argv) {
 
     tracker::SmootherConfig scfg;
     scfg.initial_heading = sc.start_heading;
+    scfg.end_tolerance = std::max(0.0, sc.goal_radius - (planned.path.back().position - sc.goal).norm());
     const auto t0 = std::chrono::steady_clock::now();
     tracker::Trajectory traj;
     try {

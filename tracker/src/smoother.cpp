@@ -63,6 +63,7 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
   if (!(c.shortcut_clearance >= 0.0)) fail("shortcut_clearance must be >= 0");
   if (!(c.clearance_target >= 0.0) || !std::isfinite(c.clearance_target)) fail("clearance_target must be a number >= 0");
   if (c.initial_heading && !std::isfinite(*c.initial_heading)) fail("initial_heading must be finite");
+  if (!(c.end_tolerance >= 0.0) || !std::isfinite(c.end_tolerance)) fail("end_tolerance must be a number >= 0");
 }
 
 void checkPathFree(const std::vector<Vec3>& points, const CollisionWorld& world) {
@@ -101,7 +102,7 @@ bool clearanceAtLeast(const CollisionWorld& world, const Vec3& a, const Vec3& b,
 // point climbs the clearance field (away from its nearest obstacle) while that increases its clearance and
 // keeps both of its edges free. Points stop at `wanted`, or in the middle of passages narrower than that.
 std::vector<Vec3> keepAwayFromObstacles(const std::vector<Vec3>& pts, const CollisionWorld& world, double wanted,
-                                        double spacing) {
+                                        double spacing, double end_tolerance) {
   if (wanted <= 0.0 || pts.size() < 2) return pts;
   std::vector<Vec3> out{pts.front()};
   for (std::size_t i = 1; i < pts.size(); ++i) {
@@ -117,8 +118,11 @@ std::vector<Vec3> keepAwayFromObstacles(const std::vector<Vec3>& pts, const Coll
   for (std::size_t i = 0; i < out.size(); ++i) clear[i] = world.clearance(out[i]);
   for (int round = 0; round < 25; ++round) {
     bool moved = false;
-    for (std::size_t i = 1; i + 1 < out.size(); ++i) {
+    const Vec3 end = pts.back();
+    const std::size_t last = end_tolerance > 0.0 ? out.size() - 1 : out.size() - 2;  // the end may move a little
+    for (std::size_t i = 1; i <= last; ++i) {
       if (clear[i] >= wanted) continue;
+      const bool is_end = i + 1 == out.size();
       const auto near = world.obstaclesNear(out[i], world.robotRadius() + wanted);
       if (near.empty()) continue;
       Vec3 away = out[i] - near.front().nearest_point;
@@ -129,7 +133,7 @@ std::vector<Vec3> keepAwayFromObstacles(const std::vector<Vec3>& pts, const Coll
         const Vec3 q = out[i] + away.normalized() * step;
         const double cq = world.clearance(q);
         if (cq <= clear[i] + 1e-4 || !world.isFree(q) || !world.isSegmentFree(out[i - 1], q) ||
-            !world.isSegmentFree(q, out[i + 1]))
+            (!is_end && !world.isSegmentFree(q, out[i + 1])) || (is_end && (q - end).norm() > end_tolerance))
           continue;
         out[i] = q;
         clear[i] = cq;
@@ -530,7 +534,7 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   traj.dt = config.sample_dt;
   traj.report.input_waypoints = points.size();
   if (config.shortcut) points = shortcutPolyline(points, world, config.shortcut_clearance);
-  points = keepAwayFromObstacles(points, world, config.clearance_target, 0.5);
+  points = keepAwayFromObstacles(points, world, config.clearance_target, 0.5, config.end_tolerance);
   points = dropCollinear(points);
   traj.report.shortcut_waypoints = points.size();
 

@@ -37,6 +37,9 @@ struct SmootherConfig {
   // are moved away, up to the middle of narrower passages, so that tracking errors stay off the walls.
   // 0 keeps the planner's geometry.
   double clearance_target = 0.2;
+  // How far (m) the last point may be moved for clearance; e.g. the goal radius minus the end's distance
+  // to the goal, so that it stays in the goal region. 0 keeps the end where the planner put it.
+  double end_tolerance = 0.0;
   // Target turn radius at corners, m: < 0 means v_max / omega_max (corners at full speed when there is
   // room); 0 means no rounding: the polyline itself, stopping and turning in place at every corner.
   double corner_radius = -1.0;
