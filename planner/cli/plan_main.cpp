@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
       scene.tree = result.tree;
       scene.path = result.path;
       char title[256];
-      std::snprintf(title, sizeof title, "%s - %s, seed %llu: %s, cost %.2f m, %llu iterations, %.3f s",
+      std::snprintf(title, sizeof title, "%s - %s, seed %llu: %s, cost %.2f m, %llu iterations, %.4f s",
                     scenario.name.c_str(), result.planner.c_str(), static_cast<unsigned long long>(seed),
                     result.solved ? "solved" : "not solved", result.solved ? result.cost : 0.0,
                     static_cast<unsigned long long>(result.stats.iterations), result.stats.time_s);

@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <initializer_list>
 #include <set>
@@ -190,7 +191,7 @@ Scenario readScenario(const YAML::Node& root, const std::string& source) {
 
   Scenario s;
   s.source = source;
-  s.name = root["name"] ? in.text(root["name"], "name") : source;
+  s.name = root["name"] ? in.text(root["name"], "name") : std::filesystem::path(source).stem().string();
 
   const YAML::Node dims = in.require(root, "", "dimensions");
   const double d = in.number(dims, "dimensions");
