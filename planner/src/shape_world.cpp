@@ -405,15 +405,33 @@ bool ShapeWorld::isSegmentFree(const Vec3& a, const Vec3& b) const {
 }
 
 double ShapeWorld::clearance(const Vec3& p) const {
-  double best = kInf;
-  for (std::size_t i = 0; i < shapes_.size(); ++i) {
-    // Distance to the shape's bounding box is a lower bound of the distance to the shape.
-    Vec3 gap = (shapes_[i].lo - p).cwiseMax(p - shapes_[i].hi).cwiseMax(0.0);
-    if (dims_ == 2) gap.z() = 0.0;
-    if (gap.norm() >= best) continue;
-    best = std::min(best, signedDistance(shapes_[i], dims_, p));
+  // Rings of grid cells around p's cell, nearest first. Once rings 0..k-1 are done, every obstacle not yet
+  // seen has its (robot-grown) bounds outside a block reaching at least (k-1) cells from p in every
+  // direction, so it is at least (k-1) * cell away: the search stops when the best distance is within that.
+  double best = has_ground_ ? p.z() : kInf;
+  thread_local std::vector<std::uint32_t> seen;
+  thread_local std::uint32_t stamp = 0;
+  if (seen.size() < shapes_.size()) seen.assign(shapes_.size(), 0);
+  if (++stamp == 0) std::fill(seen.begin(), seen.end(), 0), stamp = 1;
+  const int cx = cellX(p.x()), cy = cellY(p.y());
+  const int max_ring = std::max(std::max(cx, nx_ - 1 - cx), std::max(cy, ny_ - 1 - cy));
+  for (int k = 0; k <= max_ring; ++k) {
+    if (k > 0 && best <= (k - 1) * cell_size_) break;
+    for (int y = cy - k; y <= cy + k; ++y) {
+      if (y < 0 || y >= ny_) continue;
+      const bool edge_row = y == cy - k || y == cy + k;
+      for (int x = cx - k; x <= cx + k; x += (edge_row || k == 0) ? 1 : 2 * k) {
+        if (x < 0 || x >= nx_) continue;
+        const int c = cellIndex(x, y);
+        for (int j = cell_start_[c]; j < cell_start_[c + 1]; ++j) {
+          const int i = cell_items_[j];
+          if (seen[i] == stamp) continue;
+          seen[i] = stamp;
+          best = std::min(best, signedDistance(shapes_[i], dims_, p));
+        }
+      }
+    }
   }
-  if (has_ground_) best = std::min(best, p.z());
   return best - radius_;
 }
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace ddsnav::planner {
@@ -247,9 +248,14 @@ TEST(Geometry, HundredsOfObstaclesStayCorrectWithTheGrid) {
     const Vec3 p(-19 + (i * 37 % 380) / 10.0, -19 + (i * 53 % 380) / 10.0 + (i % 7) * 0.013, 0);
     bool free = world->isFree(p);
     bool brute = true;
-    for (const auto& w : singles) brute = brute && w->isFree(p);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& w : singles) {
+      brute = brute && w->isFree(p);
+      nearest = std::min(nearest, w->clearance(p));
+    }
     disagreements += free != brute;
     occupied += !brute;
+    ASSERT_DOUBLE_EQ(world->clearance(p), nearest) << p.transpose();
   }
   EXPECT_EQ(disagreements, 0);
   EXPECT_GT(occupied, 100);
