@@ -32,7 +32,7 @@ class Reader {
 
   // The map must contain only `allowed` keys, each at most once.
   void checkKeys(const YAML::Node& map, const std::string& where, std::initializer_list<const char*> allowed) const {
-    if (!map.IsMap()) fail(map, where, "expected a mapping");
+    if (!map.IsMap()) fail(map, where.empty() ? "<document>" : where, "expected a mapping");
     std::set<std::string> seen;
     for (const auto& entry : map) {
       if (!entry.first.IsScalar()) fail(entry.first, where, "expected a plain key");

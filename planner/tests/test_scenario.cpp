@@ -118,6 +118,7 @@ TEST(Scenario, HillIn2DAndDimensionMismatches) {
 
 TEST(Scenario, SyntaxErrorsAndMissingFiles) {
   expectError("dimensions: [2\n", 2, "<syntax>");
+  expectError("- just\n- a list\n", 1, "<document>", "expected a mapping");
   try {
     loadScenario("/nonexistent/scenario.yaml");
     ADD_FAILURE();
