@@ -307,6 +307,17 @@ std::map<int, Vec3> collidingSpans(const BSpline& spline, const std::vector<Curv
   return spans;
 }
 
+// Every state on a-b is free, checked at least as finely as the curve samples are (the world's own edge
+// check may be coarser: that is how a graze got through in the first place).
+bool finelyFree(const CollisionWorld& world, const Vec3& a, const Vec3& b) {
+  if (!world.isSegmentFree(a, b)) return false;
+  const double step = 0.5 * std::min(0.05, world.checkResolution());
+  const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / step)));
+  for (int i = 0; i <= n; ++i)
+    if (!world.isFree(a + (b - a) * (static_cast<double>(i) / n))) return false;
+  return true;
+}
+
 // The polyline itself touches an obstacle near `hit` (its edges were checked at the world's resolution; a
 // finer look can find a graze between two checked states). Insert a new corner next to it, pushed away
 // from the nearest obstacle, so both new edges are free. Returns false when no push up to 0.3 m works.
@@ -337,7 +348,7 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
   away.normalize();
   for (double push = 0.005; push <= 0.3; push *= 1.6) {
     const Vec3 q = foot + push * away;
-    if (!world.isFree(q) || !world.isSegmentFree(a, q) || !world.isSegmentFree(q, b)) continue;
+    if (!world.isFree(q) || !finelyFree(world, a, q) || !finelyFree(world, q, b)) continue;
     c.points.insert(c.points.begin() + static_cast<std::ptrdiff_t>(edge) + 1, q);
     c.size.insert(c.size.begin() + static_cast<std::ptrdiff_t>(edge) + 1, 0.0);
     // The new corner and its neighbours get their normal rounding back (capped by the new, shorter edges).

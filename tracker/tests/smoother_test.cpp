@@ -236,3 +236,40 @@ TEST(Smoother, PathHuggingAWallIsMovedAway) {
   EXPECT_GT(min_inside, 0.15);
   expectDrivable(moved, *world, limits(), cfg);
 }
+
+namespace {
+// A world whose edge check only samples states every checkResolution() (the base class's check, as an
+// OctoMap world does), around an exact scenario world.
+class SampledEdgeWorld : public ddsnav::planner::CollisionWorld {
+ public:
+  explicit SampledEdgeWorld(std::unique_ptr<ddsnav::planner::CollisionWorld> inner) : inner_(std::move(inner)) {}
+  int dimensions() const override { return inner_->dimensions(); }
+  Vec3 boundsMin() const override { return inner_->boundsMin(); }
+  Vec3 boundsMax() const override { return inner_->boundsMax(); }
+  double robotRadius() const override { return inner_->robotRadius(); }
+  bool isFree(const Vec3& p) const override { return inner_->isFree(p); }
+  double clearance(const Vec3& p) const override { return inner_->clearance(p); }
+  std::vector<ddsnav::planner::NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override {
+    return inner_->obstaclesNear(p, range);
+  }
+
+ private:
+  std::unique_ptr<ddsnav::planner::CollisionWorld> inner_;
+};
+}  // namespace
+
+TEST(Smoother, GrazingPlannerEdgeGetsADetour) {
+  // The world checks edges only every 2 m, so the planner's edge passes "free" right past a small post
+  // that the robot disc actually touches. The smoother samples finer, finds it and detours.
+  SampledEdgeWorld world(ddsnav::planner::makeScenarioWorld(scenario2d(10, 0.2, "  - {type: sphere, center: [4, 5.25], radius: 0.1}\n")));
+  world.setCheckResolution(2.0);
+  ASSERT_TRUE(world.isSegmentFree({1, 5, 0}, {9, 5, 0}));
+  ASSERT_FALSE(world.isFree({4, 5, 0}));
+  SmootherConfig cfg;
+  cfg.clearance_target = 0.0;  // keep the planner's geometry: this test is about the fallback
+  auto t = smoothPath(pathOf({{1, 5, 0}, {9, 5, 0}}), world, limits(), cfg);
+  EXPECT_GT(t.report.fallback_iterations, 0);
+  EXPECT_GT(t.report.shortcut_waypoints, 2u);  // a detour corner was added
+  for (const auto& s : t.samples) EXPECT_TRUE(world.isFree(s.position));
+  EXPECT_GE(t.report.min_clearance, 0.0);
+}
