@@ -1,0 +1,136 @@
+// ddsnav-plan end to end: one JSON line with the documented fields, an SVG, determinism, and a clear
+// error with exit status 2 for every kind of bad input.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int status = -1;
+  std::string out, err;
+};
+
+const std::string kScenarios = std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/";
+
+class PlanCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("ddsnav_plan_cli_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  static std::string slurp(const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+
+  CliRun plan(const std::string& args) {
+    const fs::path out = dir_ / "stdout", err = dir_ / "stderr";
+    const std::string command = std::string("'") + DDSNAV_PLAN_BINARY + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+    const int raw = std::system(command.c_str());
+    CliRun r;
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+  }
+
+  // A copy of demo_2d.yaml with one line replaced (the line starting with `key:`).
+  std::string variant(const std::string& key, const std::string& line) {
+    std::ifstream in(kScenarios + "demo_2d.yaml");
+    std::string text, l;
+    while (std::getline(in, l)) text += (l.rfind(key + ":", 0) == 0 ? line : l) + "\n";
+    const fs::path p = dir_ / (key + ".yaml");
+    std::ofstream(p) << text;
+    return p.string();
+  }
+
+  void expectError(const std::string& args, const std::string& pattern) {
+    const CliRun r = plan(args);
+    EXPECT_EQ(r.status, 2) << args;
+    EXPECT_TRUE(std::regex_search(r.err, std::regex(pattern))) << args << "\nstderr: " << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(PlanCli, JsonIsOneLineWithEveryField) {
+  const CliRun r = plan("--scenario " + kScenarios + "demo_2d.yaml --planner rrtstar --seed 4 --json --svg " + (dir_ / "run.svg").string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  ASSERT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  for (const char* key : {"scenario", "planner", "seed", "solved", "exact", "time_s", "iterations", "vertices", "cost", "pous",
+                          "por", "path", "fdc", "fgc", "coverage", "growth", "validity_checks", "kinodynamic", "rewires"}) {
+    EXPECT_TRUE(j.contains(key)) << key;
+  }
+  EXPECT_EQ(j["planner"], "rrtstar");
+  EXPECT_EQ(j["seed"], 4);
+  EXPECT_TRUE(j["solved"].get<bool>());
+  EXPECT_FALSE(j["kinodynamic"].get<bool>());
+  for (const auto& state : j["path"]) EXPECT_EQ(state.size(), 3u);  // [x, y, theta]
+  EXPECT_NE(slurp(dir_ / "run.svg").find("<svg"), std::string::npos);
+}
+
+TEST_F(PlanCli, ThreeDimensionalStatesCarryZ) {
+  const CliRun r = plan("--scenario " + kScenarios + "gart_terrain_3d.yaml --planner rrt --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  ASSERT_FALSE(j["path"].empty());
+  for (const auto& state : j["path"]) EXPECT_EQ(state.size(), 4u);  // [x, y, z, theta]
+}
+
+TEST_F(PlanCli, SameSeedSamePath) {
+  const std::string args = "--scenario " + kScenarios + "stunnel_0.5.yaml --planner rrt --kinodynamic --seed 9 --json";
+  const auto a = nlohmann::json::parse(plan(args).out), b = nlohmann::json::parse(plan(args).out);
+  EXPECT_EQ(a["path"].dump(), b["path"].dump());
+  EXPECT_EQ(a["iterations"], b["iterations"]);
+  EXPECT_TRUE(a["kinodynamic"].get<bool>());
+}
+
+TEST_F(PlanCli, BadInputExitsWithStatus2AndSaysWhy) {
+  const std::string demo = "--scenario " + kScenarios + "demo_2d.yaml";
+  expectError(demo + " --planner astar", "unknown planner 'astar' \\(known: .*rrtstar");
+  expectError(demo + " --planner rrt --time-limit 0", "--time-limit must be a positive");
+  expectError(demo + " --planner rrt --time-limit nan", "--time-limit must be a positive");
+  expectError(demo + " --planner rrt --max-iterations 0", "--max-iterations must be positive");
+  expectError("--scenario " + (dir_ / "missing.yaml").string() + " --planner rrt", "missing.yaml: key '<file>': cannot open");
+  expectError("--scenario " + variant("start", "start: [11, 10]") + " --planner rrt", "start .* is in collision");
+  expectError("--scenario " + variant("goal", "goal: [60, 10]") + " --planner rrt", "goal.yaml:[0-9]+: key 'goal': outside bounds");
+  expectError("--scenario " + variant("bounds", "bounds: {min: [0, 0], max: [40, 0]}") + " --planner rrt", "degenerate bounds");
+  expectError("--scenario " + variant("robot_radius", "robot_radius: .nan") + " --planner rrt",
+              "robot_radius.yaml:[0-9]+: key 'robot_radius': expected a finite number");
+  expectError("--scenario " + variant("vehicle", "") + " --planner rrt --kinodynamic", "--kinodynamic needs a 'vehicle' block");
+}
+
+TEST_F(PlanCli, NoPathEndsAtTheLimitUnsolved) {
+  const fs::path walled = dir_ / "walled.yaml";
+  std::ofstream(walled) << "dimensions: 2\nbounds: {min: [0, 0], max: [20, 20]}\nstart: [2, 2]\ngoal: [15, 15]\ngoal_radius: 0.5\n"
+                           "obstacles:\n  - {type: box, min: [10, 0], max: [11, 20]}\n";
+  const CliRun r = plan("--scenario " + walled.string() + " --planner rrt --time-limit 0.2 --json");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_FALSE(j["solved"].get<bool>());
+  EXPECT_TRUE(j["path"].empty());
+  EXPECT_TRUE(j["cost"].is_null());
+  EXPECT_GE(j["time_s"].get<double>(), 0.2);
+}
+
+}  // namespace
