@@ -48,3 +48,55 @@ TEST(BusTwoProcesses, CycloneToFast) { echoEveryType(Vendor::CycloneDDS, Vendor:
 
 }  // namespace
 }  // namespace ddsnav::test
+
+#include <dirent.h>
+#include <fcntl.h>
+#include <sys/file.h>
+
+#include <set>
+
+namespace ddsnav::test {
+namespace {
+
+std::set<std::string> shmSegments() {
+  std::set<std::string> names;
+  DIR* dir = opendir("/dev/shm");
+  if (dir == nullptr) return names;
+  while (dirent* e = readdir(dir)) {
+    std::string n = e->d_name;
+    if (n.starts_with("fastrtps_") && !n.starts_with("fastrtps_port") && !n.ends_with("_el")) names.insert(n);
+  }
+  closedir(dir);
+  return names;
+}
+
+bool lockedByLiveProcess(const std::string& segment) {
+  int fd = open(("/dev/shm/" + segment + "_el").c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  bool locked = flock(fd, LOCK_EX | LOCK_NB) != 0;
+  close(fd);
+  return locked;
+}
+
+// A Fast DDS process killed with SIGKILL leaves its shared-memory segment behind; the next bus
+// participant's start removes it (and leaves segments of live processes alone).
+TEST(BusSharedMemory, StaleSegmentsOfKilledProcessRemoved) {
+  const std::set<std::string> before = shmSegments();
+  std::set<std::string> dead;
+  {
+    ChildProcess peer({BUS_TEST_PEER, "--dds", "fastdds", "--domain", std::to_string(kDomainBase + 24)});
+    ASSERT_EQ(peer.readLine(kWait), std::optional<std::string>("READY"));
+    std::set<std::string> during = shmSegments();
+    kill(peer.pid(), SIGKILL);
+    peer.stop(std::chrono::seconds(5));  // reaps it
+    for (const std::string& s : during)
+      if (!before.count(s) && !lockedByLiveProcess(s)) dead.insert(s);  // others' live segments excluded
+  }
+  ASSERT_FALSE(dead.empty()) << "the killed peer left no segment to clean; the test proves nothing";
+  bus::Participant p(options(bus::Vendor::FastDDS, 24, "cleaner"));  // first Fast participant here
+  const std::set<std::string> after = shmSegments();
+  for (const std::string& s : dead) EXPECT_EQ(after.count(s), 0u) << "stale segment left: " << s;
+}
+
+}  // namespace
+}  // namespace ddsnav::test

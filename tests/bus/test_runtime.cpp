@@ -15,6 +15,9 @@
 #ifndef DDSNAV_TALKER
 #error "DDSNAV_TALKER must name the ddsnav-talker executable"
 #endif
+#ifndef DDSNAV_ECHO
+#error "DDSNAV_ECHO must name the ddsnav-echo executable"
+#endif
 
 namespace ddsnav::test {
 namespace {
@@ -153,6 +156,30 @@ TEST(RuntimeComponent, UsageErrorsExitWithTwo) {
     EXPECT_FALSE(line.has_value());
     EXPECT_EQ(p.stop(std::chrono::seconds(5)), 2) << args[1] << " " << args[2];
   }
+}
+
+}  // namespace
+}  // namespace ddsnav::test
+
+namespace ddsnav::test {
+namespace {
+
+// The first pipeline on the bus: ddsnav-talker on Cyclone, ddsnav-echo on Fast DDS finds the topic by
+// discovery and prints decoded samples.
+TEST(RuntimeTools, EchoPrintsTalkerAcrossVendors) {
+  const std::string domain = std::to_string(kDomainBase + 34);
+  ChildProcess talker({DDSNAV_TALKER, "--dds", "cyclonedds", "--domain", domain, "--param", "rate_hz=50",
+                       "--log-level", "warn"});
+  ChildProcess echo({DDSNAV_ECHO, "vehicle/state", "--dds", "fastdds", "--domain", domain, "--count", "3",
+                     "--log-level", "warn"});
+  for (int i = 0; i < 3; ++i) {
+    std::optional<std::string> line = echo.readLine(kWait);
+    ASSERT_TRUE(line.has_value()) << "echo printed " << i << " lines";
+    EXPECT_NE(line->find("vehicle/state: pos ("), std::string::npos) << *line;
+    EXPECT_NE(line->find("yaw_rate 0.200"), std::string::npos) << *line;  // speed 1 / radius 5
+  }
+  EXPECT_FALSE(echo.readLine(kWait).has_value()) << "echo did not stop after --count samples";
+  EXPECT_EQ(echo.stop(std::chrono::seconds(5)), 0);
 }
 
 }  // namespace
