@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <sstream>
 
@@ -187,18 +188,25 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
     config.variables[key] = value;
   }
 
-  // Variables may use each other (and launch_dir); expand until nothing changes, rejecting cycles.
-  for (int pass = 0;; ++pass) {
-    bool changed = false;
-    for (auto& [key, value] : config.variables) {
-      if (value.find("${") == std::string::npos) continue;
-      const auto node = root["variables"] ? root["variables"][key] : YAML::Node();
-      auto expanded = substitute(value, config.variables, reader, node ? node : root, key);
-      changed = changed || expanded != value;
-      value = std::move(expanded);
-    }
-    if (!changed) break;
-    if (pass > 16) reader.fail(root["variables"], "variables", "variables refer to each other in a cycle");
+  // Variables may use each other (and launch_dir): resolve each once, depth first, rejecting cycles.
+  {
+    std::map<std::string, std::string> resolved;
+    std::set<std::string> in_progress;
+    std::function<void(const std::string&)> resolve = [&](const std::string& key) {
+      if (resolved.count(key)) return;
+      const auto node = root["variables"] && root["variables"][key] ? root["variables"][key] : root;
+      if (!in_progress.insert(key).second) reader.fail(node, key, "variables refer to each other in a cycle");
+      const std::string& raw = config.variables.at(key);
+      for (size_t at = raw.find("${"); at != std::string::npos; at = raw.find("${", at + 2)) {
+        const auto close = raw.find('}', at);
+        const auto name = close == std::string::npos ? "" : raw.substr(at + 2, close - at - 2);
+        if (config.variables.count(name)) resolve(name);
+      }
+      resolved[key] = substitute(raw, resolved, reader, node, key);
+      in_progress.erase(key);
+    };
+    for (const auto& entry : config.variables) resolve(entry.first);
+    config.variables = std::move(resolved);
   }
 
   const auto list = root["processes"];
