@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -243,7 +244,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
   }
   TreeAccess::sizeChangedOf(tree) = true;
 
-  // Split depth: the shallowest depth (<= 12, a 2^4-voxel cube) whose subtrees number at least 4 per
+  // Split depth: the shallowest depth (<= 12, a 2^4-voxel cube) whose subtrees number at least 8 per
   // thread, so the shares can be balanced.
   std::vector<Subtree> subtrees;
   int split_depth = 0;
@@ -261,7 +262,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
         for (int w = 0; w < 8; ++w) subtrees.back().cells += std::popcount(b.free[w] | b.occupied[w]);
       }
       if (!subtrees.empty()) subtrees.back().last = sorted.size();
-      if (subtrees.size() >= 4u * threads) {
+      if (subtrees.size() >= 8u * threads) {
         split_depth = depth;
         break;
       }
@@ -316,21 +317,13 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
     return 1;
   }
 
-  // Contiguous shares of subtrees with about equal voxel counts.
-  std::vector<std::size_t> share_end;
-  std::size_t done = 0, total = 0;
-  for (const Subtree& st : subtrees) total += st.cells;
-  for (std::size_t i = 0; i < subtrees.size(); ++i) {
-    done += subtrees[i].cells;
-    if (share_end.size() + 1 < static_cast<std::size_t>(threads) && done * threads >= total * (share_end.size() + 1)) {
-      share_end.push_back(i + 1);
-    }
-  }
-  share_end.push_back(subtrees.size());
-  std::vector<NodeOps> ops(share_end.size(), NodeOps(tree));
-  auto work = [&](std::size_t share) {
-    TreeWalk walk(tree, ops[share]);
-    for (std::size_t i = share == 0 ? 0 : share_end[share - 1]; i < share_end[share]; ++i) {
+  // Threads take subtrees from a shared counter, so a thread the OS delays (2 cores shared with other
+  // processes) holds up at most one subtree instead of a fixed share.
+  std::vector<NodeOps> ops(threads, NodeOps(tree));
+  std::atomic<std::size_t> next{0};
+  auto work = [&](int t) {
+    TreeWalk walk(tree, ops[t]);
+    for (std::size_t i = next.fetch_add(1); i < subtrees.size(); i = next.fetch_add(1)) {
       const Subtree& st = subtrees[i];
       walk.begin(st.node, split_depth, st.fresh);
       walkBricks(bricks, sorted.data() + st.first, sorted.data() + st.last, walk);
@@ -338,7 +331,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
     }
   };
   std::vector<std::thread> workers;
-  for (std::size_t t = 1; t < share_end.size(); ++t) workers.emplace_back(work, t);
+  for (int t = 1; t < threads; ++t) workers.emplace_back(work, t);
   work(0);
   for (std::thread& w : workers) w.join();
 
@@ -349,7 +342,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
   long delta = main_ops.nodeDelta();
   for (const NodeOps& o : ops) delta += o.nodeDelta();
   TreeAccess::sizeOf(tree) += delta;
-  return static_cast<int>(share_end.size());
+  return threads;
 }
 
 // OcTreeBaseImpl::computeRayKeys, statement for statement and in the same precision (float vectors, double
@@ -381,16 +374,26 @@ bool traceRay(const octomap::OcTree& tree, const octomap::point3d& origin, const
       t_delta[i] = std::numeric_limits<double>::max();
     }
   }
+  // The same choice of axis as OctoMap's if/else (ties included), computed without branches: the axis is
+  // close to random from step to step, so branches mispredict about half the time. Adding t_delta * 0.0
+  // or * 1.0 gives exactly t_max or t_max + t_delta, so the arithmetic is unchanged.
+  double t0 = t_max[0], t1 = t_max[1], t2 = t_max[2];
+  int k0 = current[0], k1 = current[1], k2 = current[2];
+  const int e0 = key_end[0], e1 = key_end[1], e2 = key_end[2];
   while (true) {
-    unsigned dim;
-    if (t_max[0] < t_max[1]) dim = t_max[0] < t_max[2] ? 0 : 2;
-    else dim = t_max[1] < t_max[2] ? 1 : 2;
-    current[dim] = static_cast<octomap::key_type>(current[dim] + step[dim]);
-    t_max[dim] += t_delta[dim];
-    if (current == key_end) return true;
+    const bool c01 = t0 < t1, c02 = t0 < t2, c12 = t1 < t2;
+    const bool d0 = c01 & c02, d1 = !c01 & c12, d2 = !(d0 | d1);
+    k0 = (k0 + step[0] * d0) & 0xffff;
+    k1 = (k1 + step[1] * d1) & 0xffff;
+    k2 = (k2 + step[2] * d2) & 0xffff;
+    t0 += t_delta[0] * static_cast<double>(d0);
+    t1 += t_delta[1] * static_cast<double>(d1);
+    t2 += t_delta[2] * static_cast<double>(d2);
+    if (k0 == e0 && k1 == e1 && k2 == e2) return true;
     // Past the end point's distance without reaching its key (rounding): stop, as OctoMap does.
-    if (std::min(std::min(t_max[0], t_max[1]), t_max[2]) > length) return true;
-    map.markFree(current);
+    if (std::min(std::min(t0, t1), t2) > length) return true;
+    map.markFree(octomap::OcTreeKey(static_cast<octomap::key_type>(k0), static_cast<octomap::key_type>(k1),
+                                    static_cast<octomap::key_type>(k2)));
   }
 }
 
@@ -499,8 +502,8 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
     return s;
   };
   InsertCounts counts;
-  // 1. Ray keys, one contiguous share of the points per thread (lidar points are ordered by beam, so a
-  //    share is an angular sector and its rays are coherent).
+  // 1. Ray keys. Threads take runs of consecutive points from a shared counter (lidar points are ordered
+  //    by beam, so a run is a small angular sector with coherent rays); each marks into its own map.
   const int n_threads = std::clamp<int>(threads, 1, 64);
   if (maps_.size() < static_cast<std::size_t>(n_threads)) maps_.resize(n_threads);
   for (BrickMap& m : maps_) m.clear();
@@ -508,14 +511,16 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   if (n_threads == 1 || n < 2048) {
     markRays(tree, cloud->data(), n, origin, max_range, maps_[0]);
   } else {
+    constexpr std::size_t kRun = 512;
+    std::atomic<std::size_t> next{0};
+    auto work = [&](int t) {
+      for (std::size_t begin = next.fetch_add(kRun); begin < n; begin = next.fetch_add(kRun)) {
+        markRays(tree, cloud->data() + begin, std::min(kRun, n - begin), origin, max_range, maps_[t]);
+      }
+    };
     std::vector<std::thread> workers;
-    const std::size_t share = (n + n_threads - 1) / n_threads;
-    for (int t = 1; t < n_threads; ++t) {
-      const std::size_t begin = std::min(n, share * t), end = std::min(n, share * (t + 1));
-      workers.emplace_back(
-          [&, begin, end, t] { markRays(tree, cloud->data() + begin, end - begin, origin, max_range, maps_[t]); });
-    }
-    markRays(tree, cloud->data(), std::min(n, share), origin, max_range, maps_[0]);
+    for (int t = 1; t < n_threads; ++t) workers.emplace_back(work, t);
+    work(0);
     for (std::thread& w : workers) w.join();
     counts.seconds_rays = lap();
     for (int t = 1; t < n_threads; ++t) maps_[0].mergeFrom(maps_[t]);
