@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <fstream>
 #include <numbers>
@@ -27,6 +28,14 @@ using Clock = std::chrono::steady_clock;
 
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// CPU time of this thread: on a shared, oversubscribed machine wall time mostly measures how often
+// the scheduler preempted us, so both are reported.
+double threadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 struct Summary {
@@ -73,6 +82,7 @@ int main(int argc, char** argv) {
 
   std::printf("city block: %zu obstacles, %d timed scans per model (+2 warm-up), noise %.3f m, invalid %.3f\n",
               world.obstacles.size(), scans, sigma, invalid);
+  std::printf("times in ms per scan; first line wall clock, second line thread CPU time\n");
   std::printf("%-8s %8s %8s | %9s %9s | %9s %9s | %7s %7s | %9s | %s\n", "lidar", "points", "voxels", "pcl med",
               "pcl p90", "ours med", "ours p90", "ratio", "p90/med", "sim med", "same clusters");
 
@@ -89,6 +99,7 @@ int main(int argc, char** argv) {
     perception::ObstacleDetector detector(params);
     perception::PclReferencePipeline reference(params);
 
+    std::vector<double> pcl_cpu, ours_cpu, sim_cpu;
     std::vector<double> sim_ms, pcl_ms, ours_ms, voxel_ms, cluster_ms, split_ms, fit_ms;
     size_t points = 0, voxels = 0, mismatches = 0, obstacles = 0, clusters = 0;
     for (int k = -2; k < scans; ++k) {
@@ -96,17 +107,20 @@ int main(int argc, char** argv) {
       const double x = -40.0 + 80.0 * (k + 2) / (scans + 2);
       const sim::SensorPose pose{{x, 0.8 * std::sin(0.3 * k), 1.8}, 0.15 * std::sin(0.2 * k)};
       auto start = Clock::now();
+      const double sim_cpu_start = threadCpuMs();
       const auto cloud = sensor.scan(pose, k * 0.1);
-      const double t_sim = msSince(start);
+      const double t_sim = msSince(start), c_sim = threadCpuMs() - sim_cpu_start;
 
       reference.setInput(cloud.points);
       start = Clock::now();
+      double cpu = threadCpuMs();
       reference.run(3);
-      const double t_pcl = msSince(start);
+      const double t_pcl = msSince(start), c_pcl = threadCpuMs() - cpu;
 
       start = Clock::now();
+      cpu = threadCpuMs();
       const auto found = detector.detect(cloud.points, cloud.origin, 3);
-      const double t_ours = msSince(start);
+      const double t_ours = msSince(start), c_ours = threadCpuMs() - cpu;
 
       const auto& st = detector.stats();
       size_t pcl_clustered = 0;
@@ -117,6 +131,9 @@ int main(int argc, char** argv) {
       mismatches += !same;
       sim_ms.push_back(t_sim);
       pcl_ms.push_back(t_pcl);
+      pcl_cpu.push_back(c_pcl);
+      ours_cpu.push_back(c_ours);
+      sim_cpu.push_back(c_sim);
       ours_ms.push_back(t_ours);
       voxel_ms.push_back(st.ms_filter + st.ms_voxel);
       cluster_ms.push_back(st.ms_cluster);
@@ -131,6 +148,10 @@ int main(int argc, char** argv) {
     std::printf("%-8s %8zu %8zu | %9.2f %9.2f | %9.2f %9.2f | %7.3f %7.2f | %9.2f | %zu/%d\n", model.name.c_str(),
                 points / scans, voxels / scans, pcl.median, pcl.p90, ours.median, ours.p90, ours.median / pcl.median,
                 ours.p90 / ours.median, simt.median, scans - mismatches, scans);
+    const Summary pcl_c = summarize(pcl_cpu), ours_c = summarize(ours_cpu), sim_c = summarize(sim_cpu);
+    std::printf("%-8s %8s %8s | %9.2f %9.2f | %9.2f %9.2f | %7.3f %7.2f | %9.2f |\n", "  cpu", "", "",
+                pcl_c.median, pcl_c.p90, ours_c.median, ours_c.p90, ours_c.median / pcl_c.median,
+                ours_c.p90 / ours_c.median, sim_c.median);
     std::printf("         ours by stage (median ms): filter+voxel+ground %.2f, cluster %.2f, gap split %.2f, fit %.2f;"
                 " %zu clusters -> %zu ellipsoids per scan\n",
                 summarize(voxel_ms).median, summarize(cluster_ms).median, summarize(split_ms).median,
@@ -142,8 +163,13 @@ int main(int argc, char** argv) {
                    {"pcl_ms", {{"median", pcl.median}, {"p90", pcl.p90}, {"mean", pcl.mean}}},
                    {"ours_ms", {{"median", ours.median}, {"p90", ours.p90}, {"mean", ours.mean}}},
                    {"ratio_median", ours.median / pcl.median},
+                   {"pcl_cpu_ms", {{"median", pcl_c.median}, {"p90", pcl_c.p90}}},
+                   {"ours_cpu_ms", {{"median", ours_c.median}, {"p90", ours_c.p90}}},
+                   {"ratio_cpu_median", ours_c.median / pcl_c.median},
+                   {"ours_cpu_p90_over_median", ours_c.p90 / ours_c.median},
                    {"ours_p90_over_median", ours.p90 / ours.median},
                    {"sim_raycast_ms", {{"median", simt.median}, {"p90", simt.p90}}},
+                   {"sim_raycast_cpu_ms", {{"median", sim_c.median}, {"p90", sim_c.p90}}},
                    {"same_clusters_scans", scans - mismatches}});
     if (mismatches) spdlog::error("{}: {} of {} scans differ from the PCL pipeline", model.name, mismatches, scans);
   }
