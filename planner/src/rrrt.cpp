@@ -38,12 +38,10 @@ class RrrtPlanner final : public Planner {
         continue;
       }
       // Contact: the last free state on the way to the sample, within one check resolution.
-      Vec3 q = lastFreeState(world, from.position, to.position, resolution);
-      int node = nearest;
+      const Vec3 q = lastFreeState(world, from.position, to.position, resolution);
+      int node = nearest;  // retract from the contact state, or from the tree when it is already there
       if ((q - from.position).norm() > margin && world.isSegmentFree(from.position, q)) {
         node = run.addNode(State{q, edgeHeading(from.position, q, from.heading)}, nearest, run.tree.node(nearest).cost + (q - from.position).norm());
-      } else {
-        q = from.position;
       }
       retract(run, node, target, steering.range() / 4.0, margin);
     }
