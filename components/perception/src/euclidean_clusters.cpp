@@ -65,6 +65,7 @@ struct EuclideanClusterer::Buffers {
   detail::CellGrouper grouper;
   std::vector<Eigen::Vector3f> sorted;       // points in cell order
   std::vector<detail::CellCoord> cell_of;    // coordinate of each cell
+  std::vector<Eigen::Vector3f> cell_lo, cell_hi;  // bounding box of each cell's points
   std::vector<std::uint32_t> parent;         // union-find over cells
   std::vector<std::uint32_t> point_cell;     // cell of each input point
   std::vector<int> root_cluster, cluster_size, cluster_first;
@@ -112,12 +113,19 @@ void EuclideanClusterer::extract(std::span<const Eigen::Vector3f> points, Cluste
   b.sorted.resize(n);
   b.point_cell.resize(n);
   b.cell_of.resize(cell_count);
+  b.cell_lo.resize(cell_count);
+  b.cell_hi.resize(cell_count);
   for (std::size_t c = 0; c < cell_count; ++c) {
     b.cell_of[c] = b.cells[b.order[b.starts[c]]];
+    Eigen::Vector3f lo = points[b.order[b.starts[c]]], hi = lo;
     for (std::uint32_t k = b.starts[c]; k < b.starts[c + 1]; ++k) {
       b.sorted[k] = points[b.order[k]];
       b.point_cell[b.order[k]] = static_cast<std::uint32_t>(c);
+      lo = lo.cwiseMin(b.sorted[k]);
+      hi = hi.cwiseMax(b.sorted[k]);
     }
+    b.cell_lo[c] = lo;
+    b.cell_hi[c] = hi;
   }
 
   // Columns (x, y) are contiguous runs of cells because cells are sorted by x, y, z.
@@ -151,6 +159,14 @@ void EuclideanClusterer::extract(std::span<const Eigen::Vector3f> points, Cluste
     return x;
   };
   auto anyPairClose = [&](std::uint32_t a, std::uint32_t c) {
+    // Bounding boxes of the two cells' points farther apart than the tolerance: no pair can be
+    // close. The test is conservative (a margin of 1e-4 of the tolerance), the exact check decides.
+    float gap2 = 0.0f;
+    for (int k = 0; k < 3; ++k) {
+      const float gap = std::max({0.0f, b.cell_lo[a][k] - b.cell_hi[c][k], b.cell_lo[c][k] - b.cell_hi[a][k]});
+      gap2 += gap * gap;
+    }
+    if (gap2 > radius2 * 1.001f) return false;
     for (std::uint32_t i = b.starts[a]; i < b.starts[a + 1]; ++i) {
       const Eigen::Vector3f& p = b.sorted[i];
       for (std::uint32_t j = b.starts[c]; j < b.starts[c + 1]; ++j) {
