@@ -15,6 +15,11 @@ void require(bool ok, const char* name, const char* expected) {
 
 bool finitePositive(double v) { return std::isfinite(v) && v > 0.0; }
 
+const DetectorParams& validated(const DetectorParams& params) {
+  params.validate();
+  return params;
+}
+
 class StageTimer {
  public:
   double lap() {
@@ -47,7 +52,7 @@ void DetectorParams::validate() const {
 }
 
 ObstacleDetector::ObstacleDetector(const DetectorParams& params)
-    : params_((params.validate(), params)),
+    : params_(validated(params)),
       voxel_grid_(static_cast<float>(params.voxel_size)),
       clusterer_(ClusterParams{params.cluster_tolerance, params.min_cluster_size, params.max_cluster_size}) {}
 
