@@ -169,6 +169,7 @@ Subscription Participant::subscribeRaw(const TopicInfo& topic, const Qos& qos, d
 }
 
 void RawPublisher::publish(std::span<const std::uint8_t> payload) {
+  if (!impl_) throw BusError("use of an empty RawPublisher");
   if (payload.size() < 4) throw BusError("raw sample of " + std::to_string(payload.size()) +
                                          " bytes: expected at least the 4-byte encapsulation header");
   impl_->writeRaw(payload);

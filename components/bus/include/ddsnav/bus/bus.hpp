@@ -150,13 +150,17 @@ class Publisher {
   Publisher() = default;
   explicit Publisher(std::shared_ptr<detail::WriterImpl> impl) : impl_(std::move(impl)) {}
   // Serializes once and hands the bytes to the vendor. Throws BusError when the vendor refuses.
-  void publish(const T& sample) { detail::write(*impl_, &sample); }
-  std::size_t matchedSubscribers() const { return detail::matchedReaders(*impl_); }
+  void publish(const T& sample) { detail::write(checked(), &sample); }
+  std::size_t matchedSubscribers() const { return detail::matchedReaders(checked()); }
   bool waitForSubscribers(std::size_t count, std::chrono::milliseconds timeout) const {
     return detail::waitMatched([this] { return matchedSubscribers(); }, count, timeout);
   }
 
  private:
+  detail::WriterImpl& checked() const {
+    if (!impl_) throw BusError("use of an empty (default-constructed or moved-from) Publisher");
+    return *impl_;
+  }
   std::shared_ptr<detail::WriterImpl> impl_;
 };
 
@@ -168,7 +172,10 @@ class RawPublisher {
   // payload: encapsulation + XCDR1 body, e.g. a RawSample::payload. Throws BusError when rejected
   // (Cyclone checks the bytes against the type).
   void publish(std::span<const std::uint8_t> payload);
-  std::size_t matchedSubscribers() const { return detail::matchedReaders(*impl_); }
+  std::size_t matchedSubscribers() const {
+    if (!impl_) throw BusError("use of an empty RawPublisher");
+    return detail::matchedReaders(*impl_);
+  }
   bool waitForSubscribers(std::size_t count, std::chrono::milliseconds timeout) const {
     return detail::waitMatched([this] { return matchedSubscribers(); }, count, timeout);
   }
@@ -177,7 +184,8 @@ class RawPublisher {
   std::shared_ptr<detail::WriterImpl> impl_;
 };
 
-// A bounded queue of received samples (oldest dropped when full), for tests and simple loops.
+// A bounded queue of received samples (oldest dropped when full), for tests and simple loops. Mind the
+// capacity for large messages: it holds copies.
 template <class T>
 class Inbox {
  public:
@@ -254,7 +262,7 @@ class Participant {
   }
 
   template <class T>
-  Inbox<T> inbox(const std::string& topic, const Qos& qos, std::size_t capacity = 1000) {
+  Inbox<T> inbox(const std::string& topic, const Qos& qos, std::size_t capacity = 64) {
     auto state = std::make_shared<typename Inbox<T>::State>();
     state->capacity = capacity;
     Subscription sub = subscribe<T>(topic, qos, [state](const T& sample) {
