@@ -6,12 +6,13 @@
 #include <fastcdr/FastBuffer.h>
 #include <fastcdr/exceptions/Exception.h>
 
-#include <dds/ddsc/dds_public_impl.h>
-
 #include <new>
 #include <string>
 
-#define DDSNAV_MESSAGE(T) extern "C" const dds_topic_descriptor_t ddsnav_msg_##T##_desc;
+// The idlc descriptors, declared without Cyclone's headers: only their addresses are used here (the bus's
+// Cyclone backend casts them back to dds_topic_descriptor_t).
+struct dds_topic_descriptor;
+#define DDSNAV_MESSAGE(T) extern "C" const dds_topic_descriptor ddsnav_msg_##T##_desc;
 #include <ddsnav/msg/type_list.inc>
 #undef DDSNAV_MESSAGE
 
@@ -68,7 +69,7 @@ void serializeKey(const void* sample, std::vector<unsigned char>& out) {
 }
 
 template <class T>
-TypeSupport make(std::string_view name, const dds_topic_descriptor_t* descriptor) {
+TypeSupport make(std::string_view name, const dds_topic_descriptor* descriptor) {
   TypeSupport ts;
   ts.name = name;
   ts.keyed = T::isKeyDefined();
