@@ -96,23 +96,27 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
     raw.push_back(c);
   } else if (!sameState(projected.position, parent.position)) {
     // Event 1: turn away from the blocked direction, one candidate per side. Directions are tried from the
-    // sample's towards the maximum turn at full reach J; the first free one is taken. When none is, the
-    // maximum turn is kept and the edge shortened (3/4, 1/2, 1/4 of J) until free.
+    // sample's towards the maximum turn; along each the candidate reaches as far as is free (J, 3J/4, J/2,
+    // J/4: the paper's J(a) = max J(theta)). The first direction free at full reach J ends the search;
+    // otherwise the direction of the longest free edge wins (the smaller turn on ties).
     const double blocked_turn = turnTowards(parent, projected.position);
     const double climb = projected.position.z() - parent.position.z();
     const int steps = std::max(1, options.event1_turn_steps);
     for (int side : {-1, +1}) {
       const double limit = side * region.max_turn;
       std::optional<State> found;
-      for (int k = 1; k <= steps && !found; ++k) {
+      double found_fraction = 0.0;
+      for (int k = 1; k <= steps && found_fraction < 1.0; ++k) {
         const double turn = blocked_turn + (limit - blocked_turn) * k / steps;
-        const State s = driveUnicycle(parent, turn, region.reach, climb, region);
-        if (world.isSegmentFree(parent.position, s.position)) found = s;
-      }
-      for (double fraction : {0.75, 0.5, 0.25}) {
-        if (found) break;
-        const State s = driveUnicycle(parent, limit, fraction * region.reach, climb * fraction, region);
-        if (world.isSegmentFree(parent.position, s.position)) found = s;
+        for (double fraction : {1.0, 0.75, 0.5, 0.25}) {
+          if (fraction <= found_fraction) break;
+          const State s = driveUnicycle(parent, turn, fraction * region.reach, climb * fraction, region);
+          if (world.isSegmentFree(parent.position, s.position)) {
+            found = s;
+            found_fraction = fraction;
+            break;
+          }
+        }
       }
       if (!found) continue;
       if (!raw.empty() && sameState(raw.front().state.position, found->position)) continue;
