@@ -2,6 +2,7 @@
 // Starts a component set from a YAML launch file and supervises it (see docs/launch.md).
 
 #include "ddsnav/launch/launch_config.hpp"
+#include "ddsnav/launch/status_readiness.hpp"
 #include "ddsnav/launch/supervisor.hpp"
 
 #include <ddsnav/bus/bus.hpp>
@@ -12,48 +13,11 @@
 #include <unistd.h>
 
 #include <climits>
-#include <condition_variable>
 #include <map>
-#include <mutex>
 
 namespace {
 
 using namespace ddsnav;
-
-// Readiness from the system/status topic: every component publishes a ComponentStatus (keyed by name,
-// transient local) and sets `ready` once it serves. The pid must match, so a stale status from an
-// earlier run of the same name never counts.
-class StatusReadiness : public launch::ReadinessSource {
- public:
-  explicit StatusReadiness(bus::Participant& bus)
-      : subscription_(bus.subscribe<msg::ComponentStatus>("system/status", bus::Qos::state(1),
-                                                          [this](const msg::ComponentStatus& s) { onStatus(s); })) {}
-
-  bool waitUntilReady(const std::string& name, pid_t pid, std::chrono::steady_clock::time_point deadline) override {
-    std::unique_lock lock(mutex_);
-    return changed_.wait_until(lock, deadline, [&] {
-      const auto it = ready_pid_.find(name);
-      return it != ready_pid_.end() && it->second == pid;
-    });
-  }
-
- private:
-  void onStatus(const msg::ComponentStatus& status) {
-    {
-      std::lock_guard lock(mutex_);
-      if (status.ready())
-        ready_pid_[status.name()] = status.pid();
-      else if (ready_pid_.count(status.name()) && ready_pid_[status.name()] == status.pid())
-        ready_pid_.erase(status.name());
-    }
-    changed_.notify_all();
-  }
-
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  std::map<std::string, pid_t> ready_pid_;
-  bus::Subscription subscription_;
-};
 
 std::string executableDirectory() {
   char buffer[PATH_MAX];
@@ -99,7 +63,7 @@ int main(int argc, char** argv) {
       if (p.dds) bus::parseVendor(*p.dds);  // reject a typo before anything starts
 
     bus::Participant participant({.vendor = vendor, .domain_id = domain, .name = "launch"});
-    StatusReadiness readiness(participant);
+    launch::StatusReadiness readiness(participant);
     launch::SupervisorOptions options;
     options.bin_dir = executableDirectory();
     options.domain = domain;

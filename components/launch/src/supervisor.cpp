@@ -40,6 +40,49 @@ int exitCodeOf(int status) {
 
 }  // namespace
 
+pid_t spawnComponent(const ProcessSpec& spec, const SpawnOptions& options) {
+  std::string program = spec.command;
+  if (program.find('/') == std::string::npos && ::access((options.bin_dir + "/" + program).c_str(), X_OK) == 0)
+    program = options.bin_dir + "/" + program;
+  std::vector<std::string> argv_strings{program};
+  argv_strings.insert(argv_strings.end(), spec.args.begin(), spec.args.end());
+  for (const auto& [key, value] : spec.params) {
+    argv_strings.push_back("--param");
+    argv_strings.push_back(key + "=" + value);
+  }
+  // Everything the child needs is prepared before fork: after it, only async-signal-safe calls.
+  std::vector<char*> argv;
+  for (auto& s : argv_strings) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  const std::string dds = spec.dds.value_or(options.dds);
+  const std::string domain = std::to_string(options.domain);
+  const pid_t parent = ::getpid();
+  const sigset_t signals = supervisorSignals();
+
+  const pid_t pid = ::fork();
+  if (pid != 0) {
+    if (pid > 0) ::setpgid(pid, pid);  // also from the parent, so the group exists before we signal it
+    return pid;
+  }
+  ::setpgid(0, 0);
+  ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+  if (::getppid() != parent) ::_exit(127);  // the parent died between fork and prctl
+  pthread_sigmask(SIG_UNBLOCK, &signals, nullptr);
+  if (!options.output_file.empty()) {
+    const int fd = ::open(options.output_file.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (fd >= 0) {
+      ::dup2(fd, STDOUT_FILENO);
+      ::dup2(fd, STDERR_FILENO);
+    }
+  }
+  ::setenv("DDSNAV_DDS", dds.c_str(), 1);
+  ::setenv("DDSNAV_DOMAIN", domain.c_str(), 1);
+  ::setenv("DDSNAV_COMPONENT_NAME", spec.name.c_str(), 1);
+  ::execvp(argv[0], argv.data());
+  std::fprintf(stderr, "[launch] cannot run '%s' for process '%s': %s\n", argv[0], spec.name.c_str(), std::strerror(errno));
+  ::_exit(127);
+}
+
 void blockSupervisorSignals() {
   const sigset_t set = supervisorSignals();
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
@@ -70,50 +113,13 @@ struct Supervisor::Impl {
 
   void log(const std::string& line) const { options.log("[launch " + config.name + "] " + line); }
 
-  std::string resolveCommand(const std::string& command) const {
-    if (command.find('/') != std::string::npos) return command;
-    const std::string beside = options.bin_dir + "/" + command;
-    if (::access(beside.c_str(), X_OK) == 0) return beside;
-    return command;  // let execvp search PATH
-  }
-
-  // fork + exec in a process group of its own; the child dies with the launcher (PDEATHSIG) so nothing
-  // can be orphaned even if the launcher itself is killed with SIGKILL.
   pid_t spawn(const ProcessSpec& spec) {
-    const std::string program = resolveCommand(spec.command);
-    std::vector<std::string> argv_strings{program};
-    argv_strings.insert(argv_strings.end(), spec.args.begin(), spec.args.end());
-    for (const auto& [key, value] : spec.params) {
-      argv_strings.push_back("--param");
-      argv_strings.push_back(key + "=" + value);
-    }
-    std::vector<char*> argv;
-    for (auto& s : argv_strings) argv.push_back(s.data());
-    argv.push_back(nullptr);
-
-    const std::string dds = spec.dds.value_or(options.dds);
-    const std::string domain = std::to_string(options.domain);
-    const pid_t parent = ::getpid();
-    const pid_t pid = ::fork();
+    const pid_t pid = spawnComponent(spec, {options.bin_dir, options.domain, options.dds, ""});
     if (pid < 0) {
       log("cannot fork for '" + spec.name + "': " + std::strerror(errno));
       return -1;
     }
-    if (pid == 0) {
-      ::setpgid(0, 0);
-      ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-      if (::getppid() != parent) ::_exit(127);  // the launcher died between fork and prctl
-      const sigset_t set = supervisorSignals();
-      pthread_sigmask(SIG_UNBLOCK, &set, nullptr);
-      ::setenv("DDSNAV_DDS", dds.c_str(), 1);
-      ::setenv("DDSNAV_DOMAIN", domain.c_str(), 1);
-      ::setenv("DDSNAV_COMPONENT_NAME", spec.name.c_str(), 1);
-      ::execvp(argv[0], argv.data());
-      std::fprintf(stderr, "[launch] cannot run '%s' for process '%s': %s\n", argv[0], spec.name.c_str(), std::strerror(errno));
-      ::_exit(127);
-    }
-    ::setpgid(pid, pid);  // also from the parent, so the group exists before we might signal it
-    log("started " + spec.name + " (pid " + std::to_string(pid) + ", " + dds + ")");
+    log("started " + spec.name + " (pid " + std::to_string(pid) + ", " + spec.dds.value_or(options.dds) + ")");
     return pid;
   }
 

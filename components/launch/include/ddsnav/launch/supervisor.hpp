@@ -46,6 +46,20 @@ class Supervisor {
   Impl* impl_;
 };
 
+// How one component process is started: in a process group of its own (so it and its children can be
+// signalled together), dying with its parent (PR_SET_PDEATHSIG, so nothing is orphaned even when the
+// parent is SIGKILLed), with DDSNAV_DDS / DDSNAV_DOMAIN / DDSNAV_COMPONENT_NAME set and params passed as
+// --param key=value. `output_file`, when not empty, receives the process's stdout and stderr.
+struct SpawnOptions {
+  std::string bin_dir;  // where "ddsnav-*" commands are looked up first
+  int domain = 0;
+  std::string dds = "fastdds";  // used when the spec names no vendor
+  std::string output_file;
+};
+// Returns the pid (also the process group id), or -1 with errno set when fork failed. A command that
+// cannot be executed makes the child exit with status 127 after saying why on stderr.
+pid_t spawnComponent(const ProcessSpec& spec, const SpawnOptions& options);
+
 // Blocks SIGCHLD, SIGINT and SIGTERM for the calling thread and every thread it creates afterwards, so that
 // Supervisor::run can wait for them synchronously. Call first thing in main().
 void blockSupervisorSignals();
