@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <thread>
+
 namespace ddsnav::test {
 namespace {
 
@@ -107,6 +110,40 @@ TEST(BusInProcess, SampleInfoHasSourceTimestamp) {
     std::unique_lock lock(m);
     ASSERT_TRUE(cv.wait_for(lock, kWait, [&] { return stamp != 0; }));
     EXPECT_GE(stamp, std::chrono::duration_cast<std::chrono::nanoseconds>(before).count() - 1'000'000);
+  }
+}
+
+}  // namespace
+}  // namespace ddsnav::test
+
+namespace ddsnav::test {
+namespace {
+
+// Destroying a Subscription while its callback runs waits for the callback to finish.
+TEST(BusInProcess, SubscriptionDestructionWaitsForCallback) {
+  for (Vendor v : {Vendor::FastDDS, Vendor::CycloneDDS}) {
+    SCOPED_TRACE(vendorTag(v));
+    bus::Participant p(options(v, 18, "teardown"));
+    auto pub = p.publisher<msg::Clock>("teardown/clock", bus::Qos::commands());
+    std::atomic<bool> inside{false}, entered{false}, after_destroy{false};
+    std::atomic<bool> destroyed{false};
+    auto sub = std::make_unique<bus::Subscription>(
+        p.subscribe<msg::Clock>("teardown/clock", bus::Qos::commands(), [&](const msg::Clock&) {
+          if (destroyed) after_destroy = true;
+          inside = true;
+          entered = true;
+          std::this_thread::sleep_for(std::chrono::milliseconds(100));
+          inside = false;
+        }));
+    ASSERT_TRUE(pub.waitForSubscribers(1, kWait));
+    pub.publish(makeSample<msg::Clock>(1));
+    auto deadline = std::chrono::steady_clock::now() + kWait;
+    while (!entered && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
+    ASSERT_TRUE(entered.load());
+    sub.reset();
+    destroyed = true;
+    EXPECT_FALSE(inside.load()) << "Subscription destructor returned while its callback was running";
+    EXPECT_FALSE(after_destroy.load());
   }
 }
 
