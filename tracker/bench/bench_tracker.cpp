@@ -123,52 +123,17 @@ Drive drive(const tracker::Trajectory& traj, const planner::Scenario& sc, const 
   return d;
 }
 
-// The planner's SVG with the smoothed trajectory and the driven track laid over it. The overlay uses the
-// same top-view mapping as planner/src/svg.cpp (10 px margin, 24 px title, x scale fits the width).
+// The planner's picture with the smoothed trajectory and the driven track laid over it.
 void writePicture(const std::string& file, const planner::Scenario& sc, const std::vector<planner::State>& path,
                   const tracker::Trajectory& traj, const std::vector<tracker::VehicleState>& track,
                   const std::string& title) {
-  const int width = 900;
-  std::string svg = planner::renderSvg({&sc, {}, path, title}, width);
-  const double scale = (width - 20.0) / (sc.bounds_max.x() - sc.bounds_min.x());
-  auto px = [&](const Vec3& p) { return 10.0 + (p.x() - sc.bounds_min.x()) * scale; };
-  auto py = [&](const Vec3& p) { return 34.0 + (sc.bounds_max.y() - p.y()) * scale; };
-  std::ostringstream o;
-  o.setf(std::ios::fixed);
-  o.precision(1);
-  // Points closer than half a pixel to the last drawn one add nothing to the picture.
-  auto polyline = [&](const std::vector<Vec3>& points) {
-    double lx = -1e9, ly = -1e9;
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      const double x = px(points[i]), y = py(points[i]);
-      if (std::hypot(x - lx, y - ly) < 0.5 && i + 1 != points.size()) continue;
-      o << x << ',' << y << ' ';
-      lx = x, ly = y;
-    }
-  };
-  std::vector<Vec3> pts;
-  for (const auto& s : traj.samples) pts.push_back(s.position);
-  o << "<polyline fill='none' stroke='#1f77b4' stroke-width='1.5' points='";
-  polyline(pts);
-  pts.clear();
-  for (const auto& s : track) pts.push_back(s.position);
-  o << "'/>\n<polyline fill='none' stroke='#ff7f0e' stroke-width='1' stroke-dasharray='3,2' points='";
-  polyline(pts);
-  o << "'/>\n<text x='10' y='" << 34.0 + (sc.bounds_max.y() - sc.bounds_min.y()) * scale + 8
-    << "' font-size='11'>red: planned path, blue: smoothed trajectory, orange dashed: driven (nominal noise)</text>\n";
-  const auto end = svg.rfind("</svg>");
-  svg.insert(end, o.str());
-  // The legend sits below the picture: grow the canvas by a line.
-  const auto hpos = svg.find("height='");
-  if (hpos != std::string::npos) {
-    const auto q = svg.find('\'', hpos + 8);
-    const double h = std::stod(svg.substr(hpos + 8, q - hpos - 8)) + 16;
-    svg.replace(hpos + 8, q - hpos - 8, std::to_string(h));
-    const auto vb = svg.find("viewBox='0 0 ");
-    const auto vb_end = svg.find('\'', vb + 13);
-    svg.replace(vb + 13, vb_end - vb - 13, std::to_string(width) + " " + std::to_string(h));
-  }
-  std::ofstream(file) << svg;
+  planner::SvgScene scene{&sc, {}, path, title};
+  planner::SvgPolyline smoothed{{}, "#1f77b4", 1.5, false, "smoothed trajectory"};
+  for (const auto& s : traj.samples) smoothed.points.push_back(s.position);
+  planner::SvgPolyline driven{{}, "#ff7f0e", 1.0, true, "driven (nominal noise)"};
+  for (const auto& s : track) driven.points.push_back(s.position);
+  scene.polylines = {std::move(smoothed), std::move(driven)};
+  planner::writeSvg(file, scene, 900);
 }
 
 }  // namespace
