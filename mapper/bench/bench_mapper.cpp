@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
   app.add_option("--resolutions", resolutions, "map resolutions, m")->delimiter(',')->check(CLI::Range(0.01, 10.0));
   app.add_option("--scans", scans, "scans per configuration (the vehicle moves 1 m between scans)")->check(CLI::Range(1, 1000));
   app.add_option("--max-range", max_range, "insertion max range, m")->check(CLI::Range(0.5, 1000.0));
-  app.add_option("--threads", threads, "threads for our ray key computation")->check(CLI::Range(1, 64));
+  app.add_option("--threads", threads, "threads for the multi-threaded row of ours")->check(CLI::Range(1, 64));
   app.add_option("--queries", queries, "random point queries for the query benchmark")->check(CLI::Range(1000, 100'000'000));
   app.add_option("--json", json_path, "also write the results as JSON to this file");
   app.add_flag("--profile-ours", profile_ours, "only run our insertion (no OctoMap runs, no checks): for profilers");
@@ -205,9 +205,9 @@ int main(int argc, char** argv) {
       runs.push_back(runOctoMap("octomap discretize", false, true, disc));
       runs.push_back(runOctoMap("octomap lazy_eval+discretize", true, true, lazy_disc));
       OccupancyMapper *ours = nullptr, *ours1 = nullptr, *ours_disc = nullptr;
-      runs.push_back(runOurs("ours", false, threads, ours));
-      runs.push_back(runOurs("ours, 1 thread", false, 1, ours1));
-      runs.push_back(runOurs("ours discretize", true, threads, ours_disc));
+      runs.push_back(runOurs("ours (default: 1 thread)", false, 1, ours));
+      runs.push_back(runOurs("ours, " + std::to_string(threads) + " threads", false, threads, ours1));
+      runs.push_back(runOurs("ours discretize (1 thread)", true, 1, ours_disc));
       for (Run& r : runs) {
         if (r.method.find("discretize") != std::string::npos) r.cells = runs[6].cells;
         else if (r.method.rfind("octomap", 0) == 0) r.cells = runs[4].cells;

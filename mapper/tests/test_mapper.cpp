@@ -70,6 +70,7 @@ LidarPattern lidar3d(int rings, int columns) {
 TEST(MapperIdentical, ThreeDimensionalScansAt02) {
   Case c{"3-D 0.2 m", {}, lidar3d(16, 500), 15.0, {{0, 0, 1.8f}, {3.1f, 0.9f, 1.9f}}};
   c.config.resolution = 0.2;
+  c.config.threads = 2;
   expectIdentical(c, false, /*walk_threads=*/2);  // big enough to split the tree walk between 2 threads
 }
 
@@ -78,7 +79,8 @@ TEST(MapperIdentical, ThreeDimensionalDenseScanAt01) {
   expectIdentical(c);
 }
 
-TEST(MapperIdentical, SingleThreadMatchesToo) {
+TEST(MapperIdentical, SingleThreadDefaultMatchesToo) {
+  EXPECT_EQ(MapperConfig{}.threads, 1);
   Case c{"3-D one thread", {}, lidar3d(8, 400), 12.0, {{0, 0, 1.8f}, {-2.0f, 1.0f, 1.8f}}};
   c.config.resolution = 0.15;
   c.config.threads = 1;
@@ -88,6 +90,7 @@ TEST(MapperIdentical, SingleThreadMatchesToo) {
 TEST(MapperIdentical, DiscretizeMatchesOctoMapDiscretize) {
   Case c{"3-D discretize", {}, lidar3d(16, 400), 15.0, {{0, 0, 1.8f}, {2.0f, 0.5f, 1.8f}}};
   c.config.resolution = 0.2;
+  c.config.threads = 2;
   c.config.discretize = true;
   expectIdentical(c);
 }

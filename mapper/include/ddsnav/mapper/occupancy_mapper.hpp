@@ -53,7 +53,9 @@ struct MapperConfig {
   // for dense clouds, slightly different free space. The reference is insertPointCloud(..., discretize).
   bool discretize = false;
   InsertMethod method = InsertMethod::kFast;
-  int threads = 2;                     // for the ray key computation
+  // Threads for the ray keys and the tree walk. 1 by default: on the shared 2-core machine the benchmark
+  // ran on, a second thread only paid off while a core was idle (docs/benchmarks/mapper.md).
+  int threads = 1;
   std::size_t max_points = 4'000'000;  // larger scans are rejected, not truncated
 };
 
