@@ -54,7 +54,7 @@ TEST(Pipeline, DemoYardIsDrivenToTheGoalAcrossVendors) {
   EXPECT_EQ(path->planner(), "gart");
   EXPECT_GE(path->states().size(), 2u);
 
-  const auto done = h.waitFor<msg::TrackingStatus>("control/tracking_status", bus::Qos::sensorData(), 150s,
+  const auto done = h.waitFor<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData(), 150s,
                                                    [](const msg::TrackingStatus& s) { return s.goal_reached(); });
   ASSERT_TRUE(done) << "tracker:\n" << h.log("tracker") << "\nplanner:\n" << h.log("planner");
   EXPECT_LT(done->mean_cross_track_error(), 0.1);

@@ -131,15 +131,12 @@ std::vector<planner::EllipsoidObstacle> toEllipsoidObstacles(const msg::Obstacle
 
 std::size_t clearFootprint(std::vector<planner::EllipsoidObstacle>& obstacles, const Eigen::Vector3d& position, double radius,
                            int dimensions) {
+  // The planner's own ellipse test (exact distance to the ellipse), one obstacle at a time, with bounds
+  // far enough away not to matter.
+  const Eigen::Vector3d far = Eigen::Vector3d::Constant(1e9);
   const auto before = obstacles.size();
   std::erase_if(obstacles, [&](const planner::EllipsoidObstacle& e) {
-    const Eigen::Vector3d local = e.axes.transpose() * (position - e.center);
-    double sum = 0.0;
-    for (int i = 0; i < dimensions; ++i) {
-      const double axis = e.semi_axes[i] + radius;
-      sum += (local[i] / axis) * (local[i] / axis);
-    }
-    return sum <= 1.0;
+    return !planner::makeEllipsoidWorld(dimensions, -far, far, radius, {e})->isFree(position);
   });
   return before - obstacles.size();
 }

@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
       std::lock_guard lock(mutex);
       seen.trajectory = m;
     });
-    auto s5 = bus.subscribe<msg::TrackingStatus>("control/tracking_status", bus::Qos::sensorData(), [&](const msg::TrackingStatus& m) {
+    auto s5 = bus.subscribe<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData(), [&](const msg::TrackingStatus& m) {
       std::lock_guard lock(mutex);
       seen.status = m;
     });

@@ -1,6 +1,6 @@
 // ddsnav-tracker: drives the vehicle to the scenario's goal. Asks for a plan (planning/request), smooths
 // the answer into a trajectory (control/trajectory), follows it with the trajectory controller
-// (control/cmd_vel, control/tracking_status), and asks again from the current state when the vehicle
+// (control/cmd_vel, control/tracking), and asks again from the current state when the vehicle
 // deviates or newly perceived obstacles block the rest of the trajectory.
 
 #include "ddsnav/nodes/convert.hpp"
@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
     auto requests = ctx.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
     auto trajectories = ctx.bus().publisher<msg::Trajectory>("control/trajectory", bus::Qos::state());
     auto commands = ctx.bus().publisher<msg::VelocityCommand>("control/cmd_vel", bus::Qos::commands());
-    auto statuses = ctx.bus().publisher<msg::TrackingStatus>("control/tracking_status", bus::Qos::sensorData());
+    auto statuses = ctx.bus().publisher<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData());
 
     // The same world the planner plans on (planner_main.cpp), seen from the vehicle's position.
     auto currentWorld = [&](const Eigen::Vector3d& vehicle_position) {

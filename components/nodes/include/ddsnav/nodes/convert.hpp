@@ -46,8 +46,7 @@ tracker::VehicleCommand fromMsg(const msg::VelocityCommand& command);
 // Obstacles.
 msg::ObstacleEllipsoid toMsg(const perception::ObstacleEllipsoid& obstacle);
 std::vector<planner::EllipsoidObstacle> toEllipsoidObstacles(const msg::ObstacleArray& array);
-// Removes the obstacles that a robot of `radius` at `position` would touch (ellipsoid grown by the radius
-// along each axis, a slight over-approximation). The robot is physically there, so such an ellipse is
+// Removes the obstacles that a robot of `radius` at `position` would touch. The robot is physically there, so such an ellipse is
 // perception's over-estimate of an obstacle's extent, not a wall around the robot; keeping it would leave
 // the planner with a start in collision. Returns how many were removed.
 std::size_t clearFootprint(std::vector<planner::EllipsoidObstacle>& obstacles, const Eigen::Vector3d& position, double radius,
