@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <malloc.h>
 #include <iostream>
 #include <random>
@@ -154,60 +155,78 @@ int main(int argc, char** argv) {
         clouds.push_back(std::move(c));
       }
 
-      auto runOctoMap = [&](const std::string& name, bool lazy, bool discretize, octomap::OcTree& tree) {
-        applySensorModel(tree, config);
-        Run run;
-        run.method = name;
-        for (std::size_t i = 0; i < clouds.size(); ++i) {
-          const Scan& s = scan_list[i];
-          const auto t = Clock::now();
-          tree.insertPointCloud(clouds[i], octomap::point3d(s.origin.x, s.origin.y, s.origin.z), max_range, lazy,
-                                discretize);
-          if (lazy) tree.updateInnerOccupancy();  // the map is published after every scan
-          run.seconds.push_back(secondsSince(t));
-        }
-        run.memory = tree.memoryUsage();
-        return run;
+      // Every method inserts scan i before any method sees scan i + 1 (round-robin), so a change in the
+      // machine's load during the run hits all methods alike.
+      octomap::OcTree plain(res), lazy(res), disc(res), lazy_disc(res);
+      struct OctoMapMethod {
+        const char* name;
+        octomap::OcTree* tree;
+        bool lazy, discretize;
       };
-      auto runOurs = [&](const std::string& name, bool discretize, int n_threads, OccupancyMapper*& keep) {
+      const std::vector<OctoMapMethod> octomap_methods = {{"octomap insertPointCloud", &plain, false, false},
+                                                          {"octomap lazy_eval", &lazy, true, false},
+                                                          {"octomap discretize", &disc, false, true},
+                                                          {"octomap lazy_eval+discretize", &lazy_disc, true, true}};
+      struct OurMethod {
+        std::string name;
+        bool discretize;
+        int threads;
+      };
+      std::vector<OurMethod> our_methods = {{"ours (default: 1 thread)", false, 1},
+                                            {"ours, " + std::to_string(threads) + " threads", false, threads},
+                                            {"ours discretize (1 thread)", true, 1}};
+      if (profile_ours) our_methods = {{"ours", false, threads}};
+      std::vector<std::unique_ptr<OccupancyMapper>> mappers;
+      std::vector<Run> runs;
+      if (!profile_ours) {
+        for (const OctoMapMethod& m : octomap_methods) {
+          applySensorModel(*m.tree, config);
+          runs.push_back(Run{m.name});
+        }
+      }
+      for (const OurMethod& m : our_methods) {
         MapperConfig c = config;
-        c.discretize = discretize;
-        c.threads = n_threads;
-        auto* mapper = new OccupancyMapper(c);
-        Run run;
-        run.method = name;
-        for (const Scan& s : scan_list) {
+        c.discretize = m.discretize;
+        c.threads = m.threads;
+        mappers.push_back(std::make_unique<OccupancyMapper>(c));
+        runs.push_back(Run{m.name});
+      }
+      const std::size_t first_ours = profile_ours ? 0 : octomap_methods.size();
+      for (std::size_t i = 0; i < scan_list.size(); ++i) {
+        const Scan& s = scan_list[i];
+        for (std::size_t k = 0; k < first_ours; ++k) {
+          const OctoMapMethod& m = octomap_methods[k];
           const auto t = Clock::now();
-          const InsertResult r = mapper->insert(s);
+          m.tree->insertPointCloud(clouds[i], octomap::point3d(s.origin.x, s.origin.y, s.origin.z), max_range, m.lazy,
+                                   m.discretize);
+          if (m.lazy) m.tree->updateInnerOccupancy();  // the map is published after every scan
+          runs[k].seconds.push_back(secondsSince(t));
+        }
+        for (std::size_t k = 0; k < mappers.size(); ++k) {
+          Run& run = runs[first_ours + k];
+          const auto t = Clock::now();
+          const InsertResult r = mappers[k]->insert(s);
           run.seconds.push_back(secondsSince(t));
           run.cells += r.free_cells + r.occupied_cells;
           run.rays += r.seconds_rays, run.merge += r.seconds_merge, run.tree += r.seconds_tree;
           if (!r.inserted) spdlog::error("scan rejected: {}", r.message);
         }
-        run.memory = mapper->octree().memoryUsage();
-        run.scratch = mapper->scratchMemoryUsage();
-        keep = mapper;
-        return run;
-      };
+      }
+      for (std::size_t k = 0; k < first_ours; ++k) runs[k].memory = octomap_methods[k].tree->memoryUsage();
+      for (std::size_t k = 0; k < mappers.size(); ++k) {
+        runs[first_ours + k].memory = mappers[k]->octree().memoryUsage();
+        runs[first_ours + k].scratch = mappers[k]->scratchMemoryUsage();
+      }
 
       if (profile_ours) {
-        OccupancyMapper* m = nullptr;
-        const Run r = runOurs("ours", false, threads, m);
+        const Run& r = runs[0];
         std::printf("| ours | %.2f | %.1f ms/scan | rays %.1f / merge %.1f / tree %.1f ms |\n", res, r.meanMs(),
                     1e3 * r.rays / scans, 1e3 * r.merge / scans, 1e3 * r.tree / scans);
-        delete m;
         continue;
       }
-      octomap::OcTree plain(res), lazy(res), disc(res), lazy_disc(res);
-      std::vector<Run> runs;
-      runs.push_back(runOctoMap("octomap insertPointCloud", false, false, plain));
-      runs.push_back(runOctoMap("octomap lazy_eval", true, false, lazy));
-      runs.push_back(runOctoMap("octomap discretize", false, true, disc));
-      runs.push_back(runOctoMap("octomap lazy_eval+discretize", true, true, lazy_disc));
-      OccupancyMapper *ours = nullptr, *ours1 = nullptr, *ours_disc = nullptr;
-      runs.push_back(runOurs("ours (default: 1 thread)", false, 1, ours));
-      runs.push_back(runOurs("ours, " + std::to_string(threads) + " threads", false, threads, ours1));
-      runs.push_back(runOurs("ours discretize (1 thread)", true, 1, ours_disc));
+      const OccupancyMapper* ours = mappers[0].get();
+      const OccupancyMapper* ours1 = mappers[1].get();
+      const OccupancyMapper* ours_disc = mappers[2].get();
       for (Run& r : runs) {
         if (r.method.find("discretize") != std::string::npos) r.cells = runs[6].cells;
         else if (r.method.rfind("octomap", 0) == 0) r.cells = runs[4].cells;
@@ -254,13 +273,10 @@ int main(int argc, char** argv) {
       }
       std::fflush(stdout);
       if (query_map.empty() || res < query_map_resolution || (res == query_map_resolution)) {
-        const ExportedMap m = ours->exportMap();
+        const ExportedMap m = mappers[0]->exportMap();
         query_map = m.octree_binary;
         query_map_resolution = res;
       }
-      delete ours;
-      delete ours1;
-      delete ours_disc;
     }
   }
 
