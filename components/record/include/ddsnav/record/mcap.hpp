@@ -1,0 +1,205 @@
+// MCAP files (https://mcap.dev/spec), written and read from the specification: the container ddsnav
+// records DDS traffic in. No DDS here: channels carry opaque payloads (for ddsnav, XCDR1 bytes).
+//
+//   record::McapWriter w("run.mcap", {.compression = record::Compression::Zstd});
+//   auto schema = w.addSchema("ddsnav::msg::Path", "omgidl", idl_text);
+//   auto channel = w.addChannel(schema, "planning/path", "cdr", {{"keyed", "false"}});
+//   w.write(channel, log_time_ns, publish_time_ns, bytes);
+//   w.close();  // summary + footer; without it (a crash) the file still reads up to its last chunk
+//
+//   record::McapReader r("run.mcap");       // throws McapError naming the file and byte offset
+//   r.forEachMessage([](const record::MessageView& m) { ... });
+//
+// Layout written: magic, Header, then per data: Schema/Channel records as they appear (outside chunks, so
+// a truncated file knows every channel before its messages), Chunks (messages only) each followed by its
+// MessageIndex records, Metadata; then DataEnd, the summary (Schema, Channel, Statistics, ChunkIndex,
+// MetadataIndex), SummaryOffset records, Footer, magic.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace ddsnav::record {
+
+// A file that is not MCAP, or is damaged: the message names the file and the byte offset.
+class McapError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class Compression { None, Zstd };
+std::string_view compressionName(Compression c);  // "" | "zstd" (the spec's names)
+
+using StringMap = std::map<std::string, std::string>;
+
+struct Schema {
+  std::uint16_t id = 0;
+  std::string name;      // for ddsnav: the DDS type name, e.g. "ddsnav::msg::Path"
+  std::string encoding;  // "omgidl"
+  std::string data;      // the IDL text defining the type
+};
+
+struct Channel {
+  std::uint16_t id = 0;
+  std::uint16_t schema_id = 0;
+  std::string topic;
+  std::string message_encoding;  // "cdr"
+  StringMap metadata;
+};
+
+struct MessageView {
+  const Channel* channel = nullptr;
+  std::uint32_t sequence = 0;
+  std::uint64_t log_time = 0;      // ns; for ddsnav: when the recorder received it
+  std::uint64_t publish_time = 0;  // ns; for ddsnav: the writer's source timestamp
+  std::span<const std::uint8_t> data;
+};
+
+struct Metadata {
+  std::string name;
+  StringMap values;
+};
+
+struct ChunkInfo {
+  std::uint64_t offset = 0;  // of the Chunk record in the file
+  std::uint64_t record_length = 0;  // whole record: opcode + length + content
+  std::uint64_t message_start_time = 0;
+  std::uint64_t message_end_time = 0;
+  std::uint64_t compressed_size = 0;
+  std::uint64_t uncompressed_size = 0;
+  std::string compression;
+  std::map<std::uint16_t, std::uint64_t> message_index_offsets;  // channel -> MessageIndex record offset
+  std::uint64_t message_index_length = 0;  // bytes of the MessageIndex records after the chunk
+};
+
+struct McapWriterOptions {
+  Compression compression = Compression::Zstd;
+  int zstd_level = 1;                      // fast: recording must keep up with the sensors
+  std::size_t chunk_size = 1 << 20;        // close a chunk once its records reach this many bytes
+  std::chrono::milliseconds chunk_age{1000};  // ... or once its first message is this old (flushAged)
+  std::string profile;                     // MCAP profile; "" (ddsnav's schemas are OMG IDL, not ROS)
+  std::string library = "ddsnav-record";
+};
+
+class McapWriter {
+ public:
+  // Creates (truncates) the file and writes magic + Header. Throws McapError when it cannot.
+  McapWriter(const std::string& path, McapWriterOptions options = {});
+  ~McapWriter();  // closes if still open (errors are logged to stderr, not thrown)
+  McapWriter(const McapWriter&) = delete;
+  McapWriter& operator=(const McapWriter&) = delete;
+
+  std::uint16_t addSchema(const std::string& name, const std::string& encoding, const std::string& data);
+  std::uint16_t addChannel(std::uint16_t schema_id, const std::string& topic, const std::string& message_encoding,
+                           const StringMap& metadata = {});
+  // Sequence numbers count per channel from 1.
+  void write(std::uint16_t channel_id, std::uint64_t log_time, std::uint64_t publish_time,
+             std::span<const std::uint8_t> data);
+  void addMetadata(const std::string& name, const StringMap& values);
+  // Closes the open chunk (if any) when its first message is older than options.chunk_age.
+  void flushAged();
+  // Closes the open chunk and hands the bytes to the OS: a crash after this loses nothing written before.
+  void flush();
+  void close();
+  bool isOpen() const { return file_ != nullptr; }
+
+  std::uint64_t messageCount() const { return message_count_; }
+  std::uint64_t bytesWritten() const { return position_; }
+  std::size_t chunkCount() const { return chunks_.size(); }
+
+ private:
+  void writeRecord(std::uint8_t opcode, const std::vector<std::uint8_t>& content);
+  void writeBytes(const void* data, std::size_t size);
+  void closeChunk();
+
+  std::string path_;
+  McapWriterOptions options_;
+  std::FILE* file_ = nullptr;
+  std::uint64_t position_ = 0;
+  std::vector<Schema> schemas_;
+  std::vector<Channel> channels_;
+  std::vector<std::uint32_t> sequences_;                 // per channel
+  std::map<std::uint16_t, std::uint64_t> channel_counts_;
+  std::uint64_t message_count_ = 0;
+  std::uint64_t start_time_ = 0, end_time_ = 0;
+  // The open chunk.
+  std::vector<std::uint8_t> chunk_records_;
+  std::map<std::uint16_t, std::vector<std::pair<std::uint64_t, std::uint64_t>>> chunk_index_;  // channel -> (time, offset)
+  std::uint64_t chunk_start_ = 0, chunk_end_ = 0;
+  std::chrono::steady_clock::time_point chunk_opened_;
+  std::vector<ChunkInfo> chunks_;
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> metadata_offsets_;  // offset, length
+  std::vector<std::string> metadata_names_;
+  void* zstd_ = nullptr;  // ZSTD_CCtx*
+};
+
+struct McapSummary {
+  std::uint64_t message_count = 0;
+  std::uint64_t message_start_time = 0;
+  std::uint64_t message_end_time = 0;
+  std::map<std::uint16_t, std::uint64_t> channel_message_counts;
+};
+
+class McapReader {
+ public:
+  // Reads the summary when the file has a valid one; otherwise (a crashed recording) scans the records
+  // from the start and keeps everything up to the first incomplete or damaged record.
+  // force_scan: ignore the summary (tests compare both paths).
+  explicit McapReader(const std::string& path, bool force_scan = false);
+  ~McapReader();
+  McapReader(const McapReader&) = delete;
+  McapReader& operator=(const McapReader&) = delete;
+
+  const std::string& path() const { return path_; }
+  std::uint64_t fileSize() const { return file_size_; }
+  const std::string& profile() const { return profile_; }
+  const std::string& library() const { return library_; }
+  bool hasSummary() const { return has_summary_; }
+  // True when the file ends early (no footer or an incomplete record): the recorder did not close it.
+  bool truncated() const { return truncated_; }
+  std::uint64_t truncatedAt() const { return truncated_at_; }   // offset of the first unusable byte
+  const std::string& truncationReason() const { return truncation_reason_; }
+
+  const std::map<std::uint16_t, Schema>& schemas() const { return schemas_; }
+  const std::map<std::uint16_t, Channel>& channels() const { return channels_; }
+  const std::vector<ChunkInfo>& chunks() const { return chunks_; }
+  const std::vector<Metadata>& metadata() const { return metadata_; }
+  // From the Statistics record, or counted while scanning.
+  const McapSummary& summary() const { return summary_; }
+
+  // Every message in file order (for ddsnav recordings: log-time order). The view's data is valid during
+  // the callback. Return false from the callback to stop. Throws McapError on a damaged chunk.
+  void forEachMessage(const std::function<bool(const MessageView&)>& callback) const;
+
+ private:
+  void readSummary(std::uint64_t summary_start, std::uint64_t summary_offset_start);
+  void scan();
+  std::vector<std::uint8_t> readAt(std::uint64_t offset, std::uint64_t size) const;
+  std::vector<std::uint8_t> chunkRecords(const ChunkInfo& chunk) const;
+  [[noreturn]] void fail(std::uint64_t offset, const std::string& what) const;
+
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  std::uint64_t file_size_ = 0;
+  std::string profile_, library_;
+  bool has_summary_ = false;
+  bool truncated_ = false;
+  std::uint64_t truncated_at_ = 0;
+  std::string truncation_reason_;
+  std::map<std::uint16_t, Schema> schemas_;
+  std::map<std::uint16_t, Channel> channels_;
+  std::vector<ChunkInfo> chunks_;
+  std::vector<std::uint64_t> loose_messages_;  // offsets of Message records outside chunks
+  std::vector<Metadata> metadata_;
+  McapSummary summary_;
+};
+
+}  // namespace ddsnav::record

@@ -1,0 +1,425 @@
+#include "mcap_format.hpp"
+
+#include <zstd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+namespace ddsnav::record {
+
+using namespace format;
+
+namespace {
+
+std::string hex(const std::uint8_t* p, std::size_t n) {
+  static const char* digits = "0123456789abcdef";
+  std::string s;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i) s += ' ';
+    s += digits[p[i] >> 4];
+    s += digits[p[i] & 15];
+  }
+  return s;
+}
+
+// A chunk's uncompressed size comes from the file; refuse absurd ones before allocating.
+constexpr std::uint64_t kMaxChunkBytes = 1ull << 32;
+
+Schema parseSchema(In& in) {
+  Schema s;
+  s.id = in.u16();
+  s.name = in.str();
+  s.encoding = in.str();
+  s.data = in.str();
+  return s;
+}
+
+Channel parseChannel(In& in) {
+  Channel ch;
+  ch.id = in.u16();
+  ch.schema_id = in.u16();
+  ch.topic = in.str();
+  ch.message_encoding = in.str();
+  ch.metadata = in.stringMap();
+  return ch;
+}
+
+Metadata parseMetadata(In& in) {
+  Metadata m;
+  m.name = in.str();
+  m.values = in.stringMap();
+  return m;
+}
+
+// The fixed fields of a Chunk record; leaves `in` at the compressed records.
+ChunkInfo parseChunkHeader(In& in, std::uint64_t offset, std::uint64_t record_length, std::uint32_t& crc,
+                           std::uint64_t& records_size) {
+  ChunkInfo c;
+  c.offset = offset;
+  c.record_length = record_length;
+  c.message_start_time = in.u64();
+  c.message_end_time = in.u64();
+  c.uncompressed_size = in.u64();
+  crc = in.u32();
+  c.compression = in.str();
+  records_size = in.u64();
+  c.compressed_size = records_size;
+  return c;
+}
+
+}  // namespace
+
+McapReader::McapReader(const std::string& path, bool force_scan) : path_(path) {
+  file_ = std::fopen(path.c_str(), "rb");
+  if (!file_) throw McapError(path + ": cannot open: " + std::strerror(errno));
+  try {
+    if (fseeko(file_, 0, SEEK_END) != 0) throw McapError(path + ": cannot seek: " + std::strerror(errno));
+    file_size_ = static_cast<std::uint64_t>(ftello(file_));
+    if (file_size_ < sizeof kMagic)
+      fail(0, "not an MCAP file: " + std::to_string(file_size_) + " bytes, shorter than the 8-byte magic");
+    const auto magic = readAt(0, sizeof kMagic);
+    if (std::memcmp(magic.data(), kMagic, sizeof kMagic) != 0)
+      fail(0, "not an MCAP file: expected magic 89 4d 43 41 50 30 0d 0a, found " + hex(magic.data(), magic.size()));
+    if (file_size_ < sizeof kMagic + kRecordPrefix) fail(sizeof kMagic, "file ends before the Header record");
+    const auto prefix = readAt(sizeof kMagic, kRecordPrefix);
+    In p(prefix.data(), prefix.size(), sizeof kMagic, path_);
+    const std::uint8_t opcode = p.u8();
+    const std::uint64_t length = p.u64();
+    if (opcode != kHeader) fail(sizeof kMagic, "expected the Header record (opcode 0x01), found " + opcodeName(opcode));
+    if (length > file_size_ - sizeof kMagic - kRecordPrefix) fail(sizeof kMagic, "Header record runs past the end of the file");
+    const auto header = readAt(sizeof kMagic + kRecordPrefix, length);
+    In h(header.data(), header.size(), sizeof kMagic + kRecordPrefix, path_);
+    profile_ = h.str();
+    library_ = h.str();
+
+    // A closed file ends with Footer + magic; the footer locates the summary.
+    bool closed = false;
+    std::uint64_t summary_start = 0, summary_offset_start = 0;
+    std::uint32_t summary_crc = 0;
+    const std::uint64_t footer_at = file_size_ >= kFooterRecord + 2 * sizeof kMagic ? file_size_ - sizeof kMagic - kFooterRecord : 0;
+    if (footer_at > sizeof kMagic) {
+      const auto tail = readAt(footer_at, kFooterRecord + sizeof kMagic);
+      In f(tail.data(), tail.size(), footer_at, path_);
+      const std::uint8_t op = f.u8();
+      const std::uint64_t len = f.u64();
+      summary_start = f.u64();
+      summary_offset_start = f.u64();
+      summary_crc = f.u32();
+      closed = op == kFooter && len == kFooterContent &&
+               std::memcmp(tail.data() + kFooterRecord, kMagic, sizeof kMagic) == 0;
+    }
+    if (closed && !force_scan && summary_start != 0 && summary_start < footer_at &&
+        summary_offset_start >= summary_start && summary_offset_start <= footer_at) {
+      // The CRC covers the summary through the footer's summary_offset_start field.
+      const auto summary = readAt(summary_start, footer_at + kRecordPrefix + 16 - summary_start);
+      if (summary_crc == 0 || crc32(summary.data(), summary.size()) == summary_crc) {
+        try {
+          readSummary(summary_start, summary_offset_start);
+          has_summary_ = true;
+        } catch (const McapError&) {
+          // A damaged summary: the data section still holds everything; read it record by record.
+          schemas_.clear();
+          channels_.clear();
+          chunks_.clear();
+          metadata_.clear();
+          summary_ = {};
+        }
+      }
+    }
+    if (!has_summary_) {
+      scan();
+      if (!closed && !truncated_) {
+        truncated_ = true;
+        truncated_at_ = file_size_;
+        truncation_reason_ = "no footer: the recorder did not close the file";
+      }
+    }
+  } catch (...) {
+    std::fclose(file_);
+    file_ = nullptr;
+    throw;
+  }
+}
+
+McapReader::~McapReader() {
+  if (file_) std::fclose(file_);
+}
+
+void McapReader::fail(std::uint64_t offset, const std::string& what) const {
+  throw McapError(path_ + ": byte " + std::to_string(offset) + ": " + what);
+}
+
+std::vector<std::uint8_t> McapReader::readAt(std::uint64_t offset, std::uint64_t size) const {
+  if (offset > file_size_ || size > file_size_ - offset)
+    fail(offset, std::to_string(size) + " bytes needed, the file ends at byte " + std::to_string(file_size_));
+  std::vector<std::uint8_t> out(size);
+  if (fseeko(file_, static_cast<off_t>(offset), SEEK_SET) != 0 ||
+      (size > 0 && std::fread(out.data(), 1, size, file_) != size))
+    fail(offset, std::string("read failed: ") + std::strerror(errno));
+  return out;
+}
+
+void McapReader::readSummary(std::uint64_t summary_start, std::uint64_t summary_offset_start) {
+  const auto bytes = readAt(summary_start, summary_offset_start - summary_start);
+  In in(bytes.data(), bytes.size(), summary_start, path_);
+  bool statistics = false;
+  while (!in.done()) {
+    const std::uint64_t at = in.offset();
+    const std::uint8_t opcode = in.u8();
+    const std::uint64_t length = in.u64();
+    const std::uint8_t* content = in.take(length, "summary record");
+    In r(content, length, at + kRecordPrefix, path_);
+    switch (opcode) {
+      case kSchema: {
+        Schema s = parseSchema(r);
+        schemas_[s.id] = std::move(s);
+        break;
+      }
+      case kChannel: {
+        Channel ch = parseChannel(r);
+        channels_[ch.id] = std::move(ch);
+        break;
+      }
+      case kStatistics: {
+        summary_.message_count = r.u64();
+        r.u16();
+        r.u32();
+        r.u32();
+        r.u32();
+        r.u32();
+        summary_.message_start_time = r.u64();
+        summary_.message_end_time = r.u64();
+        In counts = r.sub32();
+        while (!counts.done()) {
+          const std::uint16_t channel = counts.u16();
+          summary_.channel_message_counts[channel] = counts.u64();
+        }
+        statistics = true;
+        break;
+      }
+      case kChunkIndex: {
+        ChunkInfo c;
+        c.message_start_time = r.u64();
+        c.message_end_time = r.u64();
+        c.offset = r.u64();
+        c.record_length = r.u64();
+        In offsets = r.sub32();
+        while (!offsets.done()) {
+          const std::uint16_t channel = offsets.u16();
+          c.message_index_offsets[channel] = offsets.u64();
+        }
+        c.message_index_length = r.u64();
+        c.compression = r.str();
+        c.compressed_size = r.u64();
+        c.uncompressed_size = r.u64();
+        if (c.offset > file_size_ || c.record_length > file_size_ - c.offset)
+          r.fail("ChunkIndex points outside the file (chunk at byte " + std::to_string(c.offset) + ")");
+        chunks_.push_back(std::move(c));
+        break;
+      }
+      case kMetadataIndex: {
+        const std::uint64_t offset = r.u64();
+        const std::uint64_t record_length = r.u64();
+        if (record_length < kRecordPrefix) r.fail("MetadataIndex with a record length below 9");
+        const auto rec = readAt(offset, record_length);
+        if (rec[0] != kMetadata) fail(offset, "MetadataIndex points at a " + opcodeName(rec[0]) + " record");
+        In m(rec.data() + kRecordPrefix, rec.size() - kRecordPrefix, offset + kRecordPrefix, path_);
+        metadata_.push_back(parseMetadata(m));
+        break;
+      }
+      default:
+        break;  // SummaryOffset, attachment indexes, future records: not needed
+    }
+  }
+  if (!statistics) fail(summary_start, "summary without a Statistics record");
+  std::sort(chunks_.begin(), chunks_.end(), [](const ChunkInfo& a, const ChunkInfo& b) { return a.offset < b.offset; });
+}
+
+void McapReader::scan() {
+  // Record by record from after the Header. Anything after the first incomplete or undecodable record is
+  // ignored and reported: that is where a killed recorder stopped.
+  std::uint64_t offset = sizeof kMagic;
+  {
+    const auto prefix = readAt(offset, kRecordPrefix);
+    In p(prefix.data(), prefix.size(), offset, path_);
+    p.u8();
+    offset += kRecordPrefix + p.u64();
+  }
+  auto stop = [&](std::uint64_t at, const std::string& why) {
+    truncated_ = true;
+    truncated_at_ = at;
+    truncation_reason_ = why;
+  };
+  bool first_message = true;
+  auto count = [&](std::uint16_t channel, std::uint64_t log_time) {
+    ++summary_.message_count;
+    ++summary_.channel_message_counts[channel];
+    if (first_message) summary_.message_start_time = summary_.message_end_time = log_time;
+    first_message = false;
+    summary_.message_start_time = std::min(summary_.message_start_time, log_time);
+    summary_.message_end_time = std::max(summary_.message_end_time, log_time);
+  };
+  while (offset < file_size_) {
+    if (file_size_ - offset < kRecordPrefix) return stop(offset, "incomplete record header");
+    const auto prefix = readAt(offset, kRecordPrefix);
+    In p(prefix.data(), prefix.size(), offset, path_);
+    const std::uint8_t opcode = p.u8();
+    const std::uint64_t length = p.u64();
+    if (length > file_size_ - offset - kRecordPrefix)
+      return stop(offset, opcodeName(opcode) + " record of " + std::to_string(length) + " bytes, only " +
+                              std::to_string(file_size_ - offset - kRecordPrefix) + " left in the file");
+    if (opcode == kDataEnd || opcode == kFooter) return;  // the summary that follows repeats what we have
+    const std::uint64_t content_at = offset + kRecordPrefix;
+    try {
+      switch (opcode) {
+        case kSchema: {
+          const auto content = readAt(content_at, length);
+          In r(content.data(), content.size(), content_at, path_);
+          Schema s = parseSchema(r);
+          schemas_[s.id] = std::move(s);
+          break;
+        }
+        case kChannel: {
+          const auto content = readAt(content_at, length);
+          In r(content.data(), content.size(), content_at, path_);
+          Channel ch = parseChannel(r);
+          channels_[ch.id] = std::move(ch);
+          break;
+        }
+        case kMessage: {
+          const auto content = readAt(content_at, std::min<std::uint64_t>(length, 22));
+          In r(content.data(), content.size(), content_at, path_);
+          const std::uint16_t channel = r.u16();
+          r.u32();
+          const std::uint64_t log_time = r.u64();
+          count(channel, log_time);
+          loose_messages_.push_back(offset);
+          break;
+        }
+        case kChunk: {
+          const auto content = readAt(content_at, length);
+          In r(content.data(), content.size(), content_at, path_);
+          std::uint32_t crc = 0;
+          std::uint64_t records_size = 0;
+          ChunkInfo c = parseChunkHeader(r, offset, kRecordPrefix + length, crc, records_size);
+          // Decoding validates it (size, CRC) and counts its messages.
+          const auto records = chunkRecords(c);
+          In m(records.data(), records.size(), 0, path_ + ": chunk at byte " + std::to_string(offset));
+          while (!m.done()) {
+            const std::uint8_t op = m.u8();
+            const std::uint64_t len = m.u64();
+            const std::uint8_t* body = m.take(len, "record in chunk");
+            In b(body, len, 0, path_);
+            if (op == kMessage) {
+              const std::uint16_t channel = b.u16();
+              b.u32();
+              count(channel, b.u64());
+            } else if (op == kSchema) {
+              Schema s = parseSchema(b);
+              schemas_[s.id] = std::move(s);
+            } else if (op == kChannel) {
+              Channel ch = parseChannel(b);
+              channels_[ch.id] = std::move(ch);
+            }
+          }
+          chunks_.push_back(std::move(c));
+          break;
+        }
+        case kMessageIndex: {
+          // Fill in the chunk's index table as the writer would have put it in the summary.
+          if (!chunks_.empty()) {
+            const auto content = readAt(content_at, 2);
+            chunks_.back().message_index_offsets[static_cast<std::uint16_t>(content[0] | content[1] << 8)] = offset;
+            chunks_.back().message_index_length += kRecordPrefix + length;
+          }
+          break;
+        }
+        case kMetadata: {
+          const auto content = readAt(content_at, length);
+          In r(content.data(), content.size(), content_at, path_);
+          metadata_.push_back(parseMetadata(r));
+          break;
+        }
+        default:
+          break;  // attachments and records this reader does not use
+      }
+    } catch (const McapError& e) {
+      return stop(offset, std::string("damaged ") + opcodeName(opcode) + " record: " + e.what());
+    }
+    offset += kRecordPrefix + length;
+  }
+  stop(file_size_, "the file ends without a DataEnd record");
+}
+
+std::vector<std::uint8_t> McapReader::chunkRecords(const ChunkInfo& chunk) const {
+  const auto record = readAt(chunk.offset, chunk.record_length);
+  if (record.empty() || record[0] != kChunk) fail(chunk.offset, "expected a Chunk record");
+  In r(record.data() + kRecordPrefix, record.size() - kRecordPrefix, chunk.offset + kRecordPrefix, path_);
+  std::uint32_t crc = 0;
+  std::uint64_t size = 0;
+  const ChunkInfo c = parseChunkHeader(r, chunk.offset, chunk.record_length, crc, size);
+  const std::uint8_t* data = r.take(size, "chunk records");
+  if (c.uncompressed_size > kMaxChunkBytes)
+    fail(chunk.offset, "chunk claims " + std::to_string(c.uncompressed_size) + " uncompressed bytes (limit 4 GiB)");
+  std::vector<std::uint8_t> out;
+  if (c.compression.empty()) {
+    if (size != c.uncompressed_size)
+      fail(chunk.offset, "uncompressed chunk of " + std::to_string(size) + " bytes claims " +
+                             std::to_string(c.uncompressed_size));
+    out.assign(data, data + size);
+  } else if (c.compression == "zstd") {
+    out.resize(c.uncompressed_size);
+    const std::size_t n = ZSTD_decompress(out.data(), out.size(), data, size);
+    if (ZSTD_isError(n)) fail(chunk.offset, std::string("zstd chunk does not decompress: ") + ZSTD_getErrorName(n));
+    if (n != c.uncompressed_size)
+      fail(chunk.offset, "zstd chunk decompressed to " + std::to_string(n) + " bytes, expected " +
+                             std::to_string(c.uncompressed_size));
+  } else {
+    fail(chunk.offset, "chunk compression '" + c.compression + "' is not supported (only zstd or none)");
+  }
+  if (crc != 0 && crc32(out.data(), out.size()) != crc) fail(chunk.offset, "chunk CRC mismatch: the chunk is damaged");
+  return out;
+}
+
+void McapReader::forEachMessage(const std::function<bool(const MessageView&)>& callback) const {
+  auto deliver = [&](In& b, std::uint64_t where) {
+    MessageView m;
+    const std::uint16_t channel = b.u16();
+    const auto it = channels_.find(channel);
+    if (it == channels_.end()) fail(where, "message on channel " + std::to_string(channel) + ", which no Channel record defines");
+    m.channel = &it->second;
+    m.sequence = b.u32();
+    m.log_time = b.u64();
+    m.publish_time = b.u64();
+    m.data = std::span<const std::uint8_t>(b.take(b.remaining(), "message data"), b.remaining());
+    return callback(m);
+  };
+  // Loose messages and chunks, in file order.
+  std::size_t loose = 0;
+  for (std::size_t ci = 0; ci <= chunks_.size(); ++ci) {
+    const std::uint64_t limit = ci < chunks_.size() ? chunks_[ci].offset : file_size_;
+    for (; loose < loose_messages_.size() && loose_messages_[loose] < limit; ++loose) {
+      const std::uint64_t at = loose_messages_[loose];
+      const auto prefix = readAt(at, kRecordPrefix);
+      In p(prefix.data(), prefix.size(), at, path_);
+      p.u8();
+      const auto content = readAt(at + kRecordPrefix, p.u64());
+      In b(content.data(), content.size(), at + kRecordPrefix, path_);
+      if (!deliver(b, at)) return;
+    }
+    if (ci == chunks_.size()) break;
+    const auto records = chunkRecords(chunks_[ci]);
+    In m(records.data(), records.size(), 0, path_ + ": chunk at byte " + std::to_string(chunks_[ci].offset));
+    while (!m.done()) {
+      const std::uint8_t op = m.u8();
+      const std::uint64_t len = m.u64();
+      const std::uint8_t* body = m.take(len, "record in chunk");
+      if (op != kMessage) continue;
+      In b(body, len, 0, path_ + ": chunk at byte " + std::to_string(chunks_[ci].offset));
+      if (!deliver(b, chunks_[ci].offset)) return;
+    }
+  }
+}
+
+}  // namespace ddsnav::record

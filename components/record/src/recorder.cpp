@@ -1,0 +1,198 @@
+#include <ddsnav/record/recorder.hpp>
+#include <ddsnav/record/schemas.hpp>
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+namespace ddsnav::record {
+
+namespace {
+
+std::uint64_t nowNs() {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+}
+
+}  // namespace
+
+TopicQos qosForTopic(const std::string& topic) {
+  // The profiles ddsnav's components publish with (idl/*.idl comments, docs/record.md). Readers must ask
+  // no more than the writer offers: a transient-local reader does not match a volatile writer, a reliable
+  // reader does not match a best-effort writer.
+  static const std::map<std::string, std::string> table = {
+      {"sensors/points", "sensorData"},        {"vehicle/state", "sensorData"},
+      {"system/clock", "sensorData"},          {"control/tracking_status", "sensorData"},
+      {"map/octomap", "state"},                {"perception/obstacles", "state"},
+      {"planning/path", "state"},              {"control/trajectory", "state"},
+      {"system/status", "state"},              {"planning/request", "commands"},
+      {"control/cmd_vel", "commands"},
+  };
+  const auto it = table.find(topic);
+  return qosForProfile(it == table.end() ? "default" : it->second, topic);
+}
+
+TopicQos qosForProfile(const std::string& profile, const std::string& topic) {
+  // Depths: the recorder's callbacks only enqueue, so a few samples of reader history are plenty; a
+  // state reader keeps 10 so a burst of latched samples (system/status, one per component) all arrive.
+  if (profile == "sensorData") return {bus::Qos::sensorData(10), profile};
+  if (profile == "state") return {bus::Qos::state(10), profile};
+  if (profile == "commands") return {bus::Qos::commands(10), profile};
+  if (profile == "default") return {bus::Qos::commands(10), profile};
+  return qosForTopic(topic);
+}
+
+Recorder::Recorder(bus::Participant& bus, RecorderOptions options)
+    : bus_(bus), options_(std::move(options)), writer_(options_.output, options_.mcap) {
+  // First in the data section, so even a crashed recording says where it came from.
+  writer_.addMetadata("ddsnav.recording", {{"vendor", options_.vendor_name},
+                                           {"domain", std::to_string(options_.domain_id)},
+                                           {"start_time_ns", std::to_string(nowNs())}});
+  writer_thread_ = std::thread([this] { writerLoop(); });
+}
+
+Recorder::~Recorder() {
+  try {
+    stop();
+  } catch (const std::exception& e) {
+    spdlog::error("record: {}", e.what());
+  }
+}
+
+bool Recorder::wanted(const std::string& topic) const {
+  return options_.topics.empty() || std::find(options_.topics.begin(), options_.topics.end(), topic) != options_.topics.end();
+}
+
+std::uint16_t Recorder::schemaFor(const std::string& type_name) {
+  if (auto it = schemas_.find(type_name); it != schemas_.end()) return it->second;
+  const std::optional<std::string> idl = idlSchemaFor(type_name);
+  // A type this build does not define gets no schema (id 0) rather than a made-up one.
+  const std::uint16_t id = idl ? writer_.addSchema(type_name, "omgidl", *idl) : 0;
+  schemas_[type_name] = id;
+  return id;
+}
+
+void Recorder::poll() {
+  for (const bus::TopicInfo& info : bus_.discoveredTopics()) {
+    if (!wanted(info.topic)) continue;
+    {
+      std::lock_guard lock(topics_mutex_);
+      if (!seen_.emplace(info.topic, info.type_name).second) continue;
+    }
+    auto topic = std::make_unique<Topic>();
+    topic->info = info;
+    topic->qos = qosForTopic(info.topic);
+    {
+      std::lock_guard lock(writer_mutex_);
+      if (stopped_) return;
+      const std::uint16_t schema = schemaFor(info.type_name);
+      topic->channel = writer_.addChannel(schema, info.topic, "cdr",
+                                          {{"dds_type", info.type_name},
+                                           {"keyed", info.keyed ? "true" : "false"},
+                                           {"qos", topic->qos.profile}});
+    }
+    Topic* raw = topic.get();
+    try {
+      topic->subscription = bus_.subscribeRaw(info, topic->qos.qos, [this, raw](const bus::RawSample& s) { onSample(*raw, s); });
+    } catch (const std::exception& e) {
+      const std::string why = info.topic + " (" + info.type_name + "): " + e.what();
+      spdlog::warn("record: not recording {}", why);
+      std::lock_guard lock(topics_mutex_);
+      skipped_.push_back(why);
+      continue;
+    }
+    spdlog::info("record: {} ({}, {})", info.topic, info.type_name, topic->qos.profile);
+    std::lock_guard lock(topics_mutex_);
+    topics_.push_back(std::move(topic));
+  }
+}
+
+void Recorder::onSample(Topic& topic, const bus::RawSample& sample) {
+  // Runs on a DDS thread: copy, enqueue, return. Never waits for the disk.
+  topic.received.fetch_add(1, std::memory_order_relaxed);
+  const std::size_t size = sample.payload.size();
+  {
+    std::lock_guard lock(queue_mutex_);
+    if (stopping_ || queue_.size() >= options_.queue_messages ||
+        (queued_bytes_ + size > options_.queue_bytes && !queue_.empty())) {
+      topic.dropped.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    // Log time is the receive time, kept non-decreasing so the file is in log-time order.
+    last_log_time_ = std::max(last_log_time_, nowNs());
+    queue_.push_back(Item{&topic, last_log_time_, static_cast<std::uint64_t>(std::max<std::int64_t>(0, sample.source_timestamp_ns)),
+                          std::vector<std::uint8_t>(sample.payload.begin(), sample.payload.end())});
+    queued_bytes_ += size;
+  }
+  queue_changed_.notify_one();
+}
+
+void Recorder::writerLoop() {
+  std::deque<Item> batch;
+  for (;;) {
+    {
+      std::unique_lock lock(queue_mutex_);
+      queue_changed_.wait_for(lock, std::chrono::milliseconds(100), [&] { return !queue_.empty() || stopping_; });
+      batch.swap(queue_);
+      queued_bytes_ = 0;
+      if (batch.empty() && stopping_) return;
+    }
+    std::lock_guard lock(writer_mutex_);
+    for (Item& item : batch) {
+      if (options_.write_delay.count() > 0) std::this_thread::sleep_for(options_.write_delay);
+      writer_.write(item.topic->channel, item.log_time, item.publish_time, item.payload);
+      item.topic->written.fetch_add(1, std::memory_order_relaxed);
+      bytes_written_.fetch_add(item.payload.size(), std::memory_order_relaxed);
+      const std::uint64_t total = total_written_.fetch_add(1) + 1;
+      if (options_.max_messages > 0 && total >= options_.max_messages) max_reached_.store(true);
+    }
+    batch.clear();
+    // Bounded loss on a crash: a chunk never stays open longer than chunk_age.
+    writer_.flushAged();
+  }
+}
+
+void Recorder::stop() {
+  {
+    std::lock_guard lock(writer_mutex_);
+    if (stopped_) return;
+    stopped_ = true;
+  }
+  // No callback runs after its Subscription is gone; then drain what they queued.
+  {
+    std::lock_guard lock(topics_mutex_);
+    for (auto& t : topics_) t->subscription = bus::Subscription();
+  }
+  {
+    std::lock_guard lock(queue_mutex_);
+    stopping_ = true;
+  }
+  queue_changed_.notify_all();
+  if (writer_thread_.joinable()) writer_thread_.join();
+
+  StringMap counts;
+  for (const TopicCounts& c : this->counts()) {
+    counts[c.topic + ":received"] = std::to_string(c.received);
+    counts[c.topic + ":written"] = std::to_string(c.written);
+    counts[c.topic + ":dropped"] = std::to_string(c.dropped);
+  }
+  std::lock_guard lock(writer_mutex_);
+  writer_.addMetadata("ddsnav.topic_counts", counts);
+  writer_.addMetadata("ddsnav.recording_end", {{"end_time_ns", std::to_string(nowNs())}});
+  writer_.close();
+}
+
+std::vector<TopicCounts> Recorder::counts() const {
+  std::lock_guard lock(topics_mutex_);
+  std::vector<TopicCounts> out;
+  for (const auto& t : topics_)
+    out.push_back({t->info.topic, t->info.type_name, t->qos.profile, t->received.load(), t->written.load(), t->dropped.load()});
+  return out;
+}
+
+std::vector<std::string> Recorder::skipped() const {
+  std::lock_guard lock(topics_mutex_);
+  return skipped_;
+}
+
+}  // namespace ddsnav::record
