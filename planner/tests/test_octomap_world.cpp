@@ -232,6 +232,20 @@ TEST(OctoMapWorld, BadInputIsRejected) {
   EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, {1, 2, 3, 4, 5}), std::runtime_error);
   std::vector<std::uint8_t> truncated(bytes.begin(), bytes.begin() + bytes.size() / 2);
   EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, truncated), std::runtime_error);
+  // Another tree type, a node count that does not match the data.
+  std::string text(bytes.begin(), bytes.end());
+  std::string other = text;
+  other.replace(other.find("id OcTree"), 9, "id ColorOcTree");
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, {other.begin(), other.end()}), std::runtime_error);
+  std::string wrong_size = text;
+  wrong_size.replace(wrong_size.find("size "), 5, "size 1");
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, {wrong_size.begin(), wrong_size.end()}),
+               std::runtime_error);
+  try {
+    makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, {other.begin(), other.end()});
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("ColorOcTree"), std::string::npos) << e.what();
+  }
   EXPECT_THROW(makeOctoMapWorld(4, Vec3(-1, -1, -1), Vec3(1, 1, 1), 0.1, bytes), std::invalid_argument);
   EXPECT_THROW(makeOctoMapWorld(3, Vec3(1, -1, -1), Vec3(1, 1, 1), 0.1, bytes), std::invalid_argument);
   EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), -0.1, bytes), std::invalid_argument);
