@@ -27,6 +27,7 @@ struct Observations {
   std::optional<msg::Trajectory> trajectory;
   std::optional<msg::TrackingStatus> status;
   std::optional<msg::OccupancyMap> map;
+  std::string failure;  // "component: detail" of the first component that reported LIFECYCLE_FAILED
   std::size_t clouds = 0;
   std::size_t cloud_points = 0;
 };
@@ -81,6 +82,12 @@ int main(int argc, char** argv) {
       seen.cloud_points += m.xyz().size() / 3;
     });
 
+    auto s8 = bus.subscribe<msg::ComponentStatus>("system/status", bus::Qos::state(), [&](const msg::ComponentStatus& m) {
+      std::lock_guard lock(mutex);
+      if (m.state() == msg::LifecycleState::LIFECYCLE_FAILED && seen.failure.empty())
+        seen.failure = m.name() + ": " + (m.detail().empty() ? std::string("failed") : m.detail());
+    });
+
     ctx.ready();
     const auto started = std::chrono::steady_clock::now();
     auto last_log = started;
@@ -90,6 +97,10 @@ int main(int argc, char** argv) {
       reached = seen.status && seen.status->goal_reached();
       const auto now = std::chrono::steady_clock::now();
       if (reached || now - started > std::chrono::duration<double>(timeout)) break;
+      if (!seen.failure.empty()) {
+        spdlog::error("component failed: {}", seen.failure);
+        break;
+      }
       if (now - last_log > std::chrono::seconds(3)) {
         last_log = now;
         spdlog::info("{:.0f} s: {} clouds, {} obstacles, {} paths, progress {:.0f} %, cross-track error {:.3f} m",
@@ -99,7 +110,7 @@ int main(int argc, char** argv) {
       }
     }
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    s1 = s2 = s3 = s4 = s5 = s6 = s7 = bus::Subscription();
+    s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = bus::Subscription();
 
     // The picture.
     planner::SvgScene scene;
@@ -130,6 +141,7 @@ int main(int argc, char** argv) {
     summary["scenario"] = scenario.name;
     summary["goal_reached"] = reached;
     summary["elapsed_s"] = elapsed;
+    if (!seen.failure.empty()) summary["failure"] = seen.failure;
     summary["clouds"] = seen.clouds;
     summary["cloud_points"] = seen.cloud_points;
     summary["obstacles"] = seen.obstacles ? seen.obstacles->obstacles().size() : 0;

@@ -5,27 +5,17 @@
 
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/node_context.hpp"
+#include "ddsnav/nodes/world_source.hpp"
 
 #include <ddsnav/planner/planner.hpp>
 
 #include <spdlog/spdlog.h>
 
 #include <cmath>
-#include <mutex>
-#include <optional>
 
 using namespace ddsnav;
 
 namespace {
-
-enum class WorldSource { Obstacles, Map, Scenario };
-
-WorldSource parseWorldSource(const std::string& text) {
-  if (text == "obstacles") return WorldSource::Obstacles;
-  if (text == "map") return WorldSource::Map;
-  if (text == "scenario") return WorldSource::Scenario;
-  throw std::invalid_argument("parameter world: '" + text + "' is not one of obstacles, map, scenario");
-}
 
 bool finite(const msg::PathState& s) {
   return std::isfinite(s.x()) && std::isfinite(s.y()) && std::isfinite(s.z()) && std::isfinite(s.heading());
@@ -36,43 +26,13 @@ bool finite(const msg::PathState& s) {
 int main(int argc, char** argv) {
   return nodes::runNode(argc, argv, "planner", "Answers plan requests with sampling-based planners.", [](nodes::NodeContext& ctx) {
     const auto scenario = planner::loadScenario(ctx.requiredString("scenario"));
-    const auto source = parseWorldSource(ctx.paramString("world", "obstacles"));
+    const auto kind = nodes::parseWorldKind(ctx.paramString("world", "obstacles"));
     const bool kinodynamic = ctx.paramBool("kinodynamic", scenario.vehicle.has_value());
     const double max_budget = ctx.paramDouble("max_time_budget_s", 30.0);
     if (kinodynamic && !scenario.vehicle) throw std::invalid_argument("parameter kinodynamic: the scenario has no vehicle block");
 
-    std::mutex mutex;
-    std::optional<msg::ObstacleArray> latest_obstacles;
-    std::optional<msg::OccupancyMap> latest_map;
-    auto obstacles = ctx.bus().subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& a) {
-      std::lock_guard lock(mutex);
-      latest_obstacles = a;
-    });
-    auto maps = ctx.bus().subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [&](const msg::OccupancyMap& m) {
-      std::lock_guard lock(mutex);
-      latest_map = m;
-    });
+    nodes::WorldSource world_source(ctx.bus(), kind, scenario);
     auto paths = ctx.bus().publisher<msg::Path>("planning/path", bus::Qos::state());
-
-    auto makeWorld = [&](const Eigen::Vector3d& start) -> std::unique_ptr<planner::CollisionWorld> {
-      std::lock_guard lock(mutex);
-      switch (source) {
-        case WorldSource::Scenario:
-          return planner::makeScenarioWorld(scenario);
-        case WorldSource::Obstacles: {
-          auto ellipses = latest_obstacles ? nodes::toEllipsoidObstacles(*latest_obstacles) : std::vector<planner::EllipsoidObstacle>{};
-          if (const auto cleared = nodes::clearFootprint(ellipses, start, scenario.robot_radius, scenario.dimensions))
-            spdlog::info("ignoring {} obstacle ellipse(s) that cover the start", cleared);
-          return planner::makeEllipsoidWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius,
-                                             std::move(ellipses));
-        }
-        case WorldSource::Map:
-          if (!latest_map) return nullptr;
-          return planner::makeOctoMapWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius,
-                                           latest_map->octree());
-      }
-      return nullptr;
-    };
 
     auto answer = [&](const msg::PlanRequest& request) {
       const auto fail = [&](const std::string& why) {
@@ -90,8 +50,8 @@ int main(int argc, char** argv) {
       } catch (const std::exception& e) {
         return fail(e.what());
       }
-      auto world = makeWorld(nodes::fromMsg(request.start()).position);
-      if (!world) return fail("no map/octomap received yet");
+      auto world = world_source.snapshot(nodes::fromMsg(request.start()).position);
+      if (!world) return fail(kind == nodes::WorldKind::Map ? "no map/octomap received yet" : "no perception/obstacles received yet");
       planner::PlanProblem problem;
       problem.world = world.get();
       problem.start = nodes::fromMsg(request.start());

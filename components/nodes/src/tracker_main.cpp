@@ -5,12 +5,14 @@
 
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/node_context.hpp"
+#include "ddsnav/nodes/world_source.hpp"
 
 #include <ddsnav/tracker/smoother.hpp>
 #include <ddsnav/tracker/tracker.hpp>
 
 #include <spdlog/spdlog.h>
 
+#include <cmath>
 #include <mutex>
 #include <optional>
 
@@ -25,8 +27,9 @@ int main(int argc, char** argv) {
     const double control_rate = ctx.paramDouble("control_rate_hz", 20.0);
     const double time_budget = ctx.paramDouble("time_budget_s", 5.0);
     const auto seed = static_cast<std::uint64_t>(ctx.paramInt("seed", 1));
-    const int max_attempts = static_cast<int>(ctx.paramInt("max_plan_attempts", 5));
-    const bool wait_for_obstacles = ctx.paramBool("wait_for_obstacles", true);
+    const int max_attempts = static_cast<int>(ctx.paramInt("max_plan_attempts", 10));
+    const double retry_delay = ctx.paramDouble("plan_retry_delay_s", 1.0);
+    const bool wait_for_world = ctx.paramBool("wait_for_world", true);
     const double replan_check_period = ctx.paramDouble("replan_check_period_s", 0.5);
     tracker::TrackerConfig tracker_config;
     tracker_config.replan_deviation = ctx.paramDouble("replan_deviation", tracker_config.replan_deviation);
@@ -38,15 +41,10 @@ int main(int argc, char** argv) {
 
     std::mutex mutex;
     std::optional<tracker::VehicleState> vehicle;
-    std::optional<msg::ObstacleArray> obstacles;
     std::optional<msg::Path> new_path;
     auto state_sub = ctx.bus().subscribe<msg::VehicleState>("vehicle/state", bus::Qos::sensorData(), [&](const msg::VehicleState& s) {
       std::lock_guard lock(mutex);
       vehicle = nodes::fromMsg(s);
-    });
-    auto obstacle_sub = ctx.bus().subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& a) {
-      std::lock_guard lock(mutex);
-      obstacles = a;
     });
     auto path_sub = ctx.bus().subscribe<msg::Path>("planning/path", bus::Qos::state(), [&](const msg::Path& p) {
       std::lock_guard lock(mutex);
@@ -57,17 +55,13 @@ int main(int argc, char** argv) {
     auto commands = ctx.bus().publisher<msg::VelocityCommand>("control/cmd_vel", bus::Qos::commands());
     auto statuses = ctx.bus().publisher<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData());
 
-    // The same world the planner plans on (planner_main.cpp), seen from the vehicle's position.
-    auto currentWorld = [&](const Eigen::Vector3d& vehicle_position) {
-      std::lock_guard lock(mutex);
-      auto ellipses = obstacles ? nodes::toEllipsoidObstacles(*obstacles) : std::vector<planner::EllipsoidObstacle>{};
-      nodes::clearFootprint(ellipses, vehicle_position, scenario.robot_radius, scenario.dimensions);
-      return planner::makeEllipsoidWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius,
-                                         std::move(ellipses));
-    };
+    // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
+    nodes::WorldSource world_source(ctx.bus(), nodes::parseWorldKind(ctx.paramString("world", "obstacles")), scenario);
+    auto currentWorld = [&](const Eigen::Vector3d& position) { return world_source.snapshot(position); };
 
     std::uint32_t request_id = 0;
     int attempts = 0;
+    std::optional<std::int64_t> retry_at_ns;  // a failed attempt is retried after plan_retry_delay_s
     std::optional<std::int64_t> pending_since;
     auto requestPlan = [&](const tracker::VehicleState& from, const std::string& why) {
       msg::PlanRequest request;
@@ -102,12 +96,10 @@ int main(int argc, char** argv) {
     while (ctx.sleepFor(period)) {
       std::optional<tracker::VehicleState> state;
       std::optional<msg::Path> path;
-      bool have_obstacles = false;
       {
         std::lock_guard lock(mutex);
         state = vehicle;
         path.swap(new_path);
-        have_obstacles = obstacles.has_value();
       }
       if (goal_reached) {
         statuses.publish(last_status);  // keep saying so: the status topic is best effort
@@ -115,7 +107,8 @@ int main(int argc, char** argv) {
       }
       if (!state) continue;
       if (request_id == 0) {
-        if (!have_obstacles && wait_for_obstacles) continue;
+        // The planner's world must exist before the first request (perception's first scan, the first map).
+        if (wait_for_world && !world_source.available()) continue;
         requestPlan(*state, "start");
         continue;
       }
@@ -124,11 +117,12 @@ int main(int argc, char** argv) {
         if (!path->solved()) {
           spdlog::warn("plan {} failed", request_id);
           if (attempts >= max_attempts) throw std::runtime_error("no plan after " + std::to_string(attempts) + " attempts");
-          requestPlan(*state, "previous attempt failed");
+          retry_at_ns = ctx.nowNs() + static_cast<std::int64_t>(retry_delay * 1e9);
           continue;
         }
         try {
           auto world = currentWorld(state->position);
+          if (!world) throw tracker::SmoothingError("the tracker has not received the planner's world yet");
           smoother_config.initial_heading = state->heading;
           auto trajectory = tracker::smoothPath(nodes::statesOf(*path), *world, limits, smoother_config);
           spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m", request_id,
@@ -140,9 +134,14 @@ int main(int argc, char** argv) {
         } catch (const std::exception& e) {
           spdlog::warn("cannot smooth plan {}: {}", request_id, e.what());
           if (attempts >= max_attempts) throw std::runtime_error("no drivable trajectory after " + std::to_string(attempts) + " attempts");
-          requestPlan(*state, "smoothing failed");
+          retry_at_ns = ctx.nowNs() + static_cast<std::int64_t>(retry_delay * 1e9);
           continue;
         }
+      }
+      if (retry_at_ns && ctx.nowNs() >= *retry_at_ns) {
+        retry_at_ns.reset();
+        requestPlan(*state, "retrying");
+        continue;
       }
       if (!follower) {
         // A request may be lost while the planner restarts: ask again after twice its budget.
@@ -160,10 +159,14 @@ int main(int argc, char** argv) {
       out.mean_cross_track_error(status.mean_cross_track_error);
       out.max_cross_track_error(status.max_cross_track_error);
       out.progress(status.progress);
-      out.goal_reached(status.goal_reached);
+      // The mission's goal is the scenario's goal region; the controller's own test (trajectory finished and
+      // the vehicle within its tolerance of the end) is stricter than that.
+      const bool in_goal_region = status.progress > 0.95 && (state->position - scenario.goal).norm() <= scenario.goal_radius;
+      const bool arrived = status.goal_reached || in_goal_region;
+      out.goal_reached(arrived);
       statuses.publish(out);
       last_status = out;
-      if (status.goal_reached) {
+      if (arrived) {
         goal_reached = true;
         stop();
         spdlog::info("goal reached: mean cross-track error {:.3f} m, max {:.3f} m", status.mean_cross_track_error,
@@ -173,7 +176,8 @@ int main(int argc, char** argv) {
       since_replan_check += dt;
       if (since_replan_check >= replan_check_period) {
         since_replan_check = 0.0;
-        const auto decision = follower->checkReplan(*currentWorld(state->position));
+        const auto world = currentWorld(state->position);
+        const auto decision = world ? follower->checkReplan(*world) : tracker::ReplanDecision{};
         if (decision.needed) {
           stop();
           follower.reset();

@@ -1,0 +1,43 @@
+#pragma once
+// The collision world a component plans or checks against, kept current from the bus: perception's
+// ellipses (perception/obstacles), the mapper's octree (map/octomap) or the scenario's exact geometry.
+// The planner and the tracker use the same one, so a trajectory is checked against the world it was
+// planned in.
+
+#include <ddsnav/bus/bus.hpp>
+#include <ddsnav/msg/messages.hpp>
+#include <ddsnav/planner/collision_world.hpp>
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+namespace ddsnav::nodes {
+
+enum class WorldKind { Obstacles, Map, Scenario };
+
+// "obstacles" | "map" | "scenario"; throws std::invalid_argument naming the parameter `param`.
+WorldKind parseWorldKind(const std::string& text, const std::string& param = "world");
+
+class WorldSource {
+ public:
+  WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario);
+
+  // False until the world's input has arrived (always true for the scenario world).
+  bool available() const;
+  // A snapshot of the newest world, seen from a robot at `robot_position`: obstacle ellipses that would
+  // cover the robot there are left out (see clearFootprint). nullptr when not available().
+  std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position) const;
+  bool hasObstacles() const;  // perception/obstacles received (whatever the kind)
+
+ private:
+  WorldKind kind_;
+  const planner::Scenario& scenario_;
+  mutable std::mutex mutex_;
+  std::optional<msg::ObstacleArray> obstacles_;
+  std::optional<msg::OccupancyMap> map_;
+  bus::Subscription obstacles_sub_, map_sub_;
+};
+
+}  // namespace ddsnav::nodes
