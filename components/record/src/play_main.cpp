@@ -28,6 +28,8 @@ int main(int argc, char** argv) {
   std::string dds = envOr("DDSNAV_DDS", "fastdds");
   int domain = std::atoi(envOr("DDSNAV_DOMAIN", "0").c_str());
   double wait_s = 2.0;
+  double settle_s = 1.0;
+  double linger_s = 1.0;
   app.add_option("file", path, "recording (.mcap)")->required();
   app.add_option("--rate", options.rate, "playback speed factor")->check(CLI::PositiveNumber);
   app.add_option("--topics", options.topics, "topics to replay (comma separated; default: all but system/status)")->delimiter(',');
@@ -36,11 +38,15 @@ int main(int argc, char** argv) {
   app.add_option("--clock-hz", options.clock_hz, "system/clock publish rate")->check(CLI::PositiveNumber);
   app.add_option("--start", options.start_s, "skip the first S seconds")->check(CLI::NonNegativeNumber);
   app.add_option("--wait-subscribers", wait_s, "s to wait per topic for a subscriber before starting")->check(CLI::NonNegativeNumber);
+  app.add_option("--settle", settle_s, "s to pause after subscribers matched, so they see us too")->check(CLI::NonNegativeNumber);
+  app.add_option("--linger", linger_s, "s to keep the writers after the last message, for reliable resends")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--domain", domain, "DDS domain id (env DDSNAV_DOMAIN)")->check(CLI::Range(0, bus::kMaxDomainId));
   app.add_option("--dds", dds, "DDS vendor: fastdds | cyclonedds (env DDSNAV_DDS)");
   CLI11_PARSE(app, argc, argv);
   spdlog::set_pattern("[%H:%M:%S.%e] [play] [%^%l%$] %v");
   options.wait_subscribers = std::chrono::milliseconds(static_cast<long>(wait_s * 1000));
+  options.settle = std::chrono::milliseconds(static_cast<long>(settle_s * 1000));
 
   struct sigaction sa {};
   sa.sa_handler = onSignal;
@@ -59,8 +65,10 @@ int main(int argc, char** argv) {
     if (tty) std::fprintf(stderr, "\n");
     spdlog::info("published {} messages{}", result.published,
                  result.failed ? " (" + std::to_string(result.failed) + " refused by the vendor)" : std::string());
-    // Reliable samples still in flight: give the vendor a moment before the writers go away.
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    // Reliable samples not yet acknowledged are resent on the next heartbeat; the bus cannot wait for
+    // acknowledgements, so keep the writers a while before they go away.
+    for (int i = 0; i < static_cast<int>(linger_s * 10) && !g_stop.load(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
     return result.failed ? 1 : 0;
   } catch (const std::invalid_argument& e) {
     spdlog::error("{}", e.what());

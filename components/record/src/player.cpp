@@ -70,11 +70,15 @@ PlaybackProgress play(bus::Participant& bus, const McapReader& file, const Playe
   if (options.clock) clock = bus.publisher<msg::Clock>("system/clock", bus::Qos::sensorData(1));
 
   // Subscribers that start with us need a moment to match; wait for each topic a little, not forever.
+  bool any_matched = false;
   for (auto& [id, out] : outputs) {
     if (!out.enabled || stop.load()) continue;
-    if (!out.publisher.waitForSubscribers(1, options.wait_subscribers))
+    if (out.publisher.waitForSubscribers(1, options.wait_subscribers))
+      any_matched = true;
+    else
       spdlog::info("play: no subscriber on {} yet; publishing anyway", out.topic);
   }
+  if (any_matched && !stop.load()) std::this_thread::sleep_for(options.settle);
 
   const auto& summary = file.summary();
   const std::uint64_t first = summary.message_start_time;

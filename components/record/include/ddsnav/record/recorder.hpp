@@ -127,6 +127,10 @@ struct PlayerOptions {
   double clock_hz = 100.0;
   double start_s = 0.0;              // skip the first seconds of the recording
   std::chrono::milliseconds wait_subscribers{2000};  // per topic, before the first message
+  // After our writers see their subscribers, the subscribers may not see us yet (a Fast DDS participant is
+  // discovered by Cyclone only at its next announcement): samples sent before that wait for the next
+  // heartbeat or are lost on best-effort topics. This pause covers it.
+  std::chrono::milliseconds settle{1000};
 };
 
 struct PlaybackProgress {

@@ -1,0 +1,362 @@
+// The MCAP writer and reader against each other and against the specification's byte layout: every
+// record type, zstd and uncompressed chunks, summary vs. record-by-record scan, truncated and bad files.
+#include <ddsnav/record/info.hpp>
+#include <ddsnav/record/mcap.hpp>
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <set>
+
+using namespace ddsnav::record;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Written {
+  std::uint16_t channel;
+  std::uint64_t log_time, publish_time;
+  std::vector<std::uint8_t> data;
+};
+
+fs::path tempFile(const std::string& name) {
+  fs::path dir = fs::temp_directory_path() / ("ddsnav_mcap_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+std::vector<std::uint8_t> readBytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+void writeBytes(const fs::path& p, const std::vector<std::uint8_t>& bytes, std::size_t n) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(n));
+}
+
+std::uint64_t le(const std::vector<std::uint8_t>& b, std::size_t at, int n) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < n; ++i) v |= static_cast<std::uint64_t>(b[at + i]) << (8 * i);
+  return v;
+}
+
+// Writes a recording with two schemas, three channels, `count` messages of varied size and two
+// metadata records; returns what was written.
+std::vector<Written> writeSample(const fs::path& path, Compression compression, std::size_t chunk_size, int count) {
+  McapWriter w(path.string(), {.compression = compression, .chunk_size = chunk_size});
+  const auto s1 = w.addSchema("ddsnav::msg::Path", "omgidl", "module ddsnav { module msg { struct Path {}; }; };");
+  const auto s2 = w.addSchema("ddsnav::msg::Clock", "omgidl", "struct Clock { int64 stamp_ns; };");
+  std::vector<std::uint16_t> ch = {w.addChannel(s1, "planning/path", "cdr", {{"keyed", "false"}, {"qos", "state"}}),
+                                   w.addChannel(s2, "system/clock", "cdr"),
+                                   w.addChannel(0, "raw/bytes", "cdr", {{"note", "no schema"}})};
+  w.addMetadata("ddsnav.recording", {{"vendor", "test"}});
+  std::mt19937 rng(7);
+  std::vector<Written> out;
+  std::uint64_t t = 1'700'000'000'000'000'000ull;
+  for (int i = 0; i < count; ++i) {
+    Written m{ch[rng() % 3], t, t - 1000 - rng() % 5000, {}};
+    m.data.resize(rng() % 3000);
+    // Mostly repetitive, one random byte in eight: compressible but not trivially.
+    for (std::size_t k = 0; k < m.data.size(); ++k) m.data[k] = k % 8 == 0 ? static_cast<std::uint8_t>(rng()) : static_cast<std::uint8_t>(k % 64);
+    w.write(m.channel, m.log_time, m.publish_time, m.data);
+    out.push_back(std::move(m));
+    t += 1'000'000 + rng() % 1000;
+  }
+  w.addMetadata("ddsnav.topic_counts", {{"planning/path:dropped", "3"}, {"planning/path:received", "10"}});
+  w.close();
+  return out;
+}
+
+std::vector<Written> readAll(const McapReader& r) {
+  std::vector<Written> out;
+  r.forEachMessage([&](const MessageView& m) {
+    out.push_back({m.channel->id, m.log_time, m.publish_time, {m.data.begin(), m.data.end()}});
+    return true;
+  });
+  return out;
+}
+
+void expectSame(const std::vector<Written>& a, const std::vector<Written>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].channel, b[i].channel) << i;
+    EXPECT_EQ(a[i].log_time, b[i].log_time) << i;
+    EXPECT_EQ(a[i].publish_time, b[i].publish_time) << i;
+    EXPECT_EQ(a[i].data, b[i].data) << i;
+  }
+}
+
+// Top-level records of a file by an independent walk of the spec's layout: magic, then
+// <opcode u8><length u64><content>..., and the trailing magic.
+std::vector<std::pair<std::uint8_t, std::size_t>> topLevelRecords(const std::vector<std::uint8_t>& b) {
+  std::vector<std::pair<std::uint8_t, std::size_t>> out;
+  std::size_t at = 8;
+  while (at + 9 <= b.size() - 8) {
+    out.emplace_back(b[at], at);
+    at += 9 + le(b, at + 1, 8);
+  }
+  EXPECT_EQ(at, b.size() - 8) << "records must end exactly at the trailing magic";
+  return out;
+}
+
+class McapRoundTrip : public ::testing::TestWithParam<Compression> {};
+
+TEST_P(McapRoundTrip, EveryRecordReadsBackThroughSummaryAndScan) {
+  const fs::path path = tempFile(GetParam() == Compression::Zstd ? "rt_zstd.mcap" : "rt_none.mcap");
+  const auto written = writeSample(path, GetParam(), 8 * 1024, 400);
+
+  McapReader summary(path.string());
+  EXPECT_TRUE(summary.hasSummary());
+  EXPECT_FALSE(summary.truncated());
+  EXPECT_EQ(summary.library(), "ddsnav-record");
+  ASSERT_EQ(summary.schemas().size(), 2u);
+  EXPECT_EQ(summary.schemas().at(2).name, "ddsnav::msg::Clock");
+  EXPECT_EQ(summary.schemas().at(2).data, "struct Clock { int64 stamp_ns; };");
+  ASSERT_EQ(summary.channels().size(), 3u);
+  EXPECT_EQ(summary.channels().at(0).topic, "planning/path");
+  EXPECT_EQ(summary.channels().at(0).metadata.at("qos"), "state");
+  EXPECT_EQ(summary.channels().at(2).schema_id, 0);
+  EXPECT_EQ(summary.summary().message_count, 400u);
+  EXPECT_EQ(summary.summary().message_start_time, written.front().log_time);
+  EXPECT_EQ(summary.summary().message_end_time, written.back().log_time);
+  std::map<std::uint16_t, std::uint64_t> per_channel;
+  for (const auto& m : written) ++per_channel[m.channel];
+  EXPECT_EQ(summary.summary().channel_message_counts, per_channel);
+  ASSERT_EQ(summary.metadata().size(), 2u);
+  EXPECT_EQ(summary.metadata()[1].values.at("planning/path:dropped"), "3");
+  EXPECT_GT(summary.chunks().size(), 10u);
+  for (const auto& c : summary.chunks()) {
+    EXPECT_EQ(c.compression, GetParam() == Compression::Zstd ? "zstd" : "");
+    if (GetParam() == Compression::Zstd) {
+      EXPECT_LT(c.compressed_size, c.uncompressed_size);
+    } else {
+      EXPECT_EQ(c.compressed_size, c.uncompressed_size);
+    }
+  }
+  expectSame(readAll(summary), written);
+
+  McapReader scanned(path.string(), /*force_scan=*/true);
+  EXPECT_FALSE(scanned.hasSummary());
+  EXPECT_FALSE(scanned.truncated());
+  EXPECT_EQ(scanned.summary().message_count, 400u);
+  EXPECT_EQ(scanned.summary().channel_message_counts, per_channel);
+  EXPECT_EQ(scanned.chunks().size(), summary.chunks().size());
+  EXPECT_EQ(scanned.metadata().size(), 2u);
+  expectSame(readAll(scanned), written);
+}
+
+TEST_P(McapRoundTrip, LayoutFollowsTheSpecification) {
+  const fs::path path = tempFile("layout.mcap");
+  writeSample(path, GetParam(), 8 * 1024, 200);
+  const auto b = readBytes(path);
+  const std::uint8_t magic[8] = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
+  ASSERT_GT(b.size(), 100u);
+  EXPECT_TRUE(std::equal(magic, magic + 8, b.begin()));
+  EXPECT_TRUE(std::equal(magic, magic + 8, b.end() - 8));
+  const auto records = topLevelRecords(b);
+  std::set<std::uint8_t> opcodes;
+  for (const auto& [op, at] : records) opcodes.insert(op);
+  // Header, Footer, Schema, Channel, Chunk, MessageIndex, ChunkIndex, Statistics, Metadata, MetadataIndex,
+  // SummaryOffset, DataEnd (Message records live inside the chunks).
+  for (std::uint8_t op : {0x01, 0x02, 0x03, 0x04, 0x06, 0x07, 0x08, 0x0B, 0x0C, 0x0D, 0x0E, 0x0F})
+    EXPECT_TRUE(opcodes.count(op)) << "missing opcode " << int(op);
+  EXPECT_EQ(records.front().first, 0x01);
+  EXPECT_EQ(records.back().first, 0x02);
+
+  // Footer -> summary start is the record after DataEnd; summary offsets point at records of their group.
+  const std::size_t footer = records.back().second;
+  const std::uint64_t summary_start = le(b, footer + 9, 8);
+  const std::uint64_t summary_offset_start = le(b, footer + 17, 8);
+  auto data_end = std::find_if(records.begin(), records.end(), [](auto& r) { return r.first == 0x0F; });
+  ASSERT_NE(data_end, records.end());
+  EXPECT_EQ((data_end + 1)->second, summary_start);
+  int groups = 0;
+  for (const auto& [op, at] : records) {
+    if (op != 0x0E) continue;
+    ++groups;
+    EXPECT_GE(at, summary_offset_start);
+    const std::uint8_t group_opcode = b[at + 9];
+    const std::uint64_t group_start = le(b, at + 10, 8);
+    EXPECT_EQ(b[group_start], group_opcode);
+  }
+  EXPECT_EQ(groups, 5);
+
+  // Every chunk index points at a Chunk whose message indexes point at that chunk's channels, and each
+  // index entry is the offset of a Message record inside the (decoded) chunk.
+  McapReader r(path.string());
+  for (const auto& c : r.chunks()) {
+    EXPECT_EQ(b[c.offset], 0x06);
+    EXPECT_FALSE(c.message_index_offsets.empty());
+    std::uint64_t index_bytes = 0;
+    for (const auto& [channel, offset] : c.message_index_offsets) {
+      ASSERT_EQ(b[offset], 0x07);
+      EXPECT_EQ(le(b, offset + 9, 2), channel);
+      index_bytes += 9 + le(b, offset + 1, 8);
+    }
+    EXPECT_EQ(index_bytes, c.message_index_length);
+    EXPECT_EQ(c.offset + c.record_length, c.message_index_offsets.begin()->second);
+  }
+  // Chunk CRC is the CRC-32 of the uncompressed records: for an uncompressed chunk, check it here.
+  if (GetParam() == Compression::None) {
+    const auto& c = r.chunks().front();
+    const std::size_t at = c.offset + 9;
+    const std::uint64_t size = le(b, at + 16, 8);
+    const std::uint32_t crc = static_cast<std::uint32_t>(le(b, at + 24, 4));
+    std::uint32_t table_crc = 0xFFFFFFFFu;
+    const std::size_t records_at = at + 28 + 4 + 0 + 8;  // compression "" -> u32 length 0, then u64 size
+    for (std::size_t i = 0; i < size; ++i) {
+      table_crc ^= b[records_at + i];
+      for (int k = 0; k < 8; ++k) table_crc = (table_crc >> 1) ^ (0xEDB88320u & (0u - (table_crc & 1u)));
+    }
+    EXPECT_EQ(crc, ~table_crc);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Compression, McapRoundTrip, ::testing::Values(Compression::None, Compression::Zstd),
+                         [](const auto& info) { return info.param == Compression::Zstd ? "zstd" : "none"; });
+
+TEST(McapTruncated, CutFilesReadUpToTheirLastCompleteChunk) {
+  const fs::path path = tempFile("full.mcap");
+  const auto written = writeSample(path, Compression::Zstd, 4 * 1024, 300);
+  const auto bytes = readBytes(path);
+  McapReader full(path.string());
+  ASSERT_GT(full.chunks().size(), 20u);
+  // Messages per chunk, in order.
+  std::vector<std::pair<std::uint64_t, std::size_t>> chunk_ends;  // end offset, messages up to it
+  std::size_t total = 0;
+  for (const auto& c : full.chunks()) {
+    std::size_t in_chunk = 0;
+    for (const auto& w : written) in_chunk += w.log_time >= c.message_start_time && w.log_time <= c.message_end_time;
+    total += in_chunk;
+    chunk_ends.emplace_back(c.offset + c.record_length, total);
+  }
+  ASSERT_EQ(total, written.size());
+
+  // Cuts everywhere: inside the first records, inside chunks, on chunk boundaries, inside the summary.
+  std::vector<std::size_t> cuts;
+  for (std::size_t k = 1; k < 40; ++k) cuts.push_back(60 + (bytes.size() - 61) * k / 40);
+  for (const auto& c : full.chunks()) cuts.push_back(c.offset + c.record_length);
+  cuts.push_back(bytes.size() - 1);
+  const fs::path cut_path = tempFile("cut.mcap");
+  for (const std::size_t cut : cuts) {
+    SCOPED_TRACE("cut at " + std::to_string(cut));
+    writeBytes(cut_path, bytes, cut);
+    McapReader r(cut_path.string());
+    EXPECT_TRUE(r.truncated());
+    EXPECT_FALSE(r.truncationReason().empty());
+    EXPECT_LE(r.truncatedAt(), cut);
+    std::size_t expected = 0;
+    for (const auto& [end, n] : chunk_ends)
+      if (end <= cut) expected = n;
+    const auto got = readAll(r);
+    ASSERT_EQ(got.size(), expected);
+    EXPECT_EQ(r.summary().message_count, expected);
+    expectSame(got, std::vector<Written>(written.begin(), written.begin() + static_cast<long>(expected)));
+    EXPECT_EQ(r.channels().size(), 3u);  // written before any message, so always there
+    const auto info = describeRecording(r);
+    EXPECT_TRUE(info["truncated"].get<bool>());
+    EXPECT_NE(formatRecordingInfo(info).find("TRUNCATED"), std::string::npos);
+  }
+}
+
+TEST(McapBadFiles, ClearErrorsNamingFileAndOffset) {
+  auto expectError = [](const fs::path& p, const std::string& needle) {
+    try {
+      McapReader r(p.string());
+      ADD_FAILURE() << p << " was accepted";
+    } catch (const McapError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(p.string()), std::string::npos) << what;
+      EXPECT_NE(what.find(needle), std::string::npos) << what;
+    }
+  };
+  std::mt19937 rng(3);
+  std::vector<std::uint8_t> random(4096);
+  for (auto& b : random) b = static_cast<std::uint8_t>(rng());
+  const fs::path p = tempFile("bad.mcap");
+  writeBytes(p, random, random.size());
+  expectError(p, "byte 0: not an MCAP file");
+  writeBytes(p, random, 0);
+  expectError(p, "byte 0: not an MCAP file");
+
+  // MCAP magic with a different major version is not this format.
+  std::vector<std::uint8_t> v1 = {0x89, 'M', 'C', 'A', 'P', '1', '\r', '\n'};
+  v1.insert(v1.end(), random.begin(), random.begin() + 100);
+  writeBytes(p, v1, v1.size());
+  expectError(p, "expected magic");
+
+  // Right magic, garbage after it: the Header is the first thing checked.
+  std::vector<std::uint8_t> garbage = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n', 0x05};
+  garbage.insert(garbage.end(), random.begin(), random.begin() + 100);
+  writeBytes(p, garbage, garbage.size());
+  expectError(p, "byte 8: expected the Header record");
+
+  EXPECT_THROW(McapReader(tempFile("does-not-exist.mcap").string()), McapError);
+}
+
+TEST(McapBadFiles, DamagedChunkIsReportedAtItsOffset) {
+  const fs::path path = tempFile("damaged.mcap");
+  writeSample(path, Compression::Zstd, 4 * 1024, 200);
+  auto bytes = readBytes(path);
+  std::uint64_t chunk_at = 0;
+  std::size_t chunks = 0;
+  {
+    McapReader r(path.string());
+    chunks = r.chunks().size();
+    chunk_at = r.chunks()[3].offset;
+    // Flip a byte in the middle of chunk 3's compressed records.
+    const auto& c = r.chunks()[3];
+    bytes[c.offset + c.record_length - c.compressed_size / 2] ^= 0x5A;
+  }
+  writeBytes(path, bytes, bytes.size());
+  McapReader r(path.string());  // the summary is intact
+  try {
+    r.forEachMessage([](const MessageView&) { return true; });
+    ADD_FAILURE() << "damaged chunk was read";
+  } catch (const McapError& e) {
+    EXPECT_NE(std::string(e.what()).find("byte " + std::to_string(chunk_at)), std::string::npos) << e.what();
+  }
+  // Scanning keeps the chunks before the damage and says where it stopped.
+  McapReader scanned(path.string(), true);
+  EXPECT_TRUE(scanned.truncated());
+  EXPECT_EQ(scanned.truncatedAt(), chunk_at);
+  EXPECT_EQ(scanned.chunks().size(), 3u);
+  EXPECT_LT(3u, chunks);
+}
+
+TEST(McapInfo, ReportsTopicsCountsDropsAndCompression) {
+  const fs::path path = tempFile("info.mcap");
+  const auto written = writeSample(path, Compression::Zstd, 16 * 1024, 300);
+  McapReader r(path.string());
+  const auto info = describeRecording(r);
+  EXPECT_FALSE(info["truncated"].get<bool>());
+  EXPECT_EQ(info["message_count"].get<std::uint64_t>(), 300u);
+  EXPECT_NEAR(info["duration_s"].get<double>(), (written.back().log_time - written.front().log_time) * 1e-9, 1e-9);
+  EXPECT_GT(info["chunks"]["ratio"].get<double>(), 1.0);
+  ASSERT_EQ(info["topics"].size(), 3u);
+  const auto& path_topic = info["topics"][0];
+  EXPECT_EQ(path_topic["topic"], "planning/path");
+  EXPECT_EQ(path_topic["type"], "ddsnav::msg::Path");
+  EXPECT_EQ(path_topic["dropped"].get<std::uint64_t>(), 3u);
+  EXPECT_EQ(path_topic["received"].get<std::uint64_t>(), 10u);
+  EXPECT_FALSE(info["topics"][1].contains("dropped"));
+  std::uint64_t sum = 0;
+  for (const auto& t : info["topics"]) sum += t["message_count"].get<std::uint64_t>();
+  EXPECT_EQ(sum, 300u);
+}
+
+}  // namespace
+
+// Removes this process's temporary files when the tests end.
+class TempCleanup : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(fs::temp_directory_path() / ("ddsnav_mcap_test_" + std::to_string(::getpid())), ec);
+  }
+};
+[[maybe_unused]] static ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);

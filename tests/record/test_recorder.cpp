@@ -1,0 +1,170 @@
+// The recorder in-process: schemas from the IDL, per-topic drop counts with a tiny queue and a slow
+// "disk", and a killed recorder process leaving a readable file.
+#include "child.hpp"
+
+#include <ddsnav/msg/messages.hpp>
+#include <ddsnav/record/info.hpp>
+#include <ddsnav/record/recorder.hpp>
+#include <ddsnav/record/schemas.hpp>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+using namespace ddsnav;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path tempFile(const std::string& name) {
+  fs::path dir = fs::temp_directory_path() / ("ddsnav_record_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir / name;
+}
+
+// Calls recorder.poll() until it subscribed to `topics` topics (bounded).
+bool pollUntilSubscribed(record::Recorder& recorder, std::size_t topics, std::chrono::seconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    recorder.poll();
+    if (recorder.counts().size() >= topics) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+TEST(RecordSchemas, IdlTextOfTheTypeWithItsIncludes) {
+  const auto path = record::idlSchemaFor("ddsnav::msg::Path");
+  ASSERT_TRUE(path);
+  EXPECT_NE(path->find("struct Path {"), std::string::npos);
+  EXPECT_NE(path->find("struct PlannerStatistics {"), std::string::npos);
+  EXPECT_NE(path->find("struct Header {"), std::string::npos);  // from common.idl
+  EXPECT_LT(path->find("struct Header {"), path->find("struct Path {"));
+  EXPECT_EQ(path->find("#include"), std::string::npos);
+  EXPECT_TRUE(record::idlSchemaFor("ddsnav::msg::Clock"));
+  EXPECT_FALSE(record::idlSchemaFor("ddsnav::msg::NoSuchType"));
+  EXPECT_FALSE(record::idlSchemaFor("other::Path"));
+}
+
+TEST(RecordQos, TableFollowsTheTopicsIntent) {
+  EXPECT_EQ(record::qosForTopic("sensors/points").qos.reliability, bus::Reliability::BestEffort);
+  EXPECT_EQ(record::qosForTopic("map/octomap").qos.durability, bus::Durability::TransientLocal);
+  EXPECT_EQ(record::qosForTopic("control/cmd_vel").profile, "commands");
+  const auto unknown = record::qosForTopic("somebody/else");
+  EXPECT_EQ(unknown.profile, "default");
+  EXPECT_EQ(unknown.qos.reliability, bus::Reliability::Reliable);
+  EXPECT_EQ(unknown.qos.durability, bus::Durability::Volatile);
+}
+
+TEST(Recorder, TinyQueueCountsDropsPerTopic) {
+  constexpr int kDomain = 185;
+  constexpr int kCount = 100;
+  const fs::path file = tempFile("drops.mcap");
+  bus::Participant pub_side({.vendor = bus::Vendor::FastDDS, .domain_id = kDomain, .name = "drops-pub"});
+  bus::Participant rec_side({.vendor = bus::Vendor::FastDDS, .domain_id = kDomain, .name = "drops-rec"});
+  auto pub = pub_side.publisher<msg::VelocityCommand>("control/cmd_vel", bus::Qos::commands(kCount));
+  record::RecorderOptions options;
+  options.output = file.string();
+  options.topics = {"control/cmd_vel"};
+  options.queue_messages = 2;
+  options.write_delay = std::chrono::milliseconds(5);  // a disk slower than the publisher
+  {
+    record::Recorder recorder(rec_side, options);
+    ASSERT_TRUE(pollUntilSubscribed(recorder, 1, std::chrono::seconds(10)));
+    ASSERT_TRUE(pub.waitForSubscribers(1, std::chrono::seconds(10)));
+    for (int i = 0; i < kCount; ++i) {
+      msg::VelocityCommand c;
+      c.stamp_ns(i);
+      c.v(0.1 * i);
+      pub.publish(c);
+    }
+    // Reliable: every sample reaches the recorder; the queue decides what is written.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (recorder.counts()[0].received < kCount && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    recorder.stop();
+    const auto c = recorder.counts().at(0);
+    EXPECT_EQ(c.received, static_cast<std::uint64_t>(kCount));
+    EXPECT_GT(c.dropped, 0u);
+    EXPECT_GT(c.written, 0u);
+    EXPECT_EQ(c.written + c.dropped, c.received);
+
+    record::McapReader r(file.string());
+    EXPECT_FALSE(r.truncated());
+    EXPECT_EQ(r.summary().message_count, c.written);
+    const auto info = record::describeRecording(r);
+    ASSERT_EQ(info["topics"].size(), 1u);
+    EXPECT_EQ(info["topics"][0]["dropped"].get<std::uint64_t>(), c.dropped);
+    EXPECT_EQ(info["topics"][0]["received"].get<std::uint64_t>(), c.received);
+    EXPECT_EQ(info["topics"][0]["qos"], "commands");
+    // What was written decodes, in order.
+    std::int64_t last = -1;
+    r.forEachMessage([&](const record::MessageView& m) {
+      msg::VelocityCommand v;
+      EXPECT_TRUE(msg::type_support<msg::VelocityCommand>().deserialize(m.data.data(), m.data.size(), &v));
+      EXPECT_GT(v.stamp_ns(), last);
+      last = v.stamp_ns();
+      // Source time from the writer, log time at reception: same host clock, so in that order.
+      EXPECT_GT(m.publish_time, 0u);
+      EXPECT_GE(m.log_time + 1'000'000, m.publish_time);
+      return true;
+    });
+  }
+}
+
+TEST(Recorder, KilledRecorderLeavesAReadableFile) {
+  constexpr int kDomain = 186;
+  const fs::path file = tempFile("killed.mcap");
+  fs::remove(file);
+  bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "killed-pub"});
+  auto pub = pub_side.publisher<msg::VehicleState>("vehicle/state", bus::Qos::sensorData());
+  record_test::Child recorder({DDSNAV_RECORD_BIN, "--dds", "cyclonedds", "--domain", std::to_string(kDomain), "--topics",
+                               "vehicle/state", "--chunk-kb", "1", "-o", file.string()},
+                              tempFile("killed.log").string());
+  ASSERT_TRUE(pub.waitForSubscribers(1, std::chrono::seconds(15))) << recorder.log();
+  // Publish until a few chunks are on disk, then kill -9: no chance to write a summary.
+  std::int64_t sent = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while ((!fs::exists(file) || fs::file_size(file) < 6000) && std::chrono::steady_clock::now() < deadline) {
+    msg::VehicleState s;
+    s.header().stamp_ns(++sent);
+    s.header().frame_id("map");
+    s.position().x(static_cast<double>(sent));
+    pub.publish(s);
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ASSERT_GE(fs::file_size(file), 6000u) << recorder.log();
+  recorder.signal(SIGKILL);
+  ASSERT_TRUE(recorder.wait(std::chrono::seconds(5)));
+
+  record::McapReader r(file.string());
+  EXPECT_TRUE(r.truncated());
+  EXPECT_FALSE(r.hasSummary());
+  ASSERT_EQ(r.channels().size(), 1u);
+  EXPECT_EQ(r.channels().begin()->second.metadata.at("dds_type"), "ddsnav::msg::VehicleState");
+  EXPECT_GT(r.summary().message_count, 5u);
+  std::uint64_t decoded = 0;
+  r.forEachMessage([&](const record::MessageView& m) {
+    msg::VehicleState s;
+    EXPECT_TRUE(msg::type_support<msg::VehicleState>().deserialize(m.data.data(), m.data.size(), &s));
+    EXPECT_EQ(s.position().x(), static_cast<double>(s.header().stamp_ns()));
+    ++decoded;
+    return true;
+  });
+  EXPECT_EQ(decoded, r.summary().message_count);
+  const auto info = record::describeRecording(r);
+  EXPECT_TRUE(info["truncated"].get<bool>());
+  EXPECT_FALSE(info["topic_counts_recorded"].get<bool>());
+}
+
+}  // namespace
+
+// Removes this process's temporary files when the tests end.
+class TempCleanup : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(fs::temp_directory_path() / ("ddsnav_record_test_" + std::to_string(::getpid())), ec);
+  }
+};
+[[maybe_unused]] static ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
