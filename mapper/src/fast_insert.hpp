@@ -4,17 +4,18 @@
 // OctoMap's insertion spends its time in two places: inserting every ray cell into a std::unordered_set
 // (KeySet), and descending the tree from the root for every distinct voxel (twice: search() then
 // updateNodeRecurs()). Here:
-//   1. Ray keys come from OcTree::computeRayKeys itself (so the traversal is OctoMap's, bit for bit),
-//      called from several threads (it is const and touches only the caller's KeyRay).
+//   1. Ray keys come from a copy of OcTree::computeRayKeys (statement for statement, same float/double
+//      precision, same tie-breaking), run on contiguous runs of points taken by each thread.
 //   2. Each thread marks the keys in its own BrickMap: a flat open-addressing hash of 8x8x8-voxel bricks,
 //      each holding a free and an occupied bitmask. Neighbouring ray cells land in the same brick, so most
-//      marks are one cached pointer and one OR.
+//      marks are one compare with the cached brick and one OR.
 //   3. The thread maps are OR-ed together, free &= ~occupied (OctoMap: occupied wins within a scan), and
 //      the bricks sorted by Morton code. Iterating the bits of Morton-sorted bricks visits voxels in the
 //      octree's depth-first order, so one walk keeps the current root-to-leaf path and only re-descends
 //      below the deepest ancestor shared with the previous voxel. A node is finished (pruned when its 8
 //      children are equal leaves, else given the max of its children) when the walk leaves its subtree,
-//      i.e. after its last update — which is the state OctoMap's non-lazy insertion leaves behind.
+//      i.e. after its last update — which is the state OctoMap's non-lazy insertion leaves behind. With
+//      several threads, whole subtrees below a split depth are walked in parallel.
 // Each voxel receives exactly one update per scan in both, so the visiting order does not change any
 // log-odds value; docs/mapper.md has the full argument and the tests compare whole trees byte for byte.
 
