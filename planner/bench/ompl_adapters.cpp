@@ -93,7 +93,9 @@ class PositionGoal : public ob::GoalSampleableRegion {
     setPosition(s, goal_, dims_, compound_);
     if (compound_) headingOf(s) = rng_.uniformReal(-M_PI, M_PI);
   }
-  unsigned int maxSampleCount() const override { return std::numeric_limits<unsigned int>::max(); }
+  // One goal state: the planners that pull every available goal sample up front (BIT*, RRT* through
+  // PlannerInputStates) would otherwise loop over 2^32 samples.
+  unsigned int maxSampleCount() const override { return 1; }
   double firstSeen() const { return first_seen_s_; }
 
  private:
