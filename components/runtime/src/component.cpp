@@ -85,6 +85,7 @@ class ContextImpl : public Context {
   void start(const bus::ParticipantOptions& options) {
     participant_ = std::make_unique<bus::Participant>(options);
     status_pub_ = participant_->publisher<msg::ComponentStatus>("system/status", bus::Qos::state(1));
+    status_open_ = true;
     publishState(msg::LIFECYCLE_STARTING);
     const std::string clock = params_.declare<std::string>("clock", "system", "system | topic");
     if (clock == "system")
@@ -150,8 +151,13 @@ class ContextImpl : public Context {
     }
     publishState(state);
     stopHeartbeat();
-    clock_.reset();
-    status_pub_ = {};
+    {
+      // The signal thread may still be publishing SHUTTING_DOWN.
+      std::lock_guard lock(publish_mutex_);
+      status_open_ = false;
+      status_pub_ = {};
+      clock_.reset();
+    }
     participant_.reset();
   }
 
@@ -181,6 +187,8 @@ class ContextImpl : public Context {
       s.detail(detail_);
     }
     s.pid(static_cast<std::int32_t>(getpid()));
+    std::lock_guard lock(publish_mutex_);
+    if (!status_open_) return;
     s.stamp_ns(clock_ ? clock_->nowNs() : SystemClock().nowNs());
     try {
       status_pub_.publish(s);
@@ -214,6 +222,8 @@ class ContextImpl : public Context {
   std::shared_ptr<spdlog::logger> logger_;
   std::unique_ptr<bus::Participant> participant_;
   bus::Publisher<msg::ComponentStatus> status_pub_;
+  std::mutex publish_mutex_;  // status_pub_ is used by the main, heartbeat and signal threads
+  bool status_open_ = false;
   std::unique_ptr<Clock> clock_;
 
   std::mutex mutex_;
