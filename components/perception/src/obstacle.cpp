@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <vector>
 #include <stdexcept>
 
 namespace ddsnav::perception {
@@ -50,35 +52,65 @@ void updateShapeFromCovariance(ObstacleEllipsoid& e) {
   e.orientation = Eigen::Quaterniond(axes).normalized();
 }
 
-ObstacleEllipsoid fitEllipsoid(std::span<const Eigen::Vector3f> points, std::span<const int> indices,
-                               const Eigen::Vector3d& sensor_origin, int dimensions,
-                               const EllipsoidFitParams& params) {
-  if (dimensions != 2 && dimensions != 3) throw std::invalid_argument("fitEllipsoid: dimensions must be 2 or 3");
-  const std::size_t n = indices.empty() ? points.size() : indices.size();
-  if (n == 0) throw std::invalid_argument("fitEllipsoid: empty cluster");
-  auto point = [&](std::size_t k) -> Eigen::Vector3d {
-    Eigen::Vector3d p = points[indices.empty() ? k : static_cast<std::size_t>(indices[k])].cast<double>();
-    if (dimensions == 2) p.z() = 0.0;
-    return p;
+namespace {
+
+// Grows the covariance C (never shrinks any principal variance) until every offset d has
+// d^T C^-1 d <= q. A point that sticks out mostly along one principal axis grows only that axis
+// (a thin wall piece with one corner voxel gets thicker, not longer); after a few such steps any
+// remaining outlier scales the whole C. Why not only the uniform scale: for a thin ellipse the
+// uniform scale multiplies the long axis by the same large factor as the short one and the
+// ellipse reaches metres into free space beyond the end of the piece.
+template <int N>
+Eigen::Matrix<double, N, N> encloseOffsets(const Eigen::Matrix<double, N, N>& covariance,
+                                           const std::vector<Eigen::Vector3d>& offsets, double q) {
+  using Matrix = Eigen::Matrix<double, N, N>;
+  using Vector = Eigen::Matrix<double, N, 1>;
+  Eigen::SelfAdjointEigenSolver<Matrix> solver;
+  solver.computeDirect(covariance);
+  const Matrix axes = solver.eigenvectors();
+  Vector variance = solver.eigenvalues().cwiseMax(1e-12);
+  auto worstPoint = [&](Vector& contributions) {
+    double worst = 0.0;
+    for (const auto& offset : offsets) {
+      const Vector u = axes.transpose() * offset.template head<N>();
+      const Vector c = u.cwiseProduct(u).cwiseQuotient(variance);
+      if (c.sum() > worst) worst = c.sum(), contributions = c;
+    }
+    return worst;
   };
-  Eigen::Vector3d origin = sensor_origin;
-  if (dimensions == 2) origin.z() = 0.0;
+  Vector contributions = Vector::Zero();
+  for (int step = 0; step < 8; ++step) {
+    const double worst = worstPoint(contributions);
+    if (!(worst > q)) return axes * variance.asDiagonal() * axes.transpose();
+    int k = 0;
+    contributions.maxCoeff(&k);
+    const double rest = worst - contributions[k];
+    if (!(rest < 0.9 * q)) break;  // out along several axes: scale them all
+    variance[k] *= contributions[k] / (q - rest);
+  }
+  const double worst = worstPoint(contributions);
+  if (std::isfinite(worst) && worst > q) variance *= worst / q;
+  return axes * variance.asDiagonal() * axes.transpose();
+}
+
+// The fit of fitEllipsoid() over n points given by point(k) (z = 0 in 2-D) and their unit beam
+// directions bearing(k) (zero vector: no range-noise term for that point).
+template <class PointAt, class BearingAt>
+ObstacleEllipsoid fitCore(std::size_t n, PointAt point, BearingAt bearing, int dimensions,
+                          const EllipsoidFitParams& params) {
+  if (dimensions != 2 && dimensions != 3) throw std::invalid_argument("fitEllipsoid: dimensions must be 2 or 3");
+  if (n == 0) throw std::invalid_argument("fitEllipsoid: empty cluster");
 
   // Shifted sums (about the first point) keep the covariance accurate far from the world origin.
   const Eigen::Vector3d ref = point(0);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   Eigen::Matrix3d outer = Eigen::Matrix3d::Zero(), noise = Eigen::Matrix3d::Zero();
   for (std::size_t k = 0; k < n; ++k) {
-    const Eigen::Vector3d p = point(k);
-    const Eigen::Vector3d d = p - ref;
+    const Eigen::Vector3d d = point(k) - ref;
     sum += d;
     outer.noalias() += d * d.transpose();
-    const Eigen::Vector3d ray = p - origin;
-    const double range = ray.norm();
-    if (range > 0.0) {
-      const Eigen::Vector3d u = ray / range;
-      noise.noalias() += u * u.transpose();
-    }
+    const Eigen::Vector3d u = bearing(k);
+    noise.noalias() += u * u.transpose();
   }
   const Eigen::Vector3d mean_offset = sum / static_cast<double>(n);
   Eigen::Matrix3d covariance = outer / static_cast<double>(n) - mean_offset * mean_offset.transpose();
@@ -94,30 +126,23 @@ ObstacleEllipsoid fitEllipsoid(std::span<const Eigen::Vector3f> points, std::spa
 
   const Eigen::Vector3d center = ref + mean_offset;
   if (params.enclose_points) {
-    // Largest Mahalanobis distance^2 of a cluster point; scale C so that point is on the surface.
     // Each point is pushed away from the centre by its own position uncertainty (3 sigma of range
     // noise plus half a voxel diagonal), so the true surface point behind it is enclosed too.
     const double q = chiSquareQuantile(params.probability, dimensions);
     const double margin = 3.0 * params.range_noise_sigma + 0.5 * params.voxel_size * std::sqrt(double(dimensions));
-    auto grown = [margin](auto d) {
+    std::vector<Eigen::Vector3d> offsets(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      Eigen::Vector3d d = point(k) - center;
+      if (dimensions == 2) d.z() = 0.0;
       const double length = d.norm();
-      return length > 0.0 ? (d * ((length + margin) / length)).eval() : d;
-    };
-    double worst = 0.0;
-    if (dimensions == 2) {
-      const Eigen::Matrix2d inverse = covariance.topLeftCorner<2, 2>().inverse();
-      for (std::size_t k = 0; k < n; ++k) {
-        const Eigen::Vector2d d = grown(Eigen::Vector2d((point(k) - center).head<2>()));
-        worst = std::max(worst, d.dot(inverse * d));
-      }
-    } else {
-      const Eigen::Matrix3d inverse = covariance.inverse();
-      for (std::size_t k = 0; k < n; ++k) {
-        const Eigen::Vector3d d = grown(Eigen::Vector3d(point(k) - center));
-        worst = std::max(worst, d.dot(inverse * d));
-      }
+      offsets[k] = length > 0.0 ? Eigen::Vector3d(d * ((length + margin) / length)) : d;
     }
-    if (std::isfinite(worst) && worst > q) covariance *= worst / q;
+    if (dimensions == 2) {
+      const Eigen::Matrix2d grown = encloseOffsets<2>(covariance.topLeftCorner<2, 2>(), offsets, q);
+      covariance.topLeftCorner<2, 2>() = grown;
+    } else {
+      covariance = encloseOffsets<3>(covariance, offsets, q);
+    }
   }
 
   ObstacleEllipsoid e;
@@ -128,6 +153,131 @@ ObstacleEllipsoid fitEllipsoid(std::span<const Eigen::Vector3f> points, std::spa
   e.point_count = n;
   updateShapeFromCovariance(e);
   return e;
+}
+
+}  // namespace
+
+ObstacleEllipsoid fitEllipsoid(std::span<const Eigen::Vector3f> points, std::span<const int> indices,
+                               const Eigen::Vector3d& sensor_origin, int dimensions,
+                               const EllipsoidFitParams& params) {
+  const std::size_t n = indices.empty() ? points.size() : indices.size();
+  auto point = [&](std::size_t k) -> Eigen::Vector3d {
+    Eigen::Vector3d p = points[indices.empty() ? k : static_cast<std::size_t>(indices[k])].cast<double>();
+    if (dimensions == 2) p.z() = 0.0;
+    return p;
+  };
+  Eigen::Vector3d origin = sensor_origin;
+  if (dimensions == 2) origin.z() = 0.0;
+  auto bearing = [&](std::size_t k) -> Eigen::Vector3d {
+    const Eigen::Vector3d ray = point(k) - origin;
+    const double range = ray.norm();
+    return range > 0.0 ? Eigen::Vector3d(ray / range) : Eigen::Vector3d::Zero();
+  };
+  return fitCore(n, point, bearing, dimensions, params);
+}
+
+ObstacleEllipsoid fitEllipsoid(std::span<const SupportPoint> support, int dimensions,
+                               const EllipsoidFitParams& params) {
+  auto point = [&](std::size_t k) -> Eigen::Vector3d {
+    Eigen::Vector3d p = support[k].position.cast<double>();
+    if (dimensions == 2) p.z() = 0.0;
+    return p;
+  };
+  auto bearing = [&](std::size_t k) -> Eigen::Vector3d {
+    Eigen::Vector3d u = support[k].bearing.cast<double>();
+    if (dimensions == 2) u.z() = 0.0;
+    const double norm = u.norm();
+    return norm > 0.0 ? Eigen::Vector3d(u / norm) : Eigen::Vector3d::Zero();
+  };
+  return fitCore(support.size(), point, bearing, dimensions, params);
+}
+
+Eigen::Matrix3f principalAxes(std::span<const Eigen::Vector3f> points, std::span<const int> indices,
+                              int dimensions) {
+  const std::size_t n = indices.empty() ? points.size() : indices.size();
+  auto point = [&](std::size_t k) -> Eigen::Vector3d {
+    Eigen::Vector3d p = points[indices.empty() ? k : static_cast<std::size_t>(indices[k])].cast<double>();
+    if (dimensions == 2) p.z() = 0.0;
+    return p;
+  };
+  Eigen::Matrix3f axes = Eigen::Matrix3f::Identity();
+  if (n < 2) return axes;
+  const Eigen::Vector3d ref = point(0);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+  for (std::size_t k = 0; k < n; ++k) {
+    const Eigen::Vector3d d = point(k) - ref;
+    sum += d;
+    outer.noalias() += d * d.transpose();
+  }
+  const Eigen::Vector3d mean = sum / static_cast<double>(n);
+  const Eigen::Matrix3d covariance = outer / static_cast<double>(n) - mean * mean.transpose();
+  if (dimensions == 2) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver;
+    solver.computeDirect(covariance.topLeftCorner<2, 2>());
+    const Eigen::Vector2d major = solver.eigenvectors().col(1);
+    axes.block<2, 1>(0, 0) = major.cast<float>();
+    axes.block<2, 1>(0, 1) = Eigen::Vector2f(-static_cast<float>(major.y()), static_cast<float>(major.x()));
+    return axes;
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(covariance);
+  for (int k = 0; k < 3; ++k) axes.col(k) = solver.eigenvectors().col(2 - k).cast<float>();
+  if (axes.determinant() < 0.0f) axes.col(2) *= -1.0f;
+  return axes;
+}
+
+namespace {
+
+void splitRecursive(std::span<const Eigen::Vector3f> points, std::vector<int> piece, int dimensions, float max_length,
+                    float max_width, int depth, Clusters& out) {
+  auto emit = [&] {
+    out.indices.insert(out.indices.end(), piece.begin(), piece.end());
+    out.offsets.push_back(static_cast<int>(out.indices.size()));
+  };
+  if (piece.size() < 2 || depth >= 24) return emit();
+  const Eigen::Matrix3f axes = principalAxes(points, piece, dimensions);
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
+  for (int i : piece) {
+    const Eigen::Vector3f q = axes.transpose() * points[static_cast<std::size_t>(i)];
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  const Eigen::Vector3f extent = hi - lo;
+  int axis = 0;
+  const float longest = extent.head(dimensions).maxCoeff(&axis);
+  if (!pieceTooBig(extent, dimensions, max_length, max_width)) return emit();
+  // Cut across the longest extent: into pieces of at most max_length, and at least in two (a piece
+  // that is short enough but too thick — an L of two faces, a strongly curved arc — is halved).
+  const int slabs = std::max(2, static_cast<int>(std::ceil(longest / max_length)));
+  std::vector<std::vector<int>> parts(static_cast<std::size_t>(slabs));
+  for (int i : piece) {
+    const float s = axes.col(axis).dot(points[static_cast<std::size_t>(i)]) - lo[axis];
+    const int k = std::clamp(static_cast<int>(s / longest * static_cast<float>(slabs)), 0, slabs - 1);
+    parts[static_cast<std::size_t>(k)].push_back(i);
+  }
+  for (auto& part : parts)
+    if (!part.empty()) splitRecursive(points, std::move(part), dimensions, max_length, max_width, depth + 1, out);
+}
+
+}  // namespace
+
+bool pieceTooBig(const Eigen::Vector3f& extent, int dimensions, float max_length, float max_width) {
+  const float longest = extent.head(dimensions).maxCoeff();
+  const float thickness = extent[dimensions - 1];  // along the last (thinnest) principal axis
+  return longest > max_length || (thickness > max_width && longest > max_width);
+}
+
+void splitByExtent(std::span<const Eigen::Vector3f> points, std::span<const int> indices, int dimensions,
+                   double max_length, double max_width, Clusters& out) {
+  if (!(max_length > 0.0)) {
+    out.indices.insert(out.indices.end(), indices.begin(), indices.end());
+    out.offsets.push_back(static_cast<int>(out.indices.size()));
+    return;
+  }
+  const double width = max_width > 0.0 ? std::min(max_width, max_length) : max_length;
+  splitRecursive(points, std::vector<int>(indices.begin(), indices.end()), dimensions, static_cast<float>(max_length),
+                 static_cast<float>(width), 0, out);
 }
 
 }  // namespace ddsnav::perception

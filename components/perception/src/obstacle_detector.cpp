@@ -46,6 +46,10 @@ void DetectorParams::validate() const {
   require(std::isfinite(gap_min_width) && gap_min_width >= 0.0, "gap_min_width", "finite and >= 0");
   require(finitePositive(beam_spacing) && beam_spacing < 1.0, "beam_spacing", "in (0, 1) rad");
   require(std::isfinite(gap_min_beams) && gap_min_beams >= 1.0, "gap_min_beams", ">= 1");
+  require(std::isfinite(max_segment_length) && max_segment_length >= 0.0, "max_segment_length",
+          "finite and >= 0 m (0: never cut)");
+  require(std::isfinite(max_segment_width) && max_segment_width >= 0.0, "max_segment_width",
+          "finite and >= 0 m (0: as max_segment_length)");
   require(probability > 0.0 && probability < 1.0, "probability", "in (0, 1)");
   require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
   require(max_points >= 1 && max_points < (std::size_t{1} << 31), "max_points", "in [1, 2^31)");
@@ -108,15 +112,33 @@ std::vector<ObstacleEllipsoid> ObstacleDetector::detect(std::span<const Eigen::V
   } else {
     parts_ = clusters_;
   }
+  stats_.parts = parts_.size();
+
+  // 6. Bound the size of one ellipsoid: a 22 m wall is a chain of pieces, not one ellipse whose
+  // chi-square semi-axis (0.88 x its length) covers the free space around it.
+  pieces_.clear();
+  for (std::size_t i = 0; i < parts_.size(); ++i)
+    splitByExtent(voxels_, parts_[i], dimensions, params_.max_segment_length, params_.max_segment_width, pieces_);
   stats_.ms_split = timer.lap();
 
-  // 6. One ellipsoid per part.
+  // 7. One ellipsoid per piece, carrying its voxels (with their beam directions) for the tracker.
   const EllipsoidFitParams fit{params_.probability, params_.range_noise_sigma, params_.voxel_size,
                                params_.enclose_points};
+  Eigen::Vector3f origin_f = sensor_origin.cast<float>();
+  if (dimensions == 2) origin_f.z() = 0.0f;
   std::vector<ObstacleEllipsoid> obstacles;
-  obstacles.reserve(parts_.size());
-  for (std::size_t i = 0; i < parts_.size(); ++i)
-    obstacles.push_back(fitEllipsoid(voxels_, parts_[i], sensor_origin, dimensions, fit));
+  obstacles.reserve(pieces_.size());
+  for (std::size_t i = 0; i < pieces_.size(); ++i) {
+    ObstacleEllipsoid e = fitEllipsoid(voxels_, pieces_[i], sensor_origin, dimensions, fit);
+    e.support.reserve(pieces_[i].size());
+    for (int k : pieces_[i]) {
+      const Eigen::Vector3f& v = voxels_[static_cast<std::size_t>(k)];
+      const Eigen::Vector3f ray = v - origin_f;
+      const float range = ray.norm();
+      e.support.push_back({v, range > 0.0f ? Eigen::Vector3f(ray / range) : Eigen::Vector3f::Zero()});
+    }
+    obstacles.push_back(std::move(e));
+  }
   stats_.obstacles = obstacles.size();
   stats_.ms_fit = timer.lap();
   return obstacles;

@@ -1,116 +1,303 @@
 #include "ddsnav/perception/obstacle_tracker.hpp"
 
-#include "ddsnav/perception/chi_square.hpp"
-
-#include <Eigen/Cholesky>
-#include <Eigen/LU>
+#include "ddsnav/perception/euclidean_clusters.hpp"
+#include "ddsnav/perception/obstacle_detector.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <string>
 #include <stdexcept>
-#include <tuple>
+#include <unordered_map>
+#include <utility>
 
 namespace ddsnav::perception {
 namespace {
 
-// Restricts a covariance to the estimate's dimensions; the unused z block gets a unit entry so
-// 3x3 algebra stays well defined in 2-D (and is zeroed again afterwards).
-Eigen::Matrix3d active(const Eigen::Matrix3d& m, int dimensions) {
-  Eigen::Matrix3d a = m;
-  if (dimensions == 2) {
-    a.row(2).setZero();
-    a.col(2).setZero();
-    a(2, 2) = 1.0;
-  }
-  return a;
-}
+// A cell of a grid, tagged with the dimension of the tracks that live in it (2-D and 3-D tracks
+// never share evidence).
+struct CellKey {
+  std::int32_t x, y, z, dims;
+  bool operator==(const CellKey&) const = default;
+};
 
-Eigen::Vector3d planarize(Eigen::Vector3d v, int dimensions) {
-  if (dimensions == 2) v.z() = 0.0;
-  return v;
+struct CellHash {
+  std::size_t operator()(const CellKey& k) const {
+    std::uint64_t h = static_cast<std::uint32_t>(k.x) * 0x9E3779B97F4A7C15ull;
+    h ^= static_cast<std::uint32_t>(k.y) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
+    h ^= static_cast<std::uint32_t>(k.z) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
+    return static_cast<std::size_t>(h ^ static_cast<std::uint64_t>(k.dims));
+  }
+};
+
+// Cell of p on a grid of edge `size`; false when p is too far out for 32-bit cell indices.
+bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
+  const Eigen::Vector3d c = (p.cast<double>() / size).array().floor();
+  if (!(c.cwiseAbs().maxCoeff() < 1e9)) return false;
+  key = {static_cast<std::int32_t>(c.x()), static_cast<std::int32_t>(c.y()), static_cast<std::int32_t>(c.z()), dims};
+  return true;
 }
 
 }  // namespace
 
-void TrackerParams::validate() const {
-  if (!(gate_probability > 0.0 && gate_probability < 1.0))
-    throw std::invalid_argument("tracker parameter 'gate_probability' must be in (0, 1)");
-  if (!(std::isfinite(max_support) && max_support >= 1.0))
-    throw std::invalid_argument("tracker parameter 'max_support' must be finite and >= 1");
+struct ObstacleTracker::Evidence {
+  struct Voxel {
+    Eigen::Vector3f mean;     // running mean of the voxel centroids seen in this cell
+    Eigen::Vector3f bearing;  // beam direction of the latest sighting (range-noise term)
+    std::uint32_t hits;
+  };
+  struct Track {
+    int dims = 2;
+    double probability = 0.99;
+    std::vector<Voxel> voxels;
+    Eigen::Matrix3f frame = Eigen::Matrix3f::Identity();  // the track's own axes, fixed at creation
+    Eigen::Vector3f lo = Eigen::Vector3f::Zero(), hi = Eigen::Vector3f::Zero();  // its voxels' box in that frame
+    bool changed = false;
+  };
+  struct VoxelRef {
+    std::uint32_t track, voxel;
+  };
+
+  std::vector<Track> tracks;
+  std::unordered_map<CellKey, VoxelRef, CellHash> owner;                 // voxel cell -> its track voxel
+  std::unordered_map<CellKey, std::vector<VoxelRef>, CellHash> nearby;   // association cell -> voxels in it
+  EuclideanClusterer clusterer;
+  // Scratch buffers of one update.
+  std::vector<SupportPoint> pending;
+  std::vector<std::pair<float, std::uint32_t>> candidates;
+  std::vector<Eigen::Vector3f> leftover_points;
+  std::vector<SupportPoint> leftovers;
+  Clusters groups, pieces;
+
+  explicit Evidence(double association_distance) : clusterer(ClusterParams{association_distance, 1}) {}
+};
+
+TrackerParams TrackerParams::matching(const DetectorParams& detector) {
+  TrackerParams p;
+  p.voxel_size = detector.voxel_size;
+  p.association_distance = detector.cluster_tolerance;
+  p.max_segment_length = detector.max_segment_length > 0.0 ? detector.max_segment_length : p.max_segment_length;
+  p.max_segment_width = detector.max_segment_width > 0.0 ? detector.max_segment_width : p.max_segment_length;
+  p.range_noise_sigma = detector.range_noise_sigma;
+  p.enclose_points = detector.enclose_points;
+  return p;
 }
 
-ObstacleTracker::ObstacleTracker(const TrackerParams& params) : params_(params) { params_.validate(); }
+void TrackerParams::validate() const {
+  auto require = [](bool ok, const char* name, const char* expected) {
+    if (!ok) throw std::invalid_argument(std::string("tracker parameter '") + name + "' must be " + expected);
+  };
+  require(std::isfinite(voxel_size) && voxel_size >= 0.001 && voxel_size <= 100.0, "voxel_size", "in [0.001, 100] m");
+  require(std::isfinite(association_distance) && association_distance >= voxel_size && association_distance <= 100.0,
+          "association_distance", "in [voxel_size, 100] m");
+  require(std::isfinite(max_segment_length) && max_segment_length >= association_distance,
+          "max_segment_length", "finite and >= association_distance");
+  require(std::isfinite(max_segment_width) && max_segment_width > 0.0 && max_segment_width <= max_segment_length,
+          "max_segment_width", "in (0, max_segment_length]");
+  require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
+  require(max_voxels_per_track >= 1, "max_voxels_per_track", ">= 1");
+  require(gate_probability > 0.0 && gate_probability < 1.0, "gate_probability", "in (0, 1)");
+}
+
+ObstacleTracker::ObstacleTracker(const TrackerParams& params) : params_(params) {
+  params_.validate();
+  evidence_ = std::make_unique<Evidence>(params_.association_distance);
+}
+ObstacleTracker::~ObstacleTracker() = default;
+ObstacleTracker::ObstacleTracker(ObstacleTracker&&) noexcept = default;
+ObstacleTracker& ObstacleTracker::operator=(ObstacleTracker&&) noexcept = default;
 
 const std::vector<ObstacleEllipsoid>& ObstacleTracker::update(std::span<const ObstacleEllipsoid> detections) {
   last_ = {};
-  const double gate2 = chiSquareQuantile(params_.gate_probability, 2);
-  const double gate3 = chiSquareQuantile(params_.gate_probability, 3);
+  for (const auto& detection : detections) absorb(detection);
 
-  // Gated candidate pairs (d2, detection, track).
-  std::vector<std::tuple<double, std::size_t, std::size_t>> candidates;
-  for (std::size_t d = 0; d < detections.size(); ++d) {
-    const auto& det = detections[d];
-    if (!det.center.allFinite() || !det.covariance.allFinite() || det.point_count == 0) continue;
-    for (std::size_t t = 0; t < tracks_.size(); ++t) {
-      const auto& trk = tracks_[t];
-      if (trk.dimensions != det.dimensions) continue;
-      const Eigen::Vector3d diff = planarize(det.center - trk.center, det.dimensions);
-      const Eigen::Matrix3d s = active(det.covariance + trk.covariance, det.dimensions);
-      const Eigen::LDLT<Eigen::Matrix3d> ldlt(s);
-      if (ldlt.info() != Eigen::Success) continue;
-      const double d2 = diff.dot(ldlt.solve(diff));
-      if (d2 <= (det.dimensions == 2 ? gate2 : gate3)) candidates.emplace_back(d2, d, t);
-    }
-  }
-  std::sort(candidates.begin(), candidates.end());
-
-  std::vector<bool> detection_used(detections.size(), false), track_used(tracks_.size(), false);
-  for (const auto& [d2, d, t] : candidates) {
-    if (detection_used[d] || track_used[t]) continue;
-    detection_used[d] = track_used[t] = true;
-    const auto& det = detections[d];
-    auto& trk = tracks_[t];
-    const int dims = det.dimensions;
-    const double w = support_[t], n = static_cast<double>(det.point_count);
-
-    const Eigen::Matrix3d p = active(centre_covariance_[t], dims);
-    const Eigen::Matrix3d r = active(det.covariance / n, dims);
-    const Eigen::Matrix3d gain = p * (p + r).inverse();
-    const Eigen::Vector3d centre = planarize(trk.center + gain * (det.center - trk.center), dims);
-    Eigen::Matrix3d p_new = (Eigen::Matrix3d::Identity() - gain) * p;
-    p_new = 0.5 * (p_new + p_new.transpose());
-
-    const double a = w / (w + n), b = n / (w + n);
-    const Eigen::Vector3d dt = trk.center - centre, dd = det.center - centre;
-    Eigen::Matrix3d extent = a * (trk.covariance + dt * dt.transpose()) + b * (det.covariance + dd * dd.transpose());
-    if (dims == 2) {
-      extent.row(2).setZero();
-      extent.col(2).setZero();
-      p_new.row(2).setZero();
-      p_new.col(2).setZero();
-    }
-    trk.center = centre;
-    trk.covariance = 0.5 * (extent + extent.transpose());
-    trk.point_count += det.point_count;
-    updateShapeFromCovariance(trk);
-    centre_covariance_[t] = p_new;
-    support_[t] = std::min(w + n, params_.max_support);
-    ++last_.fused;
-  }
-
-  for (std::size_t d = 0; d < detections.size(); ++d) {
-    if (detection_used[d]) continue;
-    const auto& det = detections[d];
-    if (!det.center.allFinite() || !det.covariance.allFinite() || det.point_count == 0) continue;
-    ObstacleEllipsoid trk = det;
-    trk.id = next_id_++;
-    tracks_.push_back(trk);
-    const double n = static_cast<double>(det.point_count);
-    centre_covariance_.push_back(det.covariance / n);
-    support_.push_back(std::min(n, params_.max_support));
-    ++last_.created;
+  // Refit every track whose evidence changed, with the detector's model.
+  auto& ev = *evidence_;
+  for (std::size_t t = 0; t < ev.tracks.size(); ++t) {
+    auto& track = ev.tracks[t];
+    if (!track.changed) continue;
+    track.changed = false;
+    std::vector<SupportPoint> support;
+    support.reserve(track.voxels.size());
+    for (const auto& v : track.voxels) support.push_back({v.mean, v.bearing});
+    const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxel_size,
+                                 params_.enclose_points};
+    ObstacleEllipsoid estimate = fitEllipsoid(support, track.dims, fit);
+    estimate.id = tracks_[t].id;
+    estimate.support = std::move(support);
+    tracks_[t] = std::move(estimate);
   }
   return tracks_;
+}
+
+void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
+  auto& ev = *evidence_;
+  const int dims = detection.dimensions;
+  if ((dims != 2 && dims != 3) || detection.support.empty() || !(detection.probability > 0.0) ||
+      !(detection.probability < 1.0)) {
+    ++last_.ignored;
+    return;
+  }
+  ev.pending.clear();
+  for (SupportPoint s : detection.support) {
+    if (dims == 2) s.position.z() = s.bearing.z() = 0.0f;
+    if (s.position.allFinite() && s.bearing.allFinite()) ev.pending.push_back(s);
+  }
+  if (ev.pending.empty()) {
+    ++last_.ignored;
+    return;
+  }
+  // Walk the detection along its length, so a track grows voxel by voxel from the end it touches.
+  std::vector<Eigen::Vector3f> positions;
+  positions.reserve(ev.pending.size());
+  for (const auto& s : ev.pending) positions.push_back(s.position);
+  const Eigen::Vector3f axis = principalAxes(positions, {}, dims).col(0);
+  std::vector<std::pair<float, std::uint32_t>> order;
+  order.reserve(ev.pending.size());
+  for (std::uint32_t i = 0; i < ev.pending.size(); ++i) order.emplace_back(axis.dot(positions[i]), i);
+  std::sort(order.begin(), order.end());
+
+  const double tol = params_.association_distance;
+  const float tol2 = static_cast<float>(tol * tol);
+  const float max_length = static_cast<float>(params_.max_segment_length);
+  const float max_width = static_cast<float>(params_.max_segment_width);
+  std::size_t refreshed = 0, added = 0;
+
+  auto addVoxel = [&](std::uint32_t t, const SupportPoint& s, const CellKey& key) {
+    auto& track = ev.tracks[t];
+    const auto index = static_cast<std::uint32_t>(track.voxels.size());
+    track.voxels.push_back({s.position, s.bearing, 1});
+    track.changed = true;
+    ev.owner.emplace(key, Evidence::VoxelRef{t, index});
+    CellKey near_key;
+    if (cellOf(s.position, tol, dims, near_key)) ev.nearby[near_key].push_back({t, index});
+  };
+  // A voxel in a cell a track owns refreshes it (the centroid averages the noise out over scans).
+  auto refresh = [&](const SupportPoint& s, const CellKey& key) {
+    const auto it = ev.owner.find(key);
+    if (it == ev.owner.end()) return false;
+    auto& track = ev.tracks[it->second.track];
+    auto& v = track.voxels[it->second.voxel];
+    v.hits = std::min<std::uint32_t>(v.hits + 1, 1000);
+    v.mean += (s.position - v.mean) / static_cast<float>(v.hits);
+    v.bearing = s.bearing;
+    const Eigen::Vector3f q = track.frame.transpose() * v.mean;  // stays within its cell
+    track.lo = track.lo.cwiseMin(q);
+    track.hi = track.hi.cwiseMax(q);
+    track.changed = true;
+    return true;
+  };
+  // A voxel in a new cell joins the nearest track with a voxel within the association distance
+  // whose box can take it; false when there is none.
+  auto extend = [&](const SupportPoint& s, const CellKey& key) {
+    CellKey c;
+    if (!cellOf(s.position, tol, dims, c)) return false;
+    ev.candidates.clear();
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = (dims == 3 ? -1 : 0); dz <= (dims == 3 ? 1 : 0); ++dz) {
+          const auto it = ev.nearby.find({c.x + dx, c.y + dy, c.z + dz, dims});
+          if (it == ev.nearby.end()) continue;
+          for (const auto& ref : it->second) {
+            const float d2 = (ev.tracks[ref.track].voxels[ref.voxel].mean - s.position).squaredNorm();
+            if (d2 >= tol2) continue;
+            auto found = std::find_if(ev.candidates.begin(), ev.candidates.end(),
+                                      [&](const auto& cand) { return cand.second == ref.track; });
+            if (found == ev.candidates.end()) {
+              ev.candidates.emplace_back(d2, ref.track);
+            } else {
+              found->first = std::min(found->first, d2);
+            }
+          }
+        }
+    std::sort(ev.candidates.begin(), ev.candidates.end());
+    for (const auto& [d2, t] : ev.candidates) {
+      auto& track = ev.tracks[t];
+      if (track.voxels.size() >= params_.max_voxels_per_track) continue;
+      const Eigen::Vector3f q = track.frame.transpose() * s.position;
+      const Eigen::Vector3f lo = track.lo.cwiseMin(q), hi = track.hi.cwiseMax(q);
+      if (pieceTooBig(hi - lo, dims, max_length, max_width)) continue;  // that track is full this way
+      track.lo = lo;
+      track.hi = hi;
+      addVoxel(t, s, key);
+      return true;
+    }
+    return false;
+  };
+
+  std::vector<bool> assigned(ev.pending.size(), false);
+  auto pass = [&](auto first, auto last) {
+    for (auto it = first; it != last; ++it) {
+      const std::uint32_t i = it->second;
+      if (assigned[i]) continue;
+      CellKey key;
+      if (!cellOf(ev.pending[i].position, params_.voxel_size, dims, key)) {
+        assigned[i] = true;  // too far out to store; dropped
+        continue;
+      }
+      if (refresh(ev.pending[i], key)) {
+        assigned[i] = true;
+        ++refreshed;
+      } else if (extend(ev.pending[i], key)) {
+        assigned[i] = true;
+        ++added;
+      }
+    }
+  };
+  pass(order.begin(), order.end());
+  pass(order.rbegin(), order.rend());
+
+  // What no track could take: connected groups, cut to the segment length, each a new track.
+  ev.leftovers.clear();
+  ev.leftover_points.clear();
+  for (std::size_t i = 0; i < ev.pending.size(); ++i)
+    if (!assigned[i]) {
+      ev.leftovers.push_back(ev.pending[i]);
+      ev.leftover_points.push_back(ev.pending[i].position);
+    }
+  if (!ev.leftovers.empty()) {
+    ev.clusterer.extract(ev.leftover_points, ev.groups);
+    ev.pieces.clear();
+    for (std::size_t g = 0; g < ev.groups.size(); ++g)
+      splitByExtent(ev.leftover_points, ev.groups[g], dims, params_.max_segment_length,
+                    params_.max_segment_width, ev.pieces);
+    for (std::size_t k = 0; k < ev.pieces.size(); ++k) {
+      const auto piece = ev.pieces[k];
+      Evidence::Track track;
+      track.dims = dims;
+      track.probability = detection.probability;
+      track.frame = principalAxes(ev.leftover_points, piece, dims);
+      track.lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+      track.hi = -track.lo;
+      for (int i : piece) {
+        const Eigen::Vector3f q = track.frame.transpose() * ev.leftover_points[static_cast<std::size_t>(i)];
+        track.lo = track.lo.cwiseMin(q);
+        track.hi = track.hi.cwiseMax(q);
+      }
+      const auto t = static_cast<std::uint32_t>(ev.tracks.size());
+      ev.tracks.push_back(std::move(track));
+      ObstacleEllipsoid placeholder;
+      placeholder.id = next_id_++;
+      placeholder.dimensions = dims;
+      tracks_.push_back(std::move(placeholder));
+      for (int i : piece) {
+        const SupportPoint& s = ev.leftovers[static_cast<std::size_t>(i)];
+        CellKey key;
+        if (!cellOf(s.position, params_.voxel_size, dims, key)) continue;
+        if (!refresh(s, key)) addVoxel(t, s, key);
+      }
+      if (ev.tracks[t].voxels.empty()) {  // every voxel refreshed another new track: nothing to keep
+        ev.tracks.pop_back();
+        tracks_.pop_back();
+        --next_id_;
+        continue;
+      }
+      ++last_.created;
+    }
+  }
+  last_.refreshed_voxels += refreshed;
+  last_.added_voxels += added;
+  if (refreshed + added > 0) ++last_.fused;
 }
 
 }  // namespace ddsnav::perception

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -69,8 +70,10 @@ sim::RangeSensorConfig sensorFor(int dimensions, double sigma, std::uint64_t see
   return c;
 }
 
-DetectorParams paramsFor(int dimensions, double sigma) {
+// `whole`: one ellipse per obstacle part (no length cut), for the tests that count obstacles.
+DetectorParams paramsFor(int dimensions, double sigma, bool whole = false) {
   DetectorParams p;
+  if (whole) p.max_segment_length = 0.0;
   p.range_noise_sigma = sigma;
   p.beam_spacing = 2 * std::numbers::pi / (dimensions == 3 ? 1024 : 720);
   return p;
@@ -85,7 +88,7 @@ TEST_P(DetectorScenes, OneEllipsoidPerObstacleInView) {
   const auto world = scatteredWorld(dims);
   sim::RangeSensor sensor(world, sensorFor(dims, 0.02, 1));
   const auto cloud = sensor.scan({sensorAt(dims), 0.0});
-  ObstacleDetector detector(paramsFor(dims, 0.02));
+  ObstacleDetector detector(paramsFor(dims, 0.02, /*whole=*/true));
   const auto obstacles = detector.detect(cloud.points, cloud.origin);
   ASSERT_EQ(obstacles.size(), world.obstacles.size());
   // Each obstacle has exactly one ellipsoid whose centre is within the obstacle's extent.
@@ -106,17 +109,25 @@ TEST_P(DetectorScenes, OneEllipsoidPerObstacleInView) {
 
 // Monte Carlo over the sensor noise: in every noisy scan, at least p of the true surface points its
 // beams hit (the noise-free returns, above the ground threshold) lie inside their obstacle's ellipsoid.
+// Checked for whole obstacles and for the default pieces (then a true point belongs to the piece
+// whose centre is nearest).
 TEST_P(DetectorScenes, EllipsoidsHoldTheTrueSurfaceWithProbabilityP) {
+  for (const bool whole : {true, false}) {
+  SCOPED_TRACE(whole ? "whole obstacles" : "pieces");
   const int dims = GetParam();
   const auto world = scatteredWorld(dims);
-  const DetectorParams params = paramsFor(dims, 0.03);
+  const DetectorParams params = paramsFor(dims, 0.03, whole);
   ObstacleDetector detector(params);
   sim::RangeSensor sensor(world, sensorFor(dims, 0.03, 11));
   long inside = 0, total = 0;
   for (int trial = 0; trial < (dims == 3 ? 4 : 20); ++trial) {
     const auto cloud = sensor.scan({sensorAt(dims), 0.0});
     const auto obstacles = detector.detect(cloud.points, cloud.origin);
-    ASSERT_EQ(obstacles.size(), world.obstacles.size());
+    if (whole) {
+      ASSERT_EQ(obstacles.size(), world.obstacles.size());
+    } else {
+      ASSERT_GT(obstacles.size(), world.obstacles.size());  // the 6 m ellipse and the 4 m box are cut
+    }
     const auto& ranges = sensor.lastRanges();
     for (size_t i = 0; i < ranges.size(); ++i) {
       if (ranges[i] == sim::kNoHit) continue;
@@ -141,6 +152,8 @@ TEST_P(DetectorScenes, EllipsoidsHoldTheTrueSurfaceWithProbabilityP) {
   const double sampling_error = 3.0 * std::sqrt(p * (1 - p) / total);
   EXPECT_GT(total, 1000);
   EXPECT_GE(fraction, p - sampling_error) << inside << " of " << total;
+  std::printf("%dD %s: %.4f of %ld true surface points inside\n", dims, whole ? "whole" : "pieces", fraction, total);
+  }
 }
 
 TEST_P(DetectorScenes, GaussianSamplesFallInsideWithProbabilityP) {
@@ -192,7 +205,7 @@ TEST(Detector, SeeThroughGapSplitsACluster) {
   s.obstacles = {box({8, -1.125, 0}, {1, 2, 0}, 0.0), box({8, 1.125, 0}, {1, 2, 0}, 0.0)};
   sim::RangeSensor sensor(s, sensorFor(2, 0.0, 1));
   const auto cloud = sensor.scan({{0, 0, 0}, 0.0});
-  DetectorParams params = paramsFor(2, 0.0);
+  DetectorParams params = paramsFor(2, 0.0, /*whole=*/true);
   params.gap_min_width = 0.15;
   ObstacleDetector detector(params);
   EXPECT_EQ(detector.detect(cloud.points, cloud.origin).size(), 2u);
@@ -233,6 +246,7 @@ TEST(Detector, HugeCloudIsProcessed) {
   points.reserve(3'000'000);
   for (int i = 0; i < 3'000'000; ++i) points.emplace_back(u(rng), u(rng), h(rng));
   DetectorParams params;
+  params.max_segment_length = 0.0;  // one piece, so the mass is one obstacle
   params.max_cluster_size = 2'000'000;
   ObstacleDetector detector(params);
   const auto obstacles = detector.detect(points, Eigen::Vector3d(0, 0, 1));
@@ -259,6 +273,34 @@ TEST(Detector, RejectsBadParameters) {
   p = {};
   p.cluster_tolerance = std::nan("");
   EXPECT_THROW(ObstacleDetector{p}, std::invalid_argument);
+  p = {};
+  p.max_segment_length = -1.0;
+  EXPECT_THROW(ObstacleDetector{p}, std::invalid_argument);
+}
+
+TEST(Detector, LongWallBecomesAChainOfBoundedPieces) {
+  // A 22 m wall 3 m from the scanner: one cluster, cut into pieces no longer than
+  // max_segment_length, whose ellipses stay within a metre of the wall line.
+  planner::Scenario s = scatteredWorld(2);
+  s.obstacles = {box({3.5, 0, 0}, {1, 22, 0}, 0.0)};
+  sim::RangeSensor sensor(s, sensorFor(2, 0.02, 1));
+  const auto cloud = sensor.scan({{0, 0, 0}, 0.0});
+  DetectorParams params = paramsFor(2, 0.02);
+  ObstacleDetector detector(params);
+  const auto pieces = detector.detect(cloud.points, cloud.origin);
+  EXPECT_EQ(detector.stats().clusters, 1u);
+  ASSERT_GE(pieces.size(), 10u);
+  std::size_t supported = 0;
+  for (const auto& e : pieces) {
+    float lo = 1e9f, hi = -1e9f;
+    for (const auto& sp : e.support) lo = std::min(lo, sp.position.y()), hi = std::max(hi, sp.position.y());
+    EXPECT_LE(hi - lo, params.max_segment_length + 1e-4);
+    EXPECT_LT(e.semi_axes.x(), params.max_segment_length);    // the whole wall would give ~19 m
+    EXPECT_NEAR(e.center.x(), 3.0, 0.1);
+    EXPECT_LT(e.semi_axes.y(), 0.3);
+    supported += e.support.size();
+  }
+  EXPECT_EQ(supported, detector.stats().clustered_points);  // no voxel lost by the cut
 }
 
 }  // namespace

@@ -13,7 +13,11 @@
 //      min/max_cluster_size)
 //   5. split clusters whose points are not contiguous as seen from the sensor (an azimuth gap the
 //      beams passed through makes two obstacles, as in the paper's obstacle counting)
-//   6. fit the probability-p ellipsoid to each part (fitEllipsoid)
+//   6. cut a part longer than max_segment_length (or thicker than max_segment_width) into
+//      consecutive pieces (splitByExtent), so a wall becomes a chain of tight ellipses instead of
+//      one that spans free space
+//   7. fit the probability-p ellipsoid to each piece (fitEllipsoid); each carries its voxels as
+//      `support` for the tracker
 
 #include <ddsnav/perception/euclidean_clusters.hpp>
 #include <ddsnav/perception/obstacle.hpp>
@@ -40,6 +44,8 @@ struct DetectorParams {
   double gap_min_width = 0.3;          // m; a see-through gap narrower than this is not a gap
   double beam_spacing = 2.0 * std::numbers::pi / 1024.0;  // rad, the sensor's azimuth step
   double gap_min_beams = 3.0;          // a gap must also span this many beam steps
+  double max_segment_length = 1.5;     // m; longer parts are cut into pieces (step 6); 0: never cut
+  double max_segment_width = 0.4;      // m; thicker pieces (an L, a curved arc) are halved (step 6)
   double probability = 0.99;           // p of the ellipsoids
   double range_noise_sigma = 0.02;     // m, the sensor's range noise
   bool enclose_points = true;          // see EllipsoidFitParams::enclose_points
@@ -57,7 +63,8 @@ struct DetectionStats {
   std::size_t ground_voxels = 0;
   std::size_t clusters = 0;          // Euclidean clusters (before gap splitting)
   std::size_t clustered_points = 0;  // voxels in those clusters
-  std::size_t obstacles = 0;         // ellipsoids reported
+  std::size_t parts = 0;             // after the gap split (before the length cut)
+  std::size_t obstacles = 0;         // ellipsoids reported (pieces)
   double ms_filter = 0, ms_voxel = 0, ms_cluster = 0, ms_split = 0, ms_fit = 0;
 };
 
@@ -85,7 +92,7 @@ class ObstacleDetector {
   VoxelGrid voxel_grid_;
   EuclideanClusterer clusterer_;
   std::vector<Eigen::Vector3f> finite_, voxels_;
-  Clusters clusters_, parts_;
+  Clusters clusters_, parts_, pieces_;
   DetectionStats stats_;
   struct Bearing {
     float azimuth, range;

@@ -1,24 +1,24 @@
 #pragma once
-// Keeps obstacles across scans: each new ellipsoid is fused into the tracked one for the same
-// obstacle, so ids are stable and the set grows as the vehicle discovers the world.
+// Keeps obstacles across scans, on evidence: every track owns a bounded set of voxel centroids
+// (world frame, one per voxel cell) and its ellipse/ellipsoid is refitted from them with the same
+// Gaussian + sensor noise + chi-square model as a detection. Ids are stable; the set grows as the
+// vehicle discovers the world.
 //
-//   ObstacleTracker tracker;
+//   ObstacleTracker tracker(TrackerParams::matching(detector_params));
 //   for (each cloud) { auto& world = tracker.update(detector.detect(cloud.points, cloud.origin)); }
 //
-// Association (per update): a detection D and a track T of the same dimension are candidates when
-//   d2 = (c_D - c_T)^T (S_D + S_T)^-1 (c_D - c_T) <= chi2_quantile(gate_probability, d),
-// S the extent covariances: two descriptions of one obstacle differ by at most their combined
-// spread. Candidate pairs are taken greedily by increasing d2, each detection and track at most
-// once (global nearest neighbour). An unmatched detection starts a track with a new id; tracks are
-// never dropped (the world is static; a track not seen again keeps its last estimate).
-//
-// Fusion (Kalman-style, per matched pair; n = supporting points, w = a track's capped support):
-//   centre:   P = S_T / w, R = S_D / n, K = P (P + R)^-1, c = c_T + K (c_D - c_T), P' = (I - K) P
-//   extent:   S = a (S_T + (c_T - c)(c_T - c)^T) + b (S_D + (c_D - c)(c_D - c)^T),
-//             a = w / (w + n), b = n / (w + n)        (moment matching: the union of both views)
-//   support:  w' = min(w + n, max_support)
-// so repeated views of the same surface keep the ellipsoid, new faces of an obstacle grow it,
-// and the centre settles with the noise averaged out.
+// Association is per voxel of a detection's `support`, never by overlapping ellipses:
+//   1. a voxel whose cell a track already owns refreshes that track's centroid there (running mean);
+//   2. a voxel in a new cell joins the track that owns the nearest voxel within
+//      association_distance (the same physical surface, as the Euclidean clustering defines it),
+//      but only while that track's voxels stay inside a box of side max_segment_length (and width
+//      max_segment_width along the thinnest axis) in the track's own frame (the principal axes of
+//      the voxels it started from) — the rule the detector cuts pieces by (pieceTooBig);
+//      if the nearest track is full, the next nearest within the distance is tried;
+//   3. the remaining voxels are grouped by the same distance, cut by splitByExtent, and each piece
+//      starts a new track.
+// So a track's evidence never leaves its box: a track cannot run away over neighbouring obstacles
+// or free space, however long the drive (see docs/perception.md).
 
 #include <ddsnav/perception/obstacle.hpp>
 
@@ -26,37 +26,60 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
 namespace ddsnav::perception {
 
+struct DetectorParams;
+
 struct TrackerParams {
-  double gate_probability = 0.99;  // Mahalanobis gate, as a chi-square probability
-  double max_support = 5000.0;     // cap on a track's weight so it keeps adapting
-  void validate() const;           // throws std::invalid_argument naming the bad parameter
+  double voxel_size = 0.1;            // m; evidence is de-duplicated on this grid (detector's voxel_size)
+  double association_distance = 0.4;  // m; a voxel this close to a track's voxel is the same surface
+  double max_segment_length = 1.5;    // m; a track's voxels stay inside a box of this side (> 0)...
+  double max_segment_width = 0.4;     // m; ...and of this width along its thinnest axis (as the detector)
+  double range_noise_sigma = 0.02;    // m; refit: sensor range noise
+  bool enclose_points = true;         // refit: see EllipsoidFitParams::enclose_points
+  std::size_t max_voxels_per_track = 100000;  // a further cap on one track's evidence
+  // Kept so existing configurations still parse; association no longer uses a Mahalanobis gate.
+  double gate_probability = 0.99;
+
+  // The tracker parameters that match a detector's (voxel size, tolerance, segment length, noise).
+  static TrackerParams matching(const DetectorParams& detector);
+  void validate() const;  // throws std::invalid_argument naming the bad parameter
 };
 
 struct TrackerUpdateStats {
-  std::size_t fused = 0;       // detections merged into an existing track
-  std::size_t created = 0;     // new tracks
+  std::size_t fused = 0;         // detections that refreshed or extended at least one track
+  std::size_t created = 0;       // new tracks
+  std::size_t refreshed_voxels = 0;  // detection voxels in cells a track already owned
+  std::size_t added_voxels = 0;      // detection voxels that extended a track
+  std::size_t ignored = 0;       // detections without support points or with bad numbers
 };
 
 class ObstacleTracker {
  public:
   explicit ObstacleTracker(const TrackerParams& params = {});
+  ~ObstacleTracker();
+  ObstacleTracker(ObstacleTracker&&) noexcept;
+  ObstacleTracker& operator=(ObstacleTracker&&) noexcept;
 
-  // Fuses one scan's detections; returns all tracked obstacles (ids >= 1, in creation order).
+  // Associates one scan's detections (which must carry `support`, as ObstacleDetector's do);
+  // returns all tracked obstacles (ids >= 1, in creation order, each with its voxels as `support`).
   const std::vector<ObstacleEllipsoid>& update(std::span<const ObstacleEllipsoid> detections);
 
   const std::vector<ObstacleEllipsoid>& obstacles() const { return tracks_; }
   const TrackerUpdateStats& lastUpdate() const { return last_; }
+  const TrackerParams& params() const { return params_; }
 
  private:
+  struct Evidence;
+  void absorb(const ObstacleEllipsoid& detection);
+
   TrackerParams params_;
   std::vector<ObstacleEllipsoid> tracks_;
-  std::vector<Eigen::Matrix3d> centre_covariance_;  // P per track
-  std::vector<double> support_;                     // w per track
+  std::unique_ptr<Evidence> evidence_;
   std::uint64_t next_id_ = 1;
   TrackerUpdateStats last_;
 };

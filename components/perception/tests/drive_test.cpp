@@ -1,0 +1,155 @@
+// The detector + tracker over a whole drive through a shipped scenario, as the demo pipeline runs
+// them: at every scan the tracked set must stay tight around the real obstacles and keep the
+// start, the goal and the vehicle free for the planner.
+
+#include "ddsnav/perception/obstacle_detector.hpp"
+#include "ddsnav/perception/obstacle_tracker.hpp"
+#include "ddsnav/sim/range_sensor.hpp"
+
+#include <ddsnav/planner/collision_world.hpp>
+#include <ddsnav/planner/scenario.hpp>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <numbers>
+#include <string>
+
+namespace ddsnav::perception {
+namespace {
+
+const std::string kScenarios = DDSNAV_SOURCE_DIR "/configs/scenarios/";
+
+// Poses every `step` metres along a polyline, heading along it.
+std::vector<sim::SensorPose> posesAlong(const std::vector<Eigen::Vector3d>& waypoints, double step) {
+  std::vector<sim::SensorPose> poses;
+  for (std::size_t k = 0; k + 1 < waypoints.size(); ++k) {
+    const Eigen::Vector3d d = waypoints[k + 1] - waypoints[k];
+    const int n = static_cast<int>(std::ceil(d.norm() / step));
+    for (int i = 0; i < n; ++i) poses.push_back({waypoints[k] + d * (double(i) / n), std::atan2(d.y(), d.x())});
+  }
+  poses.push_back({waypoints.back(), poses.back().yaw});
+  return poses;
+}
+
+planner::Scenario withoutRobot(planner::Scenario s) {
+  s.robot_radius = 0.0;
+  return s;
+}
+
+// Perimeter of an obstacle's footprint, for the bound on the track count.
+double perimeter(const planner::Obstacle& o) {
+  switch (o.type) {
+    case planner::ObstacleType::Box: return 2.0 * (o.size.x() + o.size.y());
+    case planner::ObstacleType::Sphere: return 2.0 * std::numbers::pi * o.radius;
+    case planner::ObstacleType::Ellipsoid: {  // Ramanujan
+      const double a = o.semi_axes.x(), b = o.semi_axes.y();
+      return std::numbers::pi * (3 * (a + b) - std::sqrt((3 * a + b) * (a + 3 * b)));
+    }
+    default: return 0.0;
+  }
+}
+
+std::vector<planner::EllipsoidObstacle> asPlannerObstacles(const std::vector<ObstacleEllipsoid>& tracked) {
+  std::vector<planner::EllipsoidObstacle> out;
+  for (const auto& t : tracked)
+    out.push_back({static_cast<int>(t.id), t.center, t.semi_axes.cwiseMax(1e-3), t.axes});
+  return out;
+}
+
+TEST(Drive, Demo2dEllipsesStayOnTheObstaclesAtEveryScan) {
+  const auto scenario = planner::loadScenario(kScenarios + "demo_2d.yaml");
+  const auto truth = planner::makeScenarioWorld(withoutRobot(scenario));  // clearance = distance to surfaces
+  std::vector<std::unique_ptr<planner::CollisionWorld>> single;          // one world per obstacle: ownership
+  for (const auto& o : scenario.obstacles) {
+    auto s = withoutRobot(scenario);
+    s.obstacles = {o};
+    single.push_back(planner::makeScenarioWorld(s));
+  }
+  auto config = sim::RangeSensorConfig::scanner2d(720, 30.0);
+  config.walls = false;  // as the demo's sim
+  config.range_noise_sigma = 0.02;
+  config.invalid_fraction = 0.01;
+  sim::RangeSensor sensor(scenario, config);
+  DetectorParams params;
+  params.beam_spacing = 2 * std::numbers::pi / 720;
+  ObstacleDetector detector(params);
+  ObstacleTracker tracker(TrackerParams::matching(params));
+
+  double pieces = 0;
+  for (const auto& o : scenario.obstacles) pieces += std::ceil(perimeter(o) / params.max_segment_length);
+  const auto poses = posesAlong({{3, 3, 0}, {8, 6, 0}, {8, 30, 0}, {36, 35, 0}}, 0.17);
+  ASSERT_GT(poses.size(), 300u);
+
+  std::map<std::uint64_t, std::size_t> owner;  // track id -> obstacle it was first nearest to
+  std::size_t step = 0, peak = 0;
+  double worst_free = 0.0;  // largest distance from an obstacle of a point inside an ellipse
+  if (const char* length = std::getenv("DRIVE_SEGMENT")) {
+    params.max_segment_length = std::atof(length);
+    if (const char* width = std::getenv("DRIVE_WIDTH")) params.max_segment_width = std::atof(width);
+    detector = ObstacleDetector(params);
+    tracker = ObstacleTracker(TrackerParams::matching(params));
+  }
+  for (const auto& pose : poses) {
+    const auto cloud = sensor.scan(pose, 0.1 * static_cast<double>(step));
+    const auto& tracked = tracker.update(detector.detect(cloud.points, cloud.origin));
+    peak = std::max(peak, tracked.size());
+    const std::string where = " at scan " + std::to_string(step) + ", vehicle (" + std::to_string(pose.position.x()) +
+                              ", " + std::to_string(pose.position.y()) + ")";
+    for (const auto& t : tracked) {
+      // (i) the centre is on (or inside) a real obstacle, not in free space.
+      ASSERT_LE(truth->clearance(t.center), 0.5) << "track " << t.id << " centre " << t.center.transpose() << where;
+      // ...and its id stays on the obstacle it started on.
+      std::size_t nearest = 0;
+      for (std::size_t k = 1; k < single.size(); ++k)
+        if (single[k]->clearance(t.center) < single[nearest]->clearance(t.center)) nearest = k;
+      const auto [it, inserted] = owner.emplace(t.id, nearest);
+      ASSERT_EQ(it->second, nearest) << "track " << t.id << " moved to another obstacle" << where;
+      // (ii) no point inside the ellipse is more than 1 m from every real obstacle (0.1 m grid over its box).
+      const double reach = t.semi_axes.x();
+      for (double x = t.center.x() - reach; x <= t.center.x() + reach; x += 0.1)
+        for (double y = t.center.y() - reach; y <= t.center.y() + reach; y += 0.1) {
+          const Eigen::Vector3d p(x, y, 0);
+          if (!t.contains(p)) continue;
+          if (truth->clearance(p) > worst_free) {
+            worst_free = truth->clearance(p);
+            if (std::getenv("DRIVE_DUMP")) {
+              std::printf("worst %.2f at %s track %llu centre %.2f %.2f semi %.2f %.2f n %zu:", worst_free, where.c_str(),
+                          (unsigned long long)t.id, t.center.x(), t.center.y(), t.semi_axes.x(), t.semi_axes.y(), t.support.size());
+              for (const auto& v : t.support) std::printf(" (%.2f,%.2f)", v.position.x(), v.position.y());
+              std::printf("\n");
+            }
+          }
+          if (std::getenv("DRIVE_SURVEY")) continue;
+          ASSERT_LE(truth->clearance(p), 1.0) << "track " << t.id << " (semi-axes " << t.semi_axes.head<2>().transpose()
+                                               << ") covers free space at " << p.transpose() << where;
+        }
+    }
+    // (iii) start, goal and the vehicle stay free for the planner (ellipses grown by the robot radius).
+    if (!tracked.empty()) {
+      const auto planned = planner::makeEllipsoidWorld(2, scenario.bounds_min, scenario.bounds_max,
+                                                       scenario.robot_radius, asPlannerObstacles(tracked));
+      ASSERT_TRUE(planned->isFree(scenario.start)) << "start blocked" << where;
+      ASSERT_TRUE(planned->isFree(scenario.goal)) << "goal blocked" << where;
+      ASSERT_TRUE(planned->isFree(pose.position)) << "vehicle blocked" << where;
+    }
+    // (iv) the count stays bounded by the obstacles' size, not by the drive's length.
+    ASSERT_LE(static_cast<double>(tracked.size()), 2.0 * pieces) << where;
+    ++step;
+  }
+  // The drive saw every obstacle, and the tracked set describes all five.
+  std::vector<int> per_obstacle(scenario.obstacles.size(), 0);
+  for (const auto& [id, k] : owner) ++per_obstacle[k];
+  for (std::size_t k = 0; k < per_obstacle.size(); ++k) EXPECT_GT(per_obstacle[k], 0) << "obstacle " << k << " unseen";
+  RecordProperty("tracks", static_cast<int>(tracker.obstacles().size()));
+  RecordProperty("peak_tracks", static_cast<int>(peak));
+  std::printf("drive: %zu scans, %zu tracks at the end, peak %zu (bound %.0f), farthest covered free point %.2f m\n",
+              poses.size(), tracker.obstacles().size(), peak, 2.0 * pieces, worst_free);
+}
+
+}  // namespace
+}  // namespace ddsnav::perception
