@@ -138,7 +138,8 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
     tree.insertPointCloud(cloud, origin, scan.max_range, /*lazy_eval=*/false, config_.discretize);
   }
   result.inserted = true;
-  changed_ = true;
+  // kOctoMap does not report its cell counts; assume it changed something.
+  changed_ = changed_ || config_.method == InsertMethod::kOctoMap || result.free_cells + result.occupied_cells > 0;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return result;
 }

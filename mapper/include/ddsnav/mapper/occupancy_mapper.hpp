@@ -67,8 +67,8 @@ struct InsertResult {
   std::string message;        // why it was rejected, or what was cleaned (empty when nothing to say)
   std::size_t points_used = 0;
   std::size_t dropped_non_finite = 0;
-  std::size_t free_cells = 0;      // distinct voxels updated as free
-  std::size_t occupied_cells = 0;  // distinct voxels updated as occupied
+  std::size_t free_cells = 0;      // distinct voxels updated as free (kFast only)
+  std::size_t occupied_cells = 0;  // distinct voxels updated as occupied (kFast only)
   double seconds = 0.0;
   // kFast only: where the time went (ray keys on all threads; merge + sort; tree walk).
   double seconds_rays = 0.0, seconds_merge = 0.0, seconds_tree = 0.0;
@@ -97,7 +97,7 @@ class OccupancyMapper {
   // NaN, more than max_points) or cleans them (non-finite points dropped) and says so in the result.
   InsertResult insert(const Scan& scan);
 
-  // True when an insertion changed the map since the last exportMap().
+  // True when an insertion updated at least one voxel since the last exportMap().
   bool changedSinceExport() const { return changed_; }
   ExportedMap exportMap();  // clears the changed flag
 
