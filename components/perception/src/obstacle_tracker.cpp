@@ -9,6 +9,7 @@
 #include <string>
 #include <stdexcept>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 namespace ddsnav::perception {
@@ -61,6 +62,8 @@ struct ObstacleTracker::Evidence {
   std::vector<Track> tracks;
   std::unordered_map<CellKey, VoxelRef, CellHash> owner;                 // voxel cell -> its track voxel
   std::unordered_map<CellKey, std::vector<VoxelRef>, CellHash> nearby;   // association cell -> voxels in it
+  std::unordered_set<CellKey, CellHash> coarse;  // kCoarseCell cells holding any track voxel
+  static constexpr double kCoarseCell = 1.0;     // m
   EuclideanClusterer clusterer;
   // Scratch buffers of one update.
   std::vector<SupportPoint> pending;
@@ -171,6 +174,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     ev.owner.emplace(key, Evidence::VoxelRef{t, index});
     CellKey near_key;
     if (cellOf(s.position, tol, dims, near_key)) ev.nearby[near_key].push_back({t, index});
+    if (cellOf(s.position, Evidence::kCoarseCell, dims, near_key)) ev.coarse.insert(near_key);
   };
   // A voxel in a cell a track owns refreshes it (the centroid averages the noise out over scans).
   auto refresh = [&](const SupportPoint& s, const CellKey& key) {
@@ -189,7 +193,32 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   };
   // A voxel in a new cell joins the nearest track with a voxel within the association distance
   // whose box can take it; false when there is none.
+  auto accepts = [&](std::uint32_t t, const SupportPoint& s) {
+    auto& track = ev.tracks[t];
+    if (track.voxels.size() >= params_.max_voxels_per_track) return false;
+    const Eigen::Vector3f q = track.frame.transpose() * s.position;
+    const Eigen::Vector3f lo = track.lo.cwiseMin(q), hi = track.hi.cwiseMax(q);
+    if (pieceTooBig(hi - lo, dims, max_length, max_width)) return false;  // that track is full this way
+    track.lo = lo;
+    track.hi = hi;
+    return true;
+  };
   auto extend = [&](const SupportPoint& s, const CellKey& key) {
+    // Fast path: a face-adjacent voxel cell owned by a track (a surface growing by one voxel, or
+    // noise moving a centroid into the next cell) — the nearest track in all but ties.
+    for (int axis = 0; axis < dims; ++axis)
+      for (int step : {-1, 1}) {
+        CellKey adjacent = key;
+        (axis == 0 ? adjacent.x : axis == 1 ? adjacent.y : adjacent.z) += step;
+        const auto it = ev.owner.find(adjacent);
+        if (it == ev.owner.end()) continue;
+        const auto& v = ev.tracks[it->second.track].voxels[it->second.voxel];
+        if ((v.mean - s.position).squaredNorm() >= tol2) continue;
+        if (accepts(it->second.track, s)) {
+          addVoxel(it->second.track, s, key);
+          return true;
+        }
+      }
     CellKey c;
     if (!cellOf(s.position, tol, dims, c)) return false;
     ev.candidates.clear();
@@ -212,19 +241,29 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
         }
     std::sort(ev.candidates.begin(), ev.candidates.end());
     for (const auto& [d2, t] : ev.candidates) {
-      auto& track = ev.tracks[t];
-      if (track.voxels.size() >= params_.max_voxels_per_track) continue;
-      const Eigen::Vector3f q = track.frame.transpose() * s.position;
-      const Eigen::Vector3f lo = track.lo.cwiseMin(q), hi = track.hi.cwiseMax(q);
-      if (pieceTooBig(hi - lo, dims, max_length, max_width)) continue;  // that track is full this way
-      track.lo = lo;
-      track.hi = hi;
+      if (!accepts(t, s)) continue;
       addVoxel(t, s, key);
       return true;
     }
     return false;
   };
 
+  // A detection in new territory (no track voxel within the association distance of its box)
+  // starts tracks without the per-voxel search: a few coarse-cell lookups instead of 28 per voxel.
+  bool near_any_track = false;
+  {
+    Eigen::Vector3f lo = positions[0], hi = positions[0];
+    for (const auto& p : positions) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    CellKey a, b;
+    const Eigen::Vector3f grow = Eigen::Vector3f::Constant(static_cast<float>(tol));
+    if (cellOf(lo - grow, Evidence::kCoarseCell, dims, a) && cellOf(hi + grow, Evidence::kCoarseCell, dims, b)) {
+      for (int x = a.x; x <= b.x && !near_any_track; ++x)
+        for (int y = a.y; y <= b.y && !near_any_track; ++y)
+          for (int z = a.z; z <= b.z && !near_any_track; ++z) near_any_track = ev.coarse.contains({x, y, z, dims});
+    } else {
+      near_any_track = true;  // too far out for cell indices: take the careful path
+    }
+  }
   std::vector<bool> assigned(ev.pending.size(), false);
   auto pass = [&](auto first, auto last) {
     for (auto it = first; it != last; ++it) {
@@ -244,8 +283,10 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       }
     }
   };
-  pass(order.begin(), order.end());
-  pass(order.rbegin(), order.rend());
+  if (near_any_track) {
+    pass(order.begin(), order.end());
+    pass(order.rbegin(), order.rend());
+  }
 
   // What no track could take: connected groups, cut to the segment length, each a new track.
   ev.leftovers.clear();
