@@ -76,6 +76,9 @@ processes:
 )");
   h.start({.name = "launcher", .command = "ddsnav-launch", .args = {file, "--domain", std::to_string(h.domain())}});
   ASSERT_TRUE(ready.waitFor("perception", 1, 30s)) << h.log("launcher");
+  // The launcher saw sim ready before it started perception; this observer may discover sim's status
+  // writer a little later (Fast DDS announces itself less often than Cyclone), so wait for it too.
+  ASSERT_TRUE(ready.waitFor("sim", 1, 30s)) << h.log("launcher");
   ASSERT_EQ(ready.of("sim").size(), 1u);
   const pid_t sim = *ready.of("sim").begin();
   const pid_t first = *ready.of("perception").begin();

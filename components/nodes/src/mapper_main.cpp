@@ -3,7 +3,7 @@
 // late-joining planner gets the current map. Writes a .bt file on shutdown when save_path is set.
 
 #include "ddsnav/nodes/convert.hpp"
-#include "ddsnav/nodes/node_context.hpp"
+#include <ddsnav/runtime/component.hpp>
 
 #include <ddsnav/mapper/occupancy_mapper.hpp>
 
@@ -14,23 +14,24 @@
 #include <mutex>
 
 using namespace ddsnav;
+using nodes::sleepFor;
 
 int main(int argc, char** argv) {
-  return nodes::runNode(argc, argv, "mapper", "Builds an OctoMap occupancy map from point clouds.", [](nodes::NodeContext& ctx) {
+  return runtime::runComponent("mapper", argc, argv, [](runtime::Context& ctx) {
     mapper::MapperConfig config;
-    config.resolution = ctx.paramDouble("resolution", 0.1);
-    config.dimensions = static_cast<int>(ctx.paramInt("dimensions", 0));  // 0: infer from the first cloud
-    config.prob_hit = ctx.paramDouble("prob_hit", config.prob_hit);
-    config.prob_miss = ctx.paramDouble("prob_miss", config.prob_miss);
-    config.occupancy_threshold = ctx.paramDouble("occupancy_threshold", config.occupancy_threshold);
-    config.clamping_min = ctx.paramDouble("clamping_min", config.clamping_min);
-    config.clamping_max = ctx.paramDouble("clamping_max", config.clamping_max);
-    const double max_range = ctx.paramDouble("max_range", 30.0);
-    const double publish_rate = ctx.paramDouble("publish_rate_hz", 1.0);
-    const std::string save_path = ctx.paramString("save_path", "");
-    const std::string world_frame = ctx.paramString("frame", nodes::kWorldFrame);
-    if (!(max_range > 0)) throw std::invalid_argument("parameter max_range: expected > 0");
-    if (!(publish_rate > 0 && publish_rate <= 100)) throw std::invalid_argument("parameter publish_rate_hz: expected (0, 100]");
+    config.resolution = ctx.params().declare<double>("resolution", 0.1);
+    config.dimensions = static_cast<int>(ctx.params().declare<std::int64_t>("dimensions", 0));  // 0: infer from the first cloud
+    config.prob_hit = ctx.params().declare<double>("prob_hit", config.prob_hit);
+    config.prob_miss = ctx.params().declare<double>("prob_miss", config.prob_miss);
+    config.occupancy_threshold = ctx.params().declare<double>("occupancy_threshold", config.occupancy_threshold);
+    config.clamping_min = ctx.params().declare<double>("clamping_min", config.clamping_min);
+    config.clamping_max = ctx.params().declare<double>("clamping_max", config.clamping_max);
+    const double max_range = ctx.params().declare<double>("max_range", 30.0);
+    const double publish_rate = ctx.params().declare<double>("publish_rate_hz", 1.0);
+    const std::string save_path = ctx.params().declare<std::string>("save_path", "");
+    const std::string world_frame = ctx.params().declare<std::string>("frame", nodes::kWorldFrame);
+    if (!(max_range > 0)) throw runtime::ParameterError("parameter max_range: expected > 0");
+    if (!(publish_rate > 0 && publish_rate <= 100)) throw runtime::ParameterError("parameter publish_rate_hz: expected (0, 100]");
     if (config.dimensions != 0) {
       if (const auto error = mapper::validateConfig(config); !error.empty()) throw std::invalid_argument(error);
     }
@@ -81,7 +82,7 @@ int main(int argc, char** argv) {
 
     ctx.ready();
     const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / publish_rate));
-    while (ctx.sleepFor(period)) publishIfChanged();
+    while (sleepFor(ctx, period)) publishIfChanged();
     clouds = bus::Subscription();  // no more insertions while saving
     publishIfChanged();
     if (!save_path.empty()) {
@@ -93,6 +94,5 @@ int main(int argc, char** argv) {
         spdlog::info("wrote {}", save_path);
       }
     }
-    return 0;
   });
 }

@@ -4,7 +4,7 @@
 // reports the goal reached, 1 when timeout_s passes first.
 
 #include "ddsnav/nodes/convert.hpp"
-#include "ddsnav/nodes/node_context.hpp"
+#include <ddsnav/runtime/component.hpp>
 
 #include <ddsnav/planner/svg.hpp>
 
@@ -17,6 +17,7 @@
 #include <optional>
 
 using namespace ddsnav;
+using nodes::sleepFor;
 
 namespace {
 
@@ -41,11 +42,11 @@ void writeFile(const std::filesystem::path& path, const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return nodes::runNode(argc, argv, "monitor", "Watches the pipeline and writes an HTML/SVG report.", [](nodes::NodeContext& ctx) {
-    const auto scenario = planner::loadScenario(ctx.requiredString("scenario"));
-    const std::filesystem::path out_dir = ctx.paramString("out_dir", "out/demo");
-    const double timeout = ctx.paramDouble("timeout_s", 120.0);
-    if (!(timeout > 0)) throw std::invalid_argument("parameter timeout_s: expected > 0");
+  return runtime::runComponent("monitor", argc, argv, [](runtime::Context& ctx) {
+    const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
+    const std::filesystem::path out_dir = ctx.params().declare<std::string>("out_dir", "out/demo");
+    const double timeout = ctx.params().declare<double>("timeout_s", 120.0);
+    if (!(timeout > 0)) throw runtime::ParameterError("parameter timeout_s: expected > 0");
     std::filesystem::create_directories(out_dir);
 
     std::mutex mutex;
@@ -92,7 +93,7 @@ int main(int argc, char** argv) {
     const auto started = std::chrono::steady_clock::now();
     auto last_log = started;
     bool reached = false;
-    while (ctx.sleepFor(std::chrono::milliseconds(100))) {
+    while (sleepFor(ctx, std::chrono::milliseconds(100))) {
       std::lock_guard lock(mutex);
       reached = seen.status && seen.status->goal_reached();
       const auto now = std::chrono::steady_clock::now();
@@ -177,6 +178,7 @@ int main(int argc, char** argv) {
     spdlog::info("{}: {} after {:.1f} s; report in {}", scenario.name, reached ? "goal reached" : "goal NOT reached", elapsed,
                  (out_dir / "report.html").string());
     std::printf("%s\n", summary.dump().c_str());
-    return reached ? 0 : 1;
+    if (!reached)
+      throw std::runtime_error(seen.failure.empty() ? "goal not reached within timeout_s" : "goal not reached: " + seen.failure);
   });
 }

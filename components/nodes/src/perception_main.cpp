@@ -3,7 +3,7 @@
 // and the whole tracked set is published (transient local, so a late planner gets it).
 
 #include "ddsnav/nodes/convert.hpp"
-#include "ddsnav/nodes/node_context.hpp"
+#include <ddsnav/runtime/component.hpp>
 
 #include <ddsnav/perception/obstacle_detector.hpp>
 #include <ddsnav/perception/obstacle_tracker.hpp>
@@ -14,24 +14,24 @@
 #include <cmath>
 
 using namespace ddsnav;
+using nodes::sleepFor;
 
 int main(int argc, char** argv) {
-  return nodes::runNode(argc, argv, "perception", "Turns point clouds into tracked obstacle uncertainty ellipsoids.",
-                        [](nodes::NodeContext& ctx) {
+  return runtime::runComponent("perception", argc, argv, [](runtime::Context& ctx) {
     perception::DetectorParams detector_params;
-    detector_params.voxel_size = ctx.paramDouble("voxel_size", detector_params.voxel_size);
-    detector_params.cluster_tolerance = ctx.paramDouble("cluster_tolerance", detector_params.cluster_tolerance);
-    detector_params.min_cluster_size = static_cast<std::size_t>(ctx.paramInt("min_cluster_size", 3));
-    detector_params.ground_z = ctx.paramDouble("ground_z", detector_params.ground_z);
-    detector_params.probability = ctx.paramDouble("probability", detector_params.probability);
-    detector_params.range_noise_sigma = ctx.paramDouble("range_noise_sigma", detector_params.range_noise_sigma);
-    detector_params.max_range = ctx.paramDouble("max_range", detector_params.max_range);
-    detector_params.beam_spacing = ctx.paramDouble("beam_spacing_rad", 2.0 * M_PI / 720.0);
+    detector_params.voxel_size = ctx.params().declare<double>("voxel_size", detector_params.voxel_size);
+    detector_params.cluster_tolerance = ctx.params().declare<double>("cluster_tolerance", detector_params.cluster_tolerance);
+    detector_params.min_cluster_size = static_cast<std::size_t>(ctx.params().declare<std::int64_t>("min_cluster_size", 3));
+    detector_params.ground_z = ctx.params().declare<double>("ground_z", detector_params.ground_z);
+    detector_params.probability = ctx.params().declare<double>("probability", detector_params.probability);
+    detector_params.range_noise_sigma = ctx.params().declare<double>("range_noise_sigma", detector_params.range_noise_sigma);
+    detector_params.max_range = ctx.params().declare<double>("max_range", detector_params.max_range);
+    detector_params.beam_spacing = ctx.params().declare<double>("beam_spacing_rad", 2.0 * M_PI / 720.0);
     detector_params.validate();
     perception::TrackerParams tracker_params;
-    tracker_params.gate_probability = ctx.paramDouble("gate_probability", tracker_params.gate_probability);
+    tracker_params.gate_probability = ctx.params().declare<double>("gate_probability", tracker_params.gate_probability);
     tracker_params.validate();
-    const std::string world_frame = ctx.paramString("frame", nodes::kWorldFrame);
+    const std::string world_frame = ctx.params().declare<std::string>("frame", nodes::kWorldFrame);
 
     perception::ObstacleDetector detector(detector_params);
     perception::ObstacleTracker obstacle_tracker(tracker_params);
@@ -72,8 +72,7 @@ int main(int argc, char** argv) {
     });
 
     ctx.ready();
-    while (ctx.sleepFor(std::chrono::milliseconds(200))) {
+    while (sleepFor(ctx, std::chrono::milliseconds(200))) {
     }
-    return 0;
   });
 }

@@ -4,7 +4,7 @@
 // from the scenario file.
 
 #include "ddsnav/nodes/convert.hpp"
-#include "ddsnav/nodes/node_context.hpp"
+#include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
 #include <ddsnav/planner/planner.hpp>
@@ -14,6 +14,7 @@
 #include <cmath>
 
 using namespace ddsnav;
+using nodes::sleepFor;
 
 namespace {
 
@@ -24,12 +25,12 @@ bool finite(const msg::PathState& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return nodes::runNode(argc, argv, "planner", "Answers plan requests with sampling-based planners.", [](nodes::NodeContext& ctx) {
-    const auto scenario = planner::loadScenario(ctx.requiredString("scenario"));
-    const auto kind = nodes::parseWorldKind(ctx.paramString("world", "obstacles"));
-    const bool kinodynamic = ctx.paramBool("kinodynamic", scenario.vehicle.has_value());
-    const double max_budget = ctx.paramDouble("max_time_budget_s", 30.0);
-    if (kinodynamic && !scenario.vehicle) throw std::invalid_argument("parameter kinodynamic: the scenario has no vehicle block");
+  return runtime::runComponent("planner", argc, argv, [](runtime::Context& ctx) {
+    const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
+    const auto kind = nodes::parseWorldKind(ctx.params().declare<std::string>("world", "obstacles"));
+    const bool kinodynamic = ctx.params().declare<bool>("kinodynamic", scenario.vehicle.has_value());
+    const double max_budget = ctx.params().declare<double>("max_time_budget_s", 30.0);
+    if (kinodynamic && !scenario.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
 
     nodes::WorldSource world_source(ctx.bus(), kind, scenario);
     auto paths = ctx.bus().publisher<msg::Path>("planning/path", bus::Qos::state());
@@ -39,7 +40,7 @@ int main(int argc, char** argv) {
         spdlog::warn("planning/request {}: {}", request.request_id(), why);
         planner::PlanResult failed;
         failed.planner = request.planner();
-        paths.publish(nodes::toMsg(failed, request.request_id(), ctx.nowNs()));
+        paths.publish(nodes::toMsg(failed, request.request_id(), ctx.clock().nowNs()));
       };
       if (!finite(request.start()) || !finite(request.goal()) || !std::isfinite(request.goal_radius()) ||
           !(request.goal_radius() > 0) || !(request.time_budget_s() > 0) || !std::isfinite(request.time_budget_s()))
@@ -65,7 +66,7 @@ int main(int argc, char** argv) {
         const auto result = algorithm->solve(problem);
         spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result.planner,
                      result.solved ? "solved" : "failed", result.stats.time_s, result.stats.iterations, result.cost);
-        paths.publish(nodes::toMsg(result, request.request_id(), ctx.nowNs()));
+        paths.publish(nodes::toMsg(result, request.request_id(), ctx.clock().nowNs()));
       } catch (const std::exception& e) {
         fail(e.what());
       }
@@ -73,8 +74,7 @@ int main(int argc, char** argv) {
     auto requests = ctx.bus().subscribe<msg::PlanRequest>("planning/request", bus::Qos::commands(), answer);
 
     ctx.ready();
-    while (ctx.sleepFor(std::chrono::milliseconds(200))) {
+    while (sleepFor(ctx, std::chrono::milliseconds(200))) {
     }
-    return 0;
   });
 }

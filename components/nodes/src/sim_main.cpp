@@ -2,7 +2,7 @@
 // unicycle vehicle driven by control/cmd_vel (vehicle/state).
 
 #include "ddsnav/nodes/convert.hpp"
-#include "ddsnav/nodes/node_context.hpp"
+#include <ddsnav/runtime/component.hpp>
 
 #include <ddsnav/sim/range_sensor.hpp>
 #include <ddsnav/tracker/vehicle.hpp>
@@ -14,22 +14,23 @@
 #include <mutex>
 
 using namespace ddsnav;
+using nodes::sleepFor;
 
 namespace {
 
-sim::RangeSensorConfig sensorConfig(nodes::NodeContext& ctx, const planner::Scenario& scenario) {
+sim::RangeSensorConfig sensorConfig(runtime::Context& ctx, const planner::Scenario& scenario) {
   sim::RangeSensorConfig config =
       scenario.dimensions == 2
-          ? sim::RangeSensorConfig::scanner2d(static_cast<int>(ctx.paramInt("beams", 720)), ctx.paramDouble("max_range", 30.0))
-          : sim::RangeSensorConfig::lidar3d(static_cast<int>(ctx.paramInt("rings", 32)),
-                                            static_cast<int>(ctx.paramInt("columns", 1024)),
-                                            ctx.paramDouble("vertical_min_deg", -15.0), ctx.paramDouble("vertical_max_deg", 15.0),
-                                            ctx.paramDouble("max_range", 50.0));
-  config.range_noise_sigma = ctx.paramDouble("range_noise_sigma", 0.02);
-  config.invalid_fraction = ctx.paramDouble("invalid_fraction", 0.01);
+          ? sim::RangeSensorConfig::scanner2d(static_cast<int>(ctx.params().declare<std::int64_t>("beams", 720)), ctx.params().declare<double>("max_range", 30.0))
+          : sim::RangeSensorConfig::lidar3d(static_cast<int>(ctx.params().declare<std::int64_t>("rings", 32)),
+                                            static_cast<int>(ctx.params().declare<std::int64_t>("columns", 1024)),
+                                            ctx.params().declare<double>("vertical_min_deg", -15.0), ctx.params().declare<double>("vertical_max_deg", 15.0),
+                                            ctx.params().declare<double>("max_range", 50.0));
+  config.range_noise_sigma = ctx.params().declare<double>("range_noise_sigma", 0.02);
+  config.invalid_fraction = ctx.params().declare<double>("invalid_fraction", 0.01);
   // The bounds are a modelling device, not a wall the vehicle could see: off unless asked for.
-  config.walls = ctx.paramBool("walls", false);
-  config.seed = static_cast<std::uint64_t>(ctx.paramInt("seed", 1));
+  config.walls = ctx.params().declare<bool>("walls", false);
+  config.seed = static_cast<std::uint64_t>(ctx.params().declare<std::int64_t>("seed", 1));
   config.validate();
   return config;
 }
@@ -37,22 +38,21 @@ sim::RangeSensorConfig sensorConfig(nodes::NodeContext& ctx, const planner::Scen
 }  // namespace
 
 int main(int argc, char** argv) {
-  return nodes::runNode(argc, argv, "sim", "Simulates the range sensor and the unicycle vehicle of a scenario.",
-                        [](nodes::NodeContext& ctx) {
-    const auto scenario = planner::loadScenario(ctx.requiredString("scenario"));
+  return runtime::runComponent("sim", argc, argv, [](runtime::Context& ctx) {
+    const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
     if (!scenario.vehicle) throw std::invalid_argument(scenario.source + ": the simulator needs a 'vehicle' block");
-    const double lidar_rate = ctx.paramDouble("lidar_rate_hz", 10.0);
-    const double state_rate = ctx.paramDouble("state_rate_hz", 50.0);
-    const double command_timeout = ctx.paramDouble("command_timeout_s", 0.5);
-    if (!(lidar_rate > 0 && lidar_rate <= 100)) throw std::invalid_argument("parameter lidar_rate_hz: expected (0, 100]");
+    const double lidar_rate = ctx.params().declare<double>("lidar_rate_hz", 10.0);
+    const double state_rate = ctx.params().declare<double>("state_rate_hz", 50.0);
+    const double command_timeout = ctx.params().declare<double>("command_timeout_s", 0.5);
+    if (!(lidar_rate > 0 && lidar_rate <= 100)) throw runtime::ParameterError("parameter lidar_rate_hz: expected (0, 100]");
     if (!(state_rate >= lidar_rate && state_rate <= 1000))
-      throw std::invalid_argument("parameter state_rate_hz: expected [lidar_rate_hz, 1000]");
+      throw runtime::ParameterError("parameter state_rate_hz: expected [lidar_rate_hz, 1000]");
 
     sim::RangeSensor sensor(scenario, sensorConfig(ctx, scenario));
     tracker::VehicleConfig vehicle_config;
     vehicle_config.limits = *scenario.vehicle;
     vehicle_config.dimensions = scenario.dimensions;
-    if (ctx.paramBool("noise", true)) vehicle_config.noise = tracker::VehicleNoise::nominal(static_cast<std::uint64_t>(ctx.paramInt("seed", 1)));
+    if (ctx.params().declare<bool>("noise", true)) vehicle_config.noise = tracker::VehicleNoise::nominal(static_cast<std::uint64_t>(ctx.params().declare<std::int64_t>("seed", 1)));
     tracker::VehicleState initial;
     initial.position = scenario.start;
     initial.heading = scenario.start_heading.value_or(0.0);
@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
           }
           std::lock_guard lock(command_mutex);
           command = nodes::fromMsg(m);
-          command_stamp = ctx.nowNs();
+          command_stamp = ctx.clock().nowNs();
         });
 
     ctx.ready();
@@ -80,15 +80,15 @@ int main(int argc, char** argv) {
     const int steps_per_scan = std::max(1, static_cast<int>(std::lround(state_rate / lidar_rate)));
     const double dt = 1.0 / state_rate;
     auto next = std::chrono::steady_clock::now();
-    for (std::uint64_t tick = 0; ctx.running(); ++tick) {
+    for (std::uint64_t tick = 0; !ctx.shutdownRequested(); ++tick) {
       tracker::VehicleCommand current;
       {
         std::lock_guard lock(command_mutex);
         // A silent controller must not leave the vehicle driving: stop after the timeout.
-        if (command_stamp != 0 && (ctx.nowNs() - command_stamp) * 1e-9 < command_timeout) current = command;
+        if (command_stamp != 0 && (ctx.clock().nowNs() - command_stamp) * 1e-9 < command_timeout) current = command;
       }
       const auto& state = vehicle.step(current, dt);
-      const auto now = ctx.nowNs();
+      const auto now = ctx.clock().nowNs();
       states.publish(nodes::toMsg(state, now));
       if (tick % steps_per_scan == 0) {
         const auto cloud = sensor.scan({state.position, state.heading}, now * 1e-9);
@@ -96,9 +96,8 @@ int main(int argc, char** argv) {
       }
       next += step;
       const auto wait = next - std::chrono::steady_clock::now();
-      if (wait > std::chrono::nanoseconds::zero() && !ctx.sleepFor(wait)) break;
+      if (wait > std::chrono::nanoseconds::zero() && !sleepFor(ctx, wait)) break;
       if (wait < -std::chrono::milliseconds(500)) next = std::chrono::steady_clock::now();  // do not try to catch up after a stall
     }
-    return 0;
   });
 }

@@ -4,7 +4,7 @@
 // deviates or newly perceived obstacles block the rest of the trajectory.
 
 #include "ddsnav/nodes/convert.hpp"
-#include "ddsnav/nodes/node_context.hpp"
+#include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
 #include <ddsnav/tracker/smoother.hpp>
@@ -17,27 +17,28 @@
 #include <optional>
 
 using namespace ddsnav;
+using nodes::sleepFor;
 
 int main(int argc, char** argv) {
-  return nodes::runNode(argc, argv, "tracker", "Smooths planned paths and drives the vehicle along them.", [](nodes::NodeContext& ctx) {
-    const auto scenario = planner::loadScenario(ctx.requiredString("scenario"));
+  return runtime::runComponent("tracker", argc, argv, [](runtime::Context& ctx) {
+    const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
     if (!scenario.vehicle) throw std::invalid_argument(scenario.source + ": the tracker needs a 'vehicle' block");
     const auto limits = *scenario.vehicle;
-    const std::string planner_name = ctx.paramString("planner", "gart");
-    const double control_rate = ctx.paramDouble("control_rate_hz", 20.0);
-    const double time_budget = ctx.paramDouble("time_budget_s", 5.0);
-    const auto seed = static_cast<std::uint64_t>(ctx.paramInt("seed", 1));
-    const int max_attempts = static_cast<int>(ctx.paramInt("max_plan_attempts", 10));
-    const double retry_delay = ctx.paramDouble("plan_retry_delay_s", 1.0);
-    const bool wait_for_world = ctx.paramBool("wait_for_world", true);
-    const double replan_check_period = ctx.paramDouble("replan_check_period_s", 0.5);
+    const std::string planner_name = ctx.params().declare<std::string>("planner", "gart");
+    const double control_rate = ctx.params().declare<double>("control_rate_hz", 20.0);
+    const double time_budget = ctx.params().declare<double>("time_budget_s", 5.0);
+    const auto seed = static_cast<std::uint64_t>(ctx.params().declare<std::int64_t>("seed", 1));
+    const int max_attempts = static_cast<int>(ctx.params().declare<std::int64_t>("max_plan_attempts", 10));
+    const double retry_delay = ctx.params().declare<double>("plan_retry_delay_s", 1.0);
+    const bool wait_for_world = ctx.params().declare<bool>("wait_for_world", true);
+    const double replan_check_period = ctx.params().declare<double>("replan_check_period_s", 0.5);
     tracker::TrackerConfig tracker_config;
-    tracker_config.replan_deviation = ctx.paramDouble("replan_deviation", tracker_config.replan_deviation);
-    tracker_config.replan_horizon = ctx.paramDouble("replan_horizon_s", 8.0);
+    tracker_config.replan_deviation = ctx.params().declare<double>("replan_deviation", tracker_config.replan_deviation);
+    tracker_config.replan_horizon = ctx.params().declare<double>("replan_horizon_s", 8.0);
     tracker::SmootherConfig smoother_config;
-    smoother_config.sample_dt = ctx.paramDouble("sample_dt", smoother_config.sample_dt);
-    if (!(control_rate > 0 && control_rate <= 1000)) throw std::invalid_argument("parameter control_rate_hz: expected (0, 1000]");
-    if (!(time_budget > 0)) throw std::invalid_argument("parameter time_budget_s: expected > 0");
+    smoother_config.sample_dt = ctx.params().declare<double>("sample_dt", smoother_config.sample_dt);
+    if (!(control_rate > 0 && control_rate <= 1000)) throw runtime::ParameterError("parameter control_rate_hz: expected (0, 1000]");
+    if (!(time_budget > 0)) throw runtime::ParameterError("parameter time_budget_s: expected > 0");
 
     std::mutex mutex;
     std::optional<tracker::VehicleState> vehicle;
@@ -56,7 +57,7 @@ int main(int argc, char** argv) {
     auto statuses = ctx.bus().publisher<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData());
 
     // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
-    nodes::WorldSource world_source(ctx.bus(), nodes::parseWorldKind(ctx.paramString("world", "obstacles")), scenario);
+    nodes::WorldSource world_source(ctx.bus(), nodes::parseWorldKind(ctx.params().declare<std::string>("world", "obstacles")), scenario);
     auto currentWorld = [&](const Eigen::Vector3d& position) { return world_source.snapshot(position); };
 
     std::uint32_t request_id = 0;
@@ -66,7 +67,7 @@ int main(int argc, char** argv) {
     auto requestPlan = [&](const tracker::VehicleState& from, const std::string& why) {
       msg::PlanRequest request;
       msg::Header header;
-      header.stamp_ns(ctx.nowNs());
+      header.stamp_ns(ctx.clock().nowNs());
       header.frame_id(nodes::kWorldFrame);
       request.header(header);
       request.request_id(++request_id);
@@ -77,11 +78,11 @@ int main(int argc, char** argv) {
       request.time_budget_s(time_budget);
       request.seed(seed + request_id - 1);
       ++attempts;
-      pending_since = ctx.nowNs();
+      pending_since = ctx.clock().nowNs();
       spdlog::info("requesting plan {} with {} ({})", request_id, planner_name, why);
       requests.publish(request);
     };
-    auto stop = [&] { commands.publish(nodes::toMsg(tracker::VehicleCommand{}, ctx.nowNs())); };
+    auto stop = [&] { commands.publish(nodes::toMsg(tracker::VehicleCommand{}, ctx.clock().nowNs())); };
 
     // Wait for the vehicle (and the first obstacles) before the first request; readiness first, so the
     // launcher can start whoever waits for us.
@@ -93,7 +94,7 @@ int main(int argc, char** argv) {
     const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / control_rate));
     double since_replan_check = 0.0;
     msg::TrackingStatus last_status;
-    while (ctx.sleepFor(period)) {
+    while (sleepFor(ctx, period)) {
       std::optional<tracker::VehicleState> state;
       std::optional<msg::Path> path;
       {
@@ -117,7 +118,7 @@ int main(int argc, char** argv) {
         if (!path->solved()) {
           spdlog::warn("plan {} failed", request_id);
           if (attempts >= max_attempts) throw std::runtime_error("no plan after " + std::to_string(attempts) + " attempts");
-          retry_at_ns = ctx.nowNs() + static_cast<std::int64_t>(retry_delay * 1e9);
+          retry_at_ns = ctx.clock().nowNs() + static_cast<std::int64_t>(retry_delay * 1e9);
           continue;
         }
         try {
@@ -128,31 +129,31 @@ int main(int argc, char** argv) {
           spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m", request_id,
                        trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
                        trajectory.report.min_clearance);
-          trajectories.publish(nodes::toMsg(trajectory, request_id, ctx.nowNs()));
+          trajectories.publish(nodes::toMsg(trajectory, request_id, ctx.clock().nowNs()));
           follower.emplace(std::move(trajectory), limits, tracker_config);
           attempts = 0;
         } catch (const std::exception& e) {
           spdlog::warn("cannot smooth plan {}: {}", request_id, e.what());
           if (attempts >= max_attempts) throw std::runtime_error("no drivable trajectory after " + std::to_string(attempts) + " attempts");
-          retry_at_ns = ctx.nowNs() + static_cast<std::int64_t>(retry_delay * 1e9);
+          retry_at_ns = ctx.clock().nowNs() + static_cast<std::int64_t>(retry_delay * 1e9);
           continue;
         }
       }
-      if (retry_at_ns && ctx.nowNs() >= *retry_at_ns) {
+      if (retry_at_ns && ctx.clock().nowNs() >= *retry_at_ns) {
         retry_at_ns.reset();
         requestPlan(*state, "retrying");
         continue;
       }
       if (!follower) {
         // A request may be lost while the planner restarts: ask again after twice its budget.
-        if (pending_since && (ctx.nowNs() - *pending_since) * 1e-9 > 2 * time_budget + 2) requestPlan(*state, "no answer");
+        if (pending_since && (ctx.clock().nowNs() - *pending_since) * 1e-9 > 2 * time_budget + 2) requestPlan(*state, "no answer");
         continue;
       }
       const auto command = follower->update(*state, dt);
       const auto& status = follower->status();
-      commands.publish(nodes::toMsg(command, ctx.nowNs()));
+      commands.publish(nodes::toMsg(command, ctx.clock().nowNs()));
       msg::TrackingStatus out;
-      out.stamp_ns(ctx.nowNs());
+      out.stamp_ns(ctx.clock().nowNs());
       out.request_id(request_id);
       out.cross_track_error(status.cross_track_error);
       out.along_track_error(status.along_track_error);
@@ -186,6 +187,5 @@ int main(int argc, char** argv) {
       }
     }
     stop();
-    return 0;
   });
 }

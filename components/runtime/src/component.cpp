@@ -258,7 +258,10 @@ int runComponent(const std::string& name, int argc, char** argv, const std::func
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   CLI::App app{"ddsnav component " + name};
-  std::string dds, config, log_level = "info", instance = name;
+  std::string dds, config, log_level = "info";
+  // The launcher names each process it starts; a process started by hand is named after its component.
+  const char* launched_as = std::getenv("DDSNAV_COMPONENT_NAME");
+  std::string instance = launched_as && *launched_as ? launched_as : name;
   std::optional<int> domain;
   std::vector<std::string> overrides;
   app.add_option("--dds", dds, "DDS vendor: fastdds | cyclonedds (default: $DDSNAV_DDS, else fastdds)");
@@ -267,7 +270,7 @@ int runComponent(const std::string& name, int argc, char** argv, const std::func
   app.add_option("--param", overrides, "parameter override key=value (repeatable)");
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error | off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
-  app.add_option("--name", instance, "instance name in system/status (default: " + name + ")");
+  app.add_option("--name", instance, "instance name in system/status (default: $DDSNAV_COMPONENT_NAME, else " + name + ")");
   if (options) options(app);
   try {
     app.parse(argc, argv);

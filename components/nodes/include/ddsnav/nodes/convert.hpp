@@ -3,6 +3,7 @@
 // stay thin and every library stays free of DDS.
 
 #include <ddsnav/msg/messages.hpp>
+#include <ddsnav/runtime/component.hpp>
 #include <ddsnav/planner/collision_world.hpp>
 #include <ddsnav/planner/planner.hpp>
 #include <ddsnav/tracker/trajectory.hpp>
@@ -10,6 +11,7 @@
 
 #include <Eigen/Geometry>
 
+#include <chrono>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -27,6 +29,11 @@ struct ObstacleEllipsoid;
 namespace ddsnav::nodes {
 
 inline constexpr const char* kWorldFrame = "map";
+
+// Sleeps up to `duration`; false as soon as the component is asked to shut down.
+inline bool sleepFor(runtime::Context& ctx, std::chrono::nanoseconds duration) {
+  return !ctx.waitForShutdown(std::chrono::ceil<std::chrono::milliseconds>(duration));
+}
 
 msg::Vec3 toMsg(const Eigen::Vector3d& v);
 Eigen::Vector3d fromMsg(const msg::Vec3& v);
