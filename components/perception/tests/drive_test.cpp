@@ -151,5 +151,52 @@ TEST(Drive, Demo2dEllipsesStayOnTheObstaclesAtEveryScan) {
               poses.size(), tracker.obstacles().size(), peak, 2.0 * pieces, worst_free);
 }
 
+
+TEST(Drive, GartTerrain3dEllipsoidsStayOnTheHills) {
+  // A short climb toward the first hill of the GART terrain with a 16-ring lidar: every ellipsoid
+  // sits on the terrain (hills or ground), its axis tips are within a metre of it, and the start,
+  // the goal and the vehicle stay free for the planner. Every scan is checked.
+  const auto scenario = planner::loadScenario(kScenarios + "gart_terrain_3d.yaml");
+  const auto truth = planner::makeScenarioWorld(withoutRobot(scenario));  // clearance includes the ground
+  auto config = sim::RangeSensorConfig::lidar3d(16, 512, -15, 15, 40.0);
+  config.walls = false;
+  config.range_noise_sigma = 0.02;
+  config.invalid_fraction = 0.01;
+  sim::RangeSensor sensor(scenario, config);
+  DetectorParams params;
+  params.beam_spacing = 2 * std::numbers::pi / 512;
+  ObstacleDetector detector(params);
+  ObstacleTracker tracker(TrackerParams::matching(params));
+  const auto poses = posesAlong({{8, 8, 5}, {24, 14, 8}}, 1.0);
+  std::size_t step = 0, voxels = 0;
+  for (const auto& pose : poses) {
+    const auto cloud = sensor.scan(pose);
+    const auto& tracked = tracker.update(detector.detect(cloud.points, cloud.origin));
+    const std::string where = " at scan " + std::to_string(step);
+    voxels = 0;
+    for (const auto& t : tracked) {
+      ASSERT_EQ(t.dimensions, 3);
+      ASSERT_LE(truth->clearance(t.center), 0.5) << "track " << t.id << " centre " << t.center.transpose() << where;
+      for (int k = 0; k < 3; ++k)
+        for (double sign : {-1.0, 1.0}) {
+          const Eigen::Vector3d tip = t.center + sign * 0.999 * t.semi_axes[k] * t.axes.col(k);
+          ASSERT_LE(truth->clearance(tip), 1.0) << "track " << t.id << " reaches free space at " << tip.transpose()
+                                                << " (semi-axes " << t.semi_axes.transpose() << ")" << where;
+        }
+      voxels += t.support.size();
+    }
+    ASSERT_FALSE(tracked.empty());
+    const auto planned = planner::makeEllipsoidWorld(3, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius,
+                                                     asPlannerObstacles(tracked));
+    ASSERT_TRUE(planned->isFree(scenario.start)) << "start blocked" << where;
+    ASSERT_TRUE(planned->isFree(scenario.goal)) << "goal blocked" << where;
+    ASSERT_TRUE(planned->isFree(pose.position)) << "vehicle blocked" << where;
+    ++step;
+  }
+  // Pieces are patches of at most 1.5 x 1.5 m: many, but each holds real evidence.
+  EXPECT_GE(voxels, 3 * tracker.obstacles().size());
+  std::printf("3-D drive: %zu scans, %zu tracks, %zu voxels\n", poses.size(), tracker.obstacles().size(), voxels);
+}
+
 }  // namespace
 }  // namespace ddsnav::perception
