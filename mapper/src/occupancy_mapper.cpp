@@ -28,6 +28,18 @@ constexpr double kMaxRangeVoxels = 30000.0;
 
 }  // namespace
 
+void writeOctreeBinary(const octomap::OcTree& tree, std::ostream& out) {
+  // The header AbstractOccupancyOcTree::writeBinaryConst writes, then the same node bits. OctoMap's own
+  // call is not used because Debian's build prints "Writing N nodes..." / " done." on stderr for every
+  // call, i.e. for every map the mapper publishes.
+  out << "# Octomap OcTree binary file\n# (feel free to add / change comments, but leave the first line as it is!)\n#\n"
+      << "id " << tree.getTreeType() << '\n'
+      << "size " << tree.size() << '\n'
+      << "res " << tree.getResolution() << '\n'
+      << "data\n";
+  if (tree.getRoot() != nullptr) tree.writeBinaryNode(out, tree.getRoot());
+}
+
 std::string validateConfig(const MapperConfig& c) {
   if (!std::isfinite(c.resolution) || c.resolution < 0.001 || c.resolution > 100.0)
     return "mapper parameter 'resolution' must be a finite number in [0.001, 100] m, got " + fmt(c.resolution);
@@ -148,7 +160,7 @@ ExportedMap OccupancyMapper::exportMap() {
   ExportedMap map;
   const octomap::OcTree& tree = impl_->tree;
   std::ostringstream bytes(std::ios::out | std::ios::binary);
-  tree.writeBinaryConst(bytes);
+  writeOctreeBinary(tree, bytes);
   const std::string s = bytes.str();
   map.octree_binary.assign(s.begin(), s.end());
   map.resolution = tree.getResolution();
@@ -167,7 +179,8 @@ ExportedMap OccupancyMapper::exportMap() {
 
 void OccupancyMapper::writeBt(const std::string& path) const {
   std::ofstream out(path, std::ios::binary);
-  if (!out || !impl_->tree.writeBinaryConst(out) || !out.flush()) {
+  if (out) writeOctreeBinary(impl_->tree, out);
+  if (!out || !out.flush()) {
     throw std::runtime_error("cannot write the octree to '" + path + "'");
   }
 }

@@ -140,6 +140,24 @@ TEST(MapperIdentical, OctoMapMethodIsTheReference) {
   EXPECT_EQ(fullBytes(fast.octree()), fullBytes(ref.octree()));
 }
 
+TEST(MapperExport, BinaryBytesAreOctoMapsOwn) {
+  MapperConfig config;
+  config.resolution = 0.2;
+  OccupancyMapper mapper(config);
+  std::ostringstream empty_ours, empty_octomap;
+  writeOctreeBinary(mapper.octree(), empty_ours);
+  mapper.octree().writeBinaryConst(empty_octomap);
+  EXPECT_EQ(empty_ours.str(), empty_octomap.str());
+  ASSERT_TRUE(mapper.insert(simulateScan(makeCityBlock(5), lidar3d(8, 300), {0, 0, 1.8f})).inserted);
+  std::ostringstream ours, octomap_bytes;
+  writeOctreeBinary(mapper.octree(), ours);
+  mapper.octree().writeBinaryConst(octomap_bytes);
+  EXPECT_GT(ours.str().size(), 1000u);
+  EXPECT_EQ(ours.str(), octomap_bytes.str());
+  const auto exported = mapper.exportMap();
+  EXPECT_EQ(std::string(exported.octree_binary.begin(), exported.octree_binary.end()), octomap_bytes.str());
+}
+
 TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
   MapperConfig config;
   config.resolution = 0.2;

@@ -11,6 +11,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <iosfwd>
 #include <memory>
 #include <string>
 #include <vector>
@@ -116,6 +117,9 @@ class OccupancyMapper {
   std::unique_ptr<Impl> impl_;
   bool changed_ = false;
 };
+
+// Exactly the bytes of OcTree::writeBinaryConst (the .bt format), without OctoMap's debug output.
+void writeOctreeBinary(const octomap::OcTree& tree, std::ostream& out);
 
 // Sets prob_hit/miss, occupancy threshold and clamping on a tree the way MapperConfig describes.
 void applySensorModel(octomap::OcTree& tree, const MapperConfig& config);
