@@ -172,6 +172,7 @@ int main(int argc, char** argv) {
 
     perception::ObstacleTracker tracker(perception::TrackerParams::matching(params));
     std::vector<double> pcl_cpu, ours_cpu, sim_cpu, track_cpu;
+    std::size_t refreshed = 0, added = 0, created = 0;
     std::vector<double> sim_ms, pcl_ms, ours_ms, voxel_ms, cluster_ms, split_ms, fit_ms;
     size_t points = 0, voxels = 0, mismatches = 0, obstacles = 0, clusters = 0;
     for (int k = -2; k < scans; ++k) {
@@ -196,6 +197,11 @@ int main(int argc, char** argv) {
       cpu = threadCpuMs();
       tracker.update(found);
       const double c_track = threadCpuMs() - cpu;
+      if (k >= 0) {
+        refreshed += tracker.lastUpdate().refreshed_voxels;
+        added += tracker.lastUpdate().added_voxels;
+        created += tracker.lastUpdate().created;
+      }
 
       const auto& st = detector.stats();
       size_t pcl_clustered = 0;
@@ -233,8 +239,9 @@ int main(int argc, char** argv) {
                 summarize(voxel_ms).median, summarize(cluster_ms).median, summarize(split_ms).median,
                 summarize(fit_ms).median, clusters / scans, obstacles / scans);
     const Summary trk = summarize(track_cpu);
-    std::printf("         tracker.update (cpu ms): median %.2f, p90 %.2f; %zu tracks after the drive\n", trk.median, trk.p90,
-                tracker.obstacles().size());
+    std::printf("         tracker.update (cpu ms): median %.2f, p90 %.2f; per scan %zu voxels refreshed, %zu added to tracks,"
+                " %zu new tracks; %zu tracks after the drive\n",
+                trk.median, trk.p90, refreshed / scans, added / scans, created / scans, tracker.obstacles().size());
     out.push_back({{"lidar", model.name},
                    {"scans", scans},
                    {"points_per_scan", points / scans},
