@@ -47,7 +47,10 @@ std::uint64_t le(const std::vector<std::uint8_t>& b, std::size_t at, int n) {
 // Writes a recording with two schemas, three channels, `count` messages of varied size and two
 // metadata records; returns what was written.
 std::vector<Written> writeSample(const fs::path& path, Compression compression, std::size_t chunk_size, int count) {
-  McapWriter w(path.string(), {.compression = compression, .chunk_size = chunk_size});
+  McapWriterOptions options;
+  options.compression = compression;
+  options.chunk_size = chunk_size;
+  McapWriter w(path.string(), options);
   const auto s1 = w.addSchema("ddsnav::msg::Path", "omgidl", "module ddsnav { module msg { struct Path {}; }; };");
   const auto s2 = w.addSchema("ddsnav::msg::Clock", "omgidl", "struct Clock { int64 stamp_ns; };");
   std::vector<std::uint16_t> ch = {w.addChannel(s1, "planning/path", "cdr", {{"keyed", "false"}, {"qos", "state"}}),

@@ -112,6 +112,35 @@ TEST(Recorder, TinyQueueCountsDropsPerTopic) {
   }
 }
 
+TEST(Recorder, UnknownBestEffortTopicFallsBackToBestEffort) {
+  constexpr int kDomain = 187;
+  const fs::path file = tempFile("fallback.mcap");
+  bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "fb-pub"});
+  bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "fb-rec"});
+  auto pub = pub_side.publisher<msg::Clock>("test/best_effort", bus::Qos::sensorData());
+  record::RecorderOptions options;
+  options.output = file.string();
+  options.topics = {"test/best_effort"};
+  record::Recorder recorder(rec_side, options);
+  ASSERT_TRUE(pollUntilSubscribed(recorder, 1, std::chrono::seconds(10)));
+  EXPECT_EQ(recorder.counts()[0].qos_profile, "default");  // reliable first: matches nothing here
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (recorder.counts()[0].qos_profile != "default-best-effort" && std::chrono::steady_clock::now() < deadline) {
+    recorder.poll();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_EQ(recorder.counts()[0].qos_profile, "default-best-effort");
+  ASSERT_TRUE(pub.waitForSubscribers(1, std::chrono::seconds(10)));
+  // Best effort: publish until something arrives (bounded), rather than assume no loss.
+  for (int i = 1; i <= 200 && recorder.counts()[0].received < 3; ++i) {
+    msg::Clock c;
+    c.stamp_ns(i);
+    pub.publish(c);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_GE(recorder.counts()[0].received, 3u);
+}
+
 TEST(Recorder, KilledRecorderLeavesAReadableFile) {
   constexpr int kDomain = 186;
   const fs::path file = tempFile("killed.mcap");

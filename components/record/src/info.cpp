@@ -84,7 +84,10 @@ std::string formatRecordingInfo(const nlohmann::json& info) {
                      info["start_time_ns"].get<std::uint64_t>(), info["end_time_ns"].get<std::uint64_t>());
   const auto& c = info["chunks"];
   std::string comp;
-  for (const auto& x : c["compression"]) comp += (comp.empty() ? "" : ",") + x.get<std::string>();
+  for (const auto& x : c["compression"]) {
+    if (!comp.empty()) comp += ',';
+    comp += x.get<std::string>();
+  }
   out += fmt::format("chunks:      {} ({}), {:.1f} MB -> {:.1f} MB, ratio {:.2f}\n", c["count"].get<std::size_t>(),
                      comp.empty() ? "-" : comp, c["uncompressed_bytes"].get<double>() / 1e6,
                      c["compressed_bytes"].get<double>() / 1e6, c["ratio"].get<double>());

@@ -22,7 +22,7 @@ TopicQos qosForTopic(const std::string& topic) {
   // reader does not match a best-effort writer.
   static const std::map<std::string, std::string> table = {
       {"sensors/points", "sensorData"},        {"vehicle/state", "sensorData"},
-      {"system/clock", "sensorData"},          {"control/tracking_status", "sensorData"},
+      {"system/clock", "sensorData"},          {"control/tracking", "sensorData"},
       {"map/octomap", "state"},                {"perception/obstacles", "state"},
       {"planning/path", "state"},              {"control/trajectory", "state"},
       {"system/status", "state"},              {"planning/request", "commands"},
@@ -72,7 +72,35 @@ std::uint16_t Recorder::schemaFor(const std::string& type_name) {
   return id;
 }
 
+void Recorder::fallBackToBestEffort(Topic& topic) {
+  // A topic outside the table was subscribed reliable; a best-effort publisher never matches that. If
+  // nothing matched after a while, try best effort, which matches publishers of either kind.
+  topic.checked_match = true;
+  if (topic.subscription.matchedPublishers() > 0) return;
+  Topic* raw = &topic;
+  topic.subscription = bus::Subscription();
+  topic.qos = {bus::Qos::sensorData(10), "default-best-effort"};
+  topic.subscription = bus_.subscribeRaw(topic.info, topic.qos.qos, [this, raw](const bus::RawSample& s) { onSample(*raw, s); });
+  spdlog::info("record: {}: no reliable publisher matched in 2 s, subscribing best effort", topic.info.topic);
+}
+
 void Recorder::poll() {
+  {
+    std::lock_guard lock(writer_mutex_);
+    if (stopped_) return;
+  }
+  {
+    std::lock_guard lock(topics_mutex_);
+    for (auto& t : topics_)
+      if (!t->checked_match && t->qos.profile == "default" &&
+          std::chrono::steady_clock::now() - t->subscribed_at > std::chrono::seconds(2)) {
+        try {
+          fallBackToBestEffort(*t);
+        } catch (const std::exception& e) {
+          spdlog::warn("record: {}: {}", t->info.topic, e.what());
+        }
+      }
+  }
   for (const bus::TopicInfo& info : bus_.discoveredTopics()) {
     if (!wanted(info.topic)) continue;
     {
@@ -93,6 +121,7 @@ void Recorder::poll() {
     }
     Topic* raw = topic.get();
     try {
+      topic->subscribed_at = std::chrono::steady_clock::now();
       topic->subscription = bus_.subscribeRaw(info, topic->qos.qos, [this, raw](const bus::RawSample& s) { onSample(*raw, s); });
     } catch (const std::exception& e) {
       const std::string why = info.topic + " (" + info.type_name + "): " + e.what();
@@ -111,6 +140,7 @@ void Recorder::onSample(Topic& topic, const bus::RawSample& sample) {
   // Runs on a DDS thread: copy, enqueue, return. Never waits for the disk.
   topic.received.fetch_add(1, std::memory_order_relaxed);
   const std::size_t size = sample.payload.size();
+  bool was_empty = false;
   {
     std::lock_guard lock(queue_mutex_);
     if (stopping_ || queue_.size() >= options_.queue_messages ||
@@ -120,11 +150,13 @@ void Recorder::onSample(Topic& topic, const bus::RawSample& sample) {
     }
     // Log time is the receive time, kept non-decreasing so the file is in log-time order.
     last_log_time_ = std::max(last_log_time_, nowNs());
+    was_empty = queue_.empty();
     queue_.push_back(Item{&topic, last_log_time_, static_cast<std::uint64_t>(std::max<std::int64_t>(0, sample.source_timestamp_ns)),
                           std::vector<std::uint8_t>(sample.payload.begin(), sample.payload.end())});
     queued_bytes_ += size;
   }
-  queue_changed_.notify_one();
+  // The writer only sleeps on an empty queue: waking it once per batch saves a syscall per sample.
+  if (was_empty) queue_changed_.notify_one();
 }
 
 void Recorder::writerLoop() {

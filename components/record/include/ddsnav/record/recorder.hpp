@@ -83,6 +83,8 @@ class Recorder {
     std::uint16_t channel = 0;
     std::atomic<std::uint64_t> received{0}, written{0}, dropped{0};
     bus::Subscription subscription;
+    std::chrono::steady_clock::time_point subscribed_at;
+    bool checked_match = false;
   };
   struct Item {
     Topic* topic;
@@ -92,6 +94,7 @@ class Recorder {
   };
 
   void onSample(Topic& topic, const bus::RawSample& sample);
+  void fallBackToBestEffort(Topic& topic);
   void writerLoop();
   bool wanted(const std::string& topic) const;
   std::uint16_t schemaFor(const std::string& type_name);

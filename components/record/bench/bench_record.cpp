@@ -1,0 +1,320 @@
+// ddsnav-bench-record: what recording costs (docs/benchmarks/record.md).
+//
+// 1. Over DDS, two processes: a child publishes N messages (1 MB point clouds or ~100 B vehicle states) as
+//    fast as reliable delivery allows; this process takes them either with a raw subscription that
+//    discards them (the ceiling) or with the Recorder writing an MCAP file (zstd or none). Reported:
+//    msgs/s, MB/s, received vs. sent, queue drops, and recorder / discard ratios.
+// 2. On disk only: McapWriter throughput and file size for the same payloads, none vs. zstd levels.
+#include <ddsnav/msg/messages.hpp>
+#include <ddsnav/record/recorder.hpp>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <random>
+#include <thread>
+
+using namespace ddsnav;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// A lidar-like cloud: rings of points on a ground plane and walls, with centimetre noise, so compression
+// sees realistic float data rather than zeros or white noise.
+msg::PointCloud makeCloud(std::size_t points, int index, std::mt19937& rng) {
+  msg::PointCloud c;
+  c.header().stamp_ns(index);
+  c.header().frame_id("map");
+  std::normal_distribution<float> noise(0.f, 0.01f);
+  std::vector<float> xyz;
+  xyz.reserve(points * 3);
+  for (std::size_t i = 0; i < points; ++i) {
+    const float azimuth = static_cast<float>(i % 1800) * (2.f * static_cast<float>(M_PI) / 1800.f);
+    const float ring = static_cast<float>(i / 1800);
+    const float range = ring < 24 ? 2.f + ring * 0.8f : 20.f;  // ground rings, then a wall
+    xyz.push_back(range * std::cos(azimuth) + noise(rng));
+    xyz.push_back(range * std::sin(azimuth) + noise(rng));
+    xyz.push_back(ring < 24 ? noise(rng) : (ring - 24) * 0.1f + noise(rng));
+  }
+  c.xyz(std::move(xyz));
+  return c;
+}
+
+msg::VehicleState makeState(int index) {
+  msg::VehicleState s;
+  s.header().stamp_ns(index);
+  s.header().frame_id("map");
+  s.position().x(std::cos(index * 0.01));
+  s.position().y(std::sin(index * 0.01));
+  s.heading(index * 0.01);
+  s.velocity().x(1.0);
+  return s;
+}
+
+constexpr std::size_t kCloudPoints = 87'000;  // 12 B per point: ~1.04 MB
+
+int runPublisher(const std::string& dds, int domain, const std::string& kind, int count, double rate) {
+  bus::Participant p({.vendor = bus::parseVendor(dds), .domain_id = domain, .name = "bench-record-pub"});
+  std::mt19937 rng(1);
+  auto publishAll = [&](auto& pub, auto make) {
+    if (!pub.waitForSubscribers(1, std::chrono::seconds(20))) return 1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    // Paced (rate > 0): a stream the subscriber side should keep up with, so CPU per message compares
+    // like with like; rate 0 is a flood, where reliable KEEP_LAST overwrites what a slow reader missed.
+    const auto start = Clock::now();
+    for (int i = 0; i < count; ++i) {
+      if (rate > 0) std::this_thread::sleep_until(start + std::chrono::nanoseconds(static_cast<std::int64_t>(i * 1e9 / rate)));
+      pub.publish(make(i));
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(2));  // reliable resends before the writer goes
+    return 0;
+  };
+  // Reliable volatile, deep enough that the writer does not overwrite what the reader has not acked.
+  if (kind == "cloud") {
+    auto pub = p.publisher<msg::PointCloud>("bench/points", bus::Qos::commands(32));
+    // Build a few clouds up front: the publisher should measure the bus, not cloud generation.
+    std::vector<msg::PointCloud> clouds;
+    for (int i = 0; i < 4; ++i) clouds.push_back(makeCloud(kCloudPoints, i, rng));
+    return publishAll(pub, [&](int i) {
+      auto& c = clouds[i % clouds.size()];
+      c.header().stamp_ns(i);
+      return c;
+    });
+  }
+  auto pub = p.publisher<msg::VehicleState>("bench/small", bus::Qos::commands(1000));
+  return publishAll(pub, makeState);
+}
+
+struct Result {
+  std::string sink;
+  std::uint64_t sent = 0, received = 0, written = 0, dropped = 0, bytes = 0;
+  double seconds = 0;       // first to last sample received
+  double close_s = 0;       // recorder stop (drain + summary)
+  std::uint64_t file_bytes = 0;
+  double cpu_s = 0;         // CPU time of this (subscribing/recording) process during the run
+  double cpu_us_per_msg() const { return delivered() ? cpu_s * 1e6 / delivered() : 0; }
+  // Samples that reached the sink: received for discard, written to the file for the recorder.
+  std::uint64_t delivered() const { return sink == "discard" ? received : written; }
+  double msgs_per_s() const { return seconds > 0 && delivered() > 1 ? (delivered() - 1) / seconds : 0; }
+  double mb_per_s() const { return seconds > 0 ? bytes / 1e6 / seconds : 0; }
+};
+
+// Runs the publisher child against one sink: "discard", "record-none" or "record-zstd".
+double cpuSeconds() {
+  rusage u{};
+  ::getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + (u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-6;
+}
+
+Result runSink(const std::string& self, const std::string& dds, int domain, const std::string& kind, int count,
+               double rate, const std::string& sink, const fs::path& file) {
+  const double cpu0 = cpuSeconds();
+  bus::Participant p({.vendor = bus::parseVendor(dds), .domain_id = domain, .name = "bench-record-sub"});
+  const std::string topic = kind == "cloud" ? "bench/points" : "bench/small";
+  std::atomic<std::uint64_t> received{0}, bytes{0};
+  std::atomic<std::int64_t> first_ns{0}, last_ns{0};
+  auto stamp = [] { return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count(); };
+
+  const pid_t child = ::fork();
+  if (child == 0) {
+    const std::string c = std::to_string(count), d = std::to_string(domain), r = std::to_string(rate);
+    ::execl(self.c_str(), self.c_str(), "--role", "publish", "--dds", dds.c_str(), "--domain", d.c_str(), "--kind",
+            kind.c_str(), "--count", c.c_str(), "--rate", r.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  std::unique_ptr<record::Recorder> recorder;
+  bus::Subscription discard;
+  if (sink == "discard") {
+    const auto info = p.waitForTopic(topic, std::chrono::seconds(20));
+    if (!info) throw std::runtime_error("publisher not discovered");
+    discard = p.subscribeRaw(*info, record::qosForTopic(topic).qos, [&](const bus::RawSample& s) {
+      const auto now = stamp();
+      if (received.fetch_add(1) == 0) first_ns = now;
+      last_ns = now;
+      bytes += s.payload.size();
+    });
+  } else {
+    record::RecorderOptions o;
+    o.output = file.string();
+    o.topics = {topic};
+    o.mcap.compression = sink == "record-zstd" ? record::Compression::Zstd : record::Compression::None;
+    recorder = std::make_unique<record::Recorder>(p, o);
+  }
+  // Until the child is done (it lingers 2 s after its last write).
+  int status = 0;
+  std::uint64_t last_written = 0;
+  while (::waitpid(child, &status, WNOHANG) == 0) {
+    if (recorder) {
+      recorder->poll();
+      const auto c = recorder->counts();
+      if (!c.empty() && c[0].written != last_written) {
+        // The recorder's own view of time: when its writer thread wrote, sampled here every 5 ms.
+        if (last_written == 0) first_ns = stamp();
+        last_ns = stamp();
+        last_written = c[0].written;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  Result r;
+  r.sink = sink;
+  r.sent = count;
+  if (recorder) {
+    const auto t0 = Clock::now();
+    recorder->stop();
+    r.close_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    const auto c = recorder->counts().at(0);
+    r.received = c.received;
+    r.written = c.written;
+    r.dropped = c.dropped;
+    r.bytes = recorder->bytesWritten();
+    r.file_bytes = fs::file_size(file);
+  } else {
+    discard = bus::Subscription();
+    r.received = received;
+    r.bytes = bytes;
+  }
+  r.seconds = (last_ns - first_ns) * 1e-9;
+  r.cpu_s = cpuSeconds() - cpu0;
+  if (WIFEXITED(status) && WEXITSTATUS(status) != 0) spdlog::warn("publisher exited with {}", WEXITSTATUS(status));
+  return r;
+}
+
+struct DiskResult {
+  std::string compression;
+  double seconds = 0;
+  std::uint64_t input_bytes = 0, file_bytes = 0;
+};
+
+DiskResult diskOnly(const std::string& kind, int count, record::Compression compression, int level, const fs::path& file) {
+  std::mt19937 rng(1);
+  std::vector<std::vector<std::uint8_t>> payloads;
+  for (int i = 0; i < 4; ++i) {
+    std::vector<std::uint8_t> b;
+    if (kind == "cloud") {
+      const auto c = makeCloud(kCloudPoints, i, rng);
+      const auto& ts = msg::type_support<msg::PointCloud>();
+      b.resize(ts.serialized_size(&c));
+      b.resize(ts.serialize(&c, b.data(), b.size()));
+    } else {
+      const auto s = makeState(i);
+      const auto& ts = msg::type_support<msg::VehicleState>();
+      b.resize(ts.serialized_size(&s));
+      b.resize(ts.serialize(&s, b.data(), b.size()));
+    }
+    payloads.push_back(std::move(b));
+  }
+  DiskResult r;
+  r.compression = compression == record::Compression::Zstd ? "zstd-" + std::to_string(level) : "none";
+  const auto t0 = Clock::now();
+  {
+    record::McapWriterOptions options;
+    options.compression = compression;
+    options.zstd_level = level;
+    record::McapWriter w(file.string(), options);
+    const auto ch = w.addChannel(0, "bench", "cdr");
+    for (int i = 0; i < count; ++i) {
+      const auto& p = payloads[i % payloads.size()];
+      w.write(ch, i, i, p);
+      r.input_bytes += p.size();
+    }
+    w.close();
+  }
+  r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  r.file_bytes = fs::file_size(file);
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Recording throughput: recorder vs. a discarding raw subscription, and MCAP write cost."};
+  std::string role = "bench", dds = "fastdds", kind = "cloud";
+  int domain = 199, count = 0, repeats = 1;
+  double rate = -1;
+  std::string out_dir = fs::temp_directory_path().string();
+  bool json = false;
+  app.add_option("--role", role)->check(CLI::IsMember({"bench", "publish"}));
+  app.add_option("--dds", dds, "vendor of both processes");
+  app.add_option("--domain", domain)->check(CLI::Range(0, bus::kMaxDomainId));
+  app.add_option("--kind", kind, "cloud (1 MB) | small (~100 B)")->check(CLI::IsMember({"cloud", "small"}));
+  app.add_option("--count", count, "messages per run (default: 300 clouds, 50000 small)");
+  app.add_option("--rate", rate, "publisher msgs/s, 0 = flood (default: 100 clouds/s, 20000 small/s)");
+  app.add_option("--repeats", repeats, "runs per sink")->check(CLI::PositiveNumber);
+  app.add_option("--dir", out_dir, "where the recordings are written (and removed)");
+  app.add_flag("--json", json, "one JSON document instead of a table");
+  CLI11_PARSE(app, argc, argv);
+  if (count <= 0) count = kind == "cloud" ? 300 : 50000;
+  if (rate < 0) rate = kind == "cloud" ? 100 : 20000;
+  if (role == "publish") return runPublisher(dds, domain, kind, count, rate);
+
+  spdlog::set_level(spdlog::level::warn);
+  const std::string self = fs::canonical("/proc/self/exe").string();
+  const fs::path file = fs::path(out_dir) / ("ddsnav-bench-record-" + std::to_string(::getpid()) + ".mcap");
+  nlohmann::json report;
+  report["kind"] = kind;
+  report["dds"] = dds;
+  report["count"] = count;
+  report["rate"] = rate;
+  std::map<std::string, double> best_rate;
+  std::map<std::string, std::vector<double>> cpu_per_msg;
+  for (int rep = 0; rep < repeats; ++rep) {
+    for (const std::string sink : {"discard", "record-none", "record-zstd"}) {
+      const Result r = runSink(self, dds, domain, kind, count, rate, sink, file);
+      fs::remove(file);
+      report["dds_runs"].push_back({{"sink", r.sink}, {"sent", r.sent}, {"received", r.received}, {"written", r.written},
+                                    {"queue_dropped", r.dropped}, {"seconds", r.seconds}, {"msgs_per_s", r.msgs_per_s()},
+                                    {"mb_per_s", r.mb_per_s()}, {"close_s", r.close_s}, {"file_bytes", r.file_bytes},
+                                    {"cpu_s", r.cpu_s}, {"cpu_us_per_msg", r.cpu_us_per_msg()}});
+      cpu_per_msg[sink].push_back(r.cpu_us_per_msg());
+      best_rate[sink] = std::max(best_rate[sink], r.msgs_per_s());
+      if (!json)
+        std::printf("%-12s sent %6llu received %6llu written %6llu dropped %5llu  %8.1f msg/s %8.1f MB/s  cpu %7.1f us/msg  close %.3f s  file %.1f MB\n",
+                    r.sink.c_str(), static_cast<unsigned long long>(r.sent), static_cast<unsigned long long>(r.received),
+                    static_cast<unsigned long long>(r.written), static_cast<unsigned long long>(r.dropped), r.msgs_per_s(),
+                    r.mb_per_s(), r.cpu_us_per_msg(), r.close_s, r.file_bytes / 1e6);
+    }
+  }
+  for (const char* s : {"record-none", "record-zstd"}) {
+    const double ratio = best_rate["discard"] > 0 ? best_rate[s] / best_rate["discard"] : 0;
+    report["ratio_vs_discard"][s] = ratio;
+    if (!json) std::printf("%s / discard (best msg/s): %.3f\n", s, ratio);
+    // CPU per message, medians over the repeats: the recorder's cost, robust to a busy machine.
+    auto median = [](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      return v.empty() ? 0.0 : v[v.size() / 2];
+    };
+    const double base = median(cpu_per_msg["discard"]);
+    const double cpu_ratio = base > 0 ? median(cpu_per_msg[s]) / base : 0;
+    report["cpu_ratio_vs_discard"][s] = cpu_ratio;
+    if (!json) std::printf("%s / discard (median CPU per message): %.2f\n", s, cpu_ratio);
+  }
+  // Disk only: same payloads straight into McapWriter.
+  const int disk_count = kind == "cloud" ? 500 : 500000;
+  for (const auto& [compression, level] : std::vector<std::pair<record::Compression, int>>{
+           {record::Compression::None, 0}, {record::Compression::Zstd, 1}, {record::Compression::Zstd, 3}}) {
+    const DiskResult d = diskOnly(kind, disk_count, compression, level == 0 ? 1 : level, file);
+    fs::remove(file);
+    report["disk_runs"].push_back({{"compression", d.compression}, {"messages", disk_count}, {"seconds", d.seconds},
+                                   {"input_mb_per_s", d.input_bytes / 1e6 / d.seconds},
+                                   {"file_bytes", d.file_bytes}, {"input_bytes", d.input_bytes},
+                                   {"ratio", static_cast<double>(d.input_bytes) / d.file_bytes}});
+    if (!json)
+      std::printf("disk %-7s %7d msgs  %7.3f s  %8.1f MB/s in  file %8.1f MB  ratio %.2f\n", d.compression.c_str(), disk_count,
+                  d.seconds, d.input_bytes / 1e6 / d.seconds, d.file_bytes / 1e6,
+                  static_cast<double>(d.input_bytes) / d.file_bytes);
+  }
+  if (json) std::cout << report.dump(2) << '\n';
+  return 0;
+}
