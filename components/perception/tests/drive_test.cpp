@@ -7,6 +7,7 @@
 #include "ddsnav/sim/range_sensor.hpp"
 
 #include <ddsnav/planner/collision_world.hpp>
+#include <ddsnav/planner/planner.hpp>
 #include <ddsnav/planner/scenario.hpp>
 
 #include <gtest/gtest.h>
@@ -87,6 +88,7 @@ TEST(Drive, Demo2dEllipsesStayOnTheObstaclesAtEveryScan) {
 
   std::map<std::uint64_t, std::size_t> owner;  // track id -> obstacle it was first nearest to
   std::size_t step = 0, peak = 0;
+  int plans = 0;
   double worst_free = 0.0;  // largest distance from an obstacle of a point inside an ellipse
   if (const char* length = std::getenv("DRIVE_SEGMENT")) {
     params.max_segment_length = std::atof(length);
@@ -137,6 +139,24 @@ TEST(Drive, Demo2dEllipsesStayOnTheObstaclesAtEveryScan) {
       ASSERT_TRUE(planned->isFree(scenario.goal)) << "goal blocked" << where;
       ASSERT_TRUE(planned->isFree(pose.position)) << "vehicle blocked" << where;
     }
+    // (v) every 40 scans the demo's planner (GART) finds a path from the vehicle to the goal on
+    // exactly these ellipses ("goal is in collision" was the demo's failure).
+    if (step % 40 == 0 && !tracked.empty()) {
+      const auto planned = planner::makeEllipsoidWorld(2, scenario.bounds_min, scenario.bounds_max,
+                                                       scenario.robot_radius, asPlannerObstacles(tracked));
+      planner::PlanProblem problem;
+      problem.world = planned.get();
+      problem.start = {pose.position, pose.yaw};
+      problem.goal = scenario.goal;
+      problem.goal_radius = scenario.goal_radius;
+      problem.vehicle = scenario.vehicle;
+      problem.seed = step + 1;
+      problem.time_limit_s = 20.0;
+      problem.max_iterations = 200000;
+      const auto result = planner::makePlanner("gart")->solve(problem);
+      ASSERT_TRUE(result.solved) << "gart found no path" << where;
+      ++plans;
+    }
     // (iv) the count stays bounded by the obstacles' size, not by the drive's length.
     ASSERT_LE(static_cast<double>(tracked.size()), 2.0 * pieces) << where;
     ++step;
@@ -145,6 +165,7 @@ TEST(Drive, Demo2dEllipsesStayOnTheObstaclesAtEveryScan) {
   std::vector<int> per_obstacle(scenario.obstacles.size(), 0);
   for (const auto& [id, k] : owner) ++per_obstacle[k];
   for (std::size_t k = 0; k < per_obstacle.size(); ++k) EXPECT_GT(per_obstacle[k], 0) << "obstacle " << k << " unseen";
+  EXPECT_EQ(plans, 9);
   RecordProperty("tracks", static_cast<int>(tracker.obstacles().size()));
   RecordProperty("peak_tracks", static_cast<int>(peak));
   std::printf("drive: %zu scans, %zu tracks at the end, peak %zu (bound %.0f), farthest covered free point %.2f m\n",
