@@ -305,3 +305,53 @@ TEST(Detector, LongWallBecomesAChainOfBoundedPieces) {
 
 }  // namespace
 }  // namespace ddsnav::perception
+
+namespace ddsnav::perception {
+namespace {
+
+TEST(Pieces, SplitByExtentBoundsEveryPieceAndKeepsEveryPoint) {
+  // An L of two 5 m faces (0.1 m spacing): every piece fits the rule, no point is lost or doubled.
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i <= 50; ++i) points.emplace_back(0.1f * i, 0.0f, 0.0f);
+  for (int i = 1; i <= 50; ++i) points.emplace_back(0.0f, 0.1f * i, 0.0f);
+  const std::vector<int> all = [&] {
+    std::vector<int> v(points.size());
+    for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<int>(i);
+    return v;
+  }();
+  Clusters pieces;
+  splitByExtent(points, all, 2, 1.5, 0.4, pieces);
+  ASSERT_GE(pieces.size(), 8u);
+  std::vector<int> seen(points.size(), 0);
+  for (std::size_t k = 0; k < pieces.size(); ++k) {
+    const Eigen::Matrix3f axes = principalAxes(points, pieces[k], 2);
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e9f), hi = -lo;
+    for (int i : pieces[k]) {
+      ++seen[static_cast<std::size_t>(i)];
+      const Eigen::Vector3f q = axes.transpose() * points[static_cast<std::size_t>(i)];
+      lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+    }
+    EXPECT_FALSE(pieceTooBig(hi - lo, 2, 1.5f, 0.4f)) << "piece " << k << " extent " << (hi - lo).transpose();
+  }
+  for (int count : seen) EXPECT_EQ(count, 1);
+  Clusters whole;
+  splitByExtent(points, all, 2, 0.0, 0.0, whole);  // 0: never cut
+  EXPECT_EQ(whole.size(), 1u);
+}
+
+TEST(Pieces, OneCornerVoxelMakesAThinPieceThickerNotLonger) {
+  // A 1.4 m face plus one voxel of the adjoining face 0.3 m off its end: the per-axis enclosing
+  // grows the short axis to hold it; the long axis stays near the Gaussian value (0.88 x 1.4 m).
+  std::vector<SupportPoint> support;
+  for (int i = 0; i <= 14; ++i) support.push_back({Eigen::Vector3f(0, 0.1f * i, 0), Eigen::Vector3f(1, 0, 0)});
+  const EllipsoidFitParams params{0.99, 0.02, 0.1, true};
+  const ObstacleEllipsoid face = fitEllipsoid(support, 2, params);
+  support.push_back({Eigen::Vector3f(0.3f, 1.4f, 0), Eigen::Vector3f(1, 0, 0)});
+  const ObstacleEllipsoid corner = fitEllipsoid(support, 2, params);
+  for (const auto& s : support) EXPECT_TRUE(corner.contains(s.position.cast<double>()));
+  EXPECT_LT(corner.semi_axes.x(), 1.25 * face.semi_axes.x());  // uniform scaling made it ~3x
+  EXPECT_GT(corner.semi_axes.y(), 2.0 * face.semi_axes.y());
+}
+
+}  // namespace
+}  // namespace ddsnav::perception
