@@ -9,6 +9,9 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+
+#include <csignal>
 #include <filesystem>
 
 using namespace ddsnav;
@@ -139,6 +142,52 @@ TEST(Recorder, UnknownBestEffortTopicFallsBackToBestEffort) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   EXPECT_GE(recorder.counts()[0].received, 3u);
+}
+
+TEST(Recorder, FullDiskStopsWritingAndCountsTheRestAsDropped) {
+  // A file size limit stands in for a full disk: writes past it fail with EFBIG (SIGXFSZ ignored).
+  // Each test runs in its own process under ctest, so the limit touches nothing else.
+  constexpr int kDomain = 189;
+  const fs::path file = tempFile("full.mcap");
+  ::signal(SIGXFSZ, SIG_IGN);
+  rlimit old{};
+  ::getrlimit(RLIMIT_FSIZE, &old);
+  rlimit small = old;
+  small.rlim_cur = 64 * 1024;
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  {
+    // Cyclone: Fast DDS's shared-memory segments are files too, and would hit the limit.
+    bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "full-pub"});
+    bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "full-rec"});
+    auto pub = pub_side.publisher<msg::PointCloud>("sensors/points", bus::Qos::commands(50));
+    record::RecorderOptions options;
+    options.output = file.string();
+    options.topics = {"sensors/points"};
+    options.mcap.compression = record::Compression::None;
+    options.mcap.chunk_size = 8 * 1024;
+    record::Recorder recorder(rec_side, options);
+    ASSERT_TRUE(pollUntilSubscribed(recorder, 1, std::chrono::seconds(10)));
+    ASSERT_TRUE(pub.waitForSubscribers(1, std::chrono::seconds(10)));
+    msg::PointCloud cloud;
+    cloud.xyz().assign(3 * 400, 1.5f);  // ~4.8 KB: the limit is crossed after ~13 clouds
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
+    for (int i = 0; !recorder.failed() && std::chrono::steady_clock::now() < deadline; ++i) {
+      cloud.header().stamp_ns(i);
+      pub.publish(cloud);
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ASSERT_TRUE(recorder.failed());
+    EXPECT_NE(recorder.error().find(file.string()), std::string::npos) << recorder.error();
+    EXPECT_THROW(recorder.stop(), record::McapError);  // the summary cannot be written either
+    const auto c = recorder.counts().at(0);
+    EXPECT_GT(c.written, 0u);
+    EXPECT_EQ(c.written + c.dropped, c.received);
+  }
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &old), 0);
+  // What reached the disk reads back as a truncated recording.
+  record::McapReader r(file.string());
+  EXPECT_TRUE(r.truncated());
+  EXPECT_GT(r.summary().message_count, 0u);
 }
 
 TEST(Recorder, KilledRecorderLeavesAReadableFile) {

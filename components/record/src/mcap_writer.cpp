@@ -66,7 +66,7 @@ McapWriter::McapWriter(const std::string& path, McapWriterOptions options) : pat
   out.str(options_.profile);
   out.str(options_.library);
   writeRecord(kHeader, header);
-  std::fflush(file_);
+  flushFile();
 }
 
 McapWriter::~McapWriter() {
@@ -83,6 +83,12 @@ void McapWriter::writeBytes(const void* data, std::size_t size) {
   if (size > 0 && std::fwrite(data, 1, size, file_) != size)
     throw McapError(path_ + ": write failed at byte " + std::to_string(position_) + ": " + std::strerror(errno));
   position_ += size;
+}
+
+void McapWriter::flushFile() {
+  // Buffered bytes reach the OS here; a full disk shows up now, not at fwrite.
+  if (std::fflush(file_) != 0)
+    throw McapError(path_ + ": write failed at byte " + std::to_string(position_) + ": " + std::strerror(errno));
 }
 
 void McapWriter::writeRecord(std::uint8_t opcode, const std::vector<std::uint8_t>& content) {
@@ -122,7 +128,7 @@ std::uint16_t McapWriter::addSchema(const std::string& name, const std::string& 
   Schema s{static_cast<std::uint16_t>(schemas_.size() + 1), name, encoding, data};
   // Outside chunks, flushed at once: a truncated file still knows every schema and channel.
   writeRecord(kSchema, schemaContent(s));
-  std::fflush(file_);
+  flushFile();
   schemas_.push_back(std::move(s));
   return schemas_.back().id;
 }
@@ -133,7 +139,7 @@ std::uint16_t McapWriter::addChannel(std::uint16_t schema_id, const std::string&
   if (channels_.size() >= 0xFFFF) throw McapError(path_ + ": too many channels");
   Channel ch{static_cast<std::uint16_t>(channels_.size()), schema_id, topic, message_encoding, metadata};
   writeRecord(kChannel, channelContent(ch));
-  std::fflush(file_);
+  flushFile();
   channels_.push_back(std::move(ch));
   sequences_.push_back(0);
   return channels_.back().id;
@@ -217,7 +223,7 @@ void McapWriter::closeChunk() {
   chunk_records_.clear();
   chunk_index_.clear();
   // The chunk is complete in the OS's hands: a killed recorder keeps it.
-  std::fflush(file_);
+  flushFile();
 }
 
 void McapWriter::flushAged() {
@@ -226,7 +232,7 @@ void McapWriter::flushAged() {
 
 void McapWriter::flush() {
   closeChunk();
-  if (file_) std::fflush(file_);
+  if (file_) flushFile();
 }
 
 void McapWriter::addMetadata(const std::string& name, const StringMap& values) {
@@ -239,7 +245,7 @@ void McapWriter::addMetadata(const std::string& name, const StringMap& values) {
   writeRecord(kMetadata, content);
   metadata_offsets_.emplace_back(at, position_ - at);
   metadata_names_.push_back(name);
-  std::fflush(file_);
+  flushFile();
 }
 
 namespace {

@@ -109,6 +109,7 @@ int main(int argc, char** argv) {
       const auto now = std::chrono::steady_clock::now();
       if (duration > 0 && now - start >= std::chrono::duration<double>(duration)) break;
       if (recorder.reachedMaxMessages()) break;
+      if (recorder.failed()) break;
       if (now - last_line >= (tty ? std::chrono::milliseconds(500) : std::chrono::milliseconds(5000))) {
         progress(false);
         last_line = now;
@@ -119,6 +120,10 @@ int main(int argc, char** argv) {
     for (const auto& c : recorder.counts())
       spdlog::info("{}: received {} written {} dropped {}", c.topic, c.received, c.written, c.dropped);
     for (const auto& s : recorder.skipped()) spdlog::warn("not recorded: {}", s);
+    if (recorder.failed()) {
+      spdlog::error("recording stopped early: {}", recorder.error());
+      return 1;
+    }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

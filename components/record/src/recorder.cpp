@@ -171,8 +171,19 @@ void Recorder::writerLoop() {
     }
     std::lock_guard lock(writer_mutex_);
     for (Item& item : batch) {
+      if (!error_.empty()) {
+        // The file cannot take more (disk full, I/O error): count the rest as dropped.
+        item.topic->dropped.fetch_add(1, std::memory_order_relaxed);
+        continue;
+      }
       if (options_.write_delay.count() > 0) std::this_thread::sleep_for(options_.write_delay);
-      writer_.write(item.topic->channel, item.log_time, item.publish_time, item.payload);
+      try {
+        writer_.write(item.topic->channel, item.log_time, item.publish_time, item.payload);
+      } catch (const std::exception& e) {
+        setError(e.what());
+        item.topic->dropped.fetch_add(1, std::memory_order_relaxed);
+        continue;
+      }
       item.topic->written.fetch_add(1, std::memory_order_relaxed);
       bytes_written_.fetch_add(item.payload.size(), std::memory_order_relaxed);
       const std::uint64_t total = total_written_.fetch_add(1) + 1;
@@ -180,8 +191,27 @@ void Recorder::writerLoop() {
     }
     batch.clear();
     // Bounded loss on a crash: a chunk never stays open longer than chunk_age.
-    writer_.flushAged();
+    if (error_.empty()) {
+      try {
+        writer_.flushAged();
+      } catch (const std::exception& e) {
+        setError(e.what());
+      }
+    }
   }
+}
+
+void Recorder::setError(const std::string& what) {
+  // Called with writer_mutex_ held.
+  if (!error_.empty()) return;
+  error_ = what;
+  failed_.store(true);
+  spdlog::error("record: {}; no more messages are written", what);
+}
+
+std::string Recorder::error() const {
+  std::lock_guard lock(writer_mutex_);
+  return error_;
 }
 
 void Recorder::stop() {
@@ -210,7 +240,7 @@ void Recorder::stop() {
   }
   std::lock_guard lock(writer_mutex_);
   writer_.addMetadata("ddsnav.topic_counts", counts);
-  writer_.addMetadata("ddsnav.recording_end", {{"end_time_ns", std::to_string(nowNs())}});
+  writer_.addMetadata("ddsnav.recording_end", {{"end_time_ns", std::to_string(nowNs())}, {"error", error_}});
   writer_.close();
 }
 

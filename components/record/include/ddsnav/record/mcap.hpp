@@ -118,6 +118,7 @@ class McapWriter {
  private:
   void writeRecord(std::uint8_t opcode, const std::vector<std::uint8_t>& content);
   void writeBytes(const void* data, std::size_t size);
+  void flushFile();
   void closeChunk();
 
   std::string path_;

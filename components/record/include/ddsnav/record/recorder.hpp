@@ -73,6 +73,9 @@ class Recorder {
   std::vector<TopicCounts> counts() const;
   std::uint64_t bytesWritten() const { return bytes_written_.load(); }
   bool reachedMaxMessages() const { return max_reached_.load(); }
+  // True once writing failed (disk full, I/O error); error() says why. Later samples count as dropped.
+  bool failed() const { return failed_.load(); }
+  std::string error() const;
   // Topics the recorder could not subscribe to (type unknown to this build, type conflicts), with why.
   std::vector<std::string> skipped() const;
 
@@ -96,12 +99,15 @@ class Recorder {
   void onSample(Topic& topic, const bus::RawSample& sample);
   void fallBackToBestEffort(Topic& topic);
   void writerLoop();
+  void setError(const std::string& what);
   bool wanted(const std::string& topic) const;
   std::uint16_t schemaFor(const std::string& type_name);
 
   bus::Participant& bus_;
   RecorderOptions options_;
-  std::mutex writer_mutex_;  // the McapWriter: writer thread + channel creation
+  mutable std::mutex writer_mutex_;  // the McapWriter: writer thread + channel creation
+  std::string error_;                // first write failure
+  std::atomic<bool> failed_{false};
   McapWriter writer_;
   std::map<std::string, std::uint16_t> schemas_;
   std::deque<std::unique_ptr<Topic>> topics_;
