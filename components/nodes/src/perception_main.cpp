@@ -28,8 +28,11 @@ int main(int argc, char** argv) {
     detector_params.max_range = ctx.params().declare<double>("max_range", detector_params.max_range);
     detector_params.beam_spacing = ctx.params().declare<double>("beam_spacing_rad", 2.0 * M_PI / 720.0);
     detector_params.validate();
-    perception::TrackerParams tracker_params;
-    tracker_params.gate_probability = ctx.params().declare<double>("gate_probability", tracker_params.gate_probability);
+    detector_params.max_segment_length = ctx.params().declare<double>("max_segment_length", detector_params.max_segment_length,
+                                                                      "m, longest piece one ellipse may cover");
+    detector_params.validate();
+    // The tracker groups evidence by the same voxel size, tolerance and piece size as the detector.
+    const auto tracker_params = perception::TrackerParams::matching(detector_params);
     tracker_params.validate();
     const std::string world_frame = ctx.params().declare<std::string>("frame", nodes::kWorldFrame);
 

@@ -99,7 +99,6 @@ void TrackerParams::validate() const {
           "max_segment_width", "in (0, max_segment_length]");
   require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
   require(max_voxels_per_track >= 1, "max_voxels_per_track", ">= 1");
-  require(gate_probability > 0.0 && gate_probability < 1.0, "gate_probability", "in (0, 1)");
 }
 
 ObstacleTracker::ObstacleTracker(const TrackerParams& params) : params_(params) {

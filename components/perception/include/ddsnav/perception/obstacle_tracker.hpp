@@ -42,8 +42,6 @@ struct TrackerParams {
   double range_noise_sigma = 0.02;    // m; refit: sensor range noise
   bool enclose_points = true;         // refit: see EllipsoidFitParams::enclose_points
   std::size_t max_voxels_per_track = 100000;  // a further cap on one track's evidence
-  // Kept so existing configurations still parse; association no longer uses a Mahalanobis gate.
-  double gate_probability = 0.99;
 
   // The tracker parameters that match a detector's (voxel size, tolerance, segment length, noise).
   static TrackerParams matching(const DetectorParams& detector);
