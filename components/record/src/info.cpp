@@ -99,7 +99,8 @@ std::string formatRecordingInfo(const nlohmann::json& info) {
                        t["message_count"].get<std::uint64_t>(), t["rate_hz"].get<double>(), received, dropped);
   }
   if (!info["topic_counts_recorded"].get<bool>())
-    out += "(no per-topic received/dropped counts: the recorder did not close the file)\n";
+    out += info["truncated"].get<bool>() ? "(no per-topic received/dropped counts: the recorder did not close the file)\n"
+                                         : "(no per-topic received/dropped counts in this file)\n";
   return out;
 }
 
