@@ -168,15 +168,15 @@ void writeChartSvg(const std::string& path, const std::vector<RunRecord>& runs, 
   const double lo = std::log10(0.1), hi = std::log10(std::max(1.0, time_limit_s * 1e3));
   const int bar = 14, gap = 26, left = 70, top = 40, plot_h = 300, legend_w = 190;
   const int group_w = static_cast<int>(planners.size()) * bar + gap;
-  const int width = left + static_cast<int>(scenarios.size()) * group_w + legend_w;
+  const int width = std::max(720, left + static_cast<int>(scenarios.size()) * group_w + legend_w);
   const int height = top + plot_h + 120;
   static const char* palette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
                                   "#7f7f7f", "#bcbd22", "#17becf", "#393b79", "#637939", "#8c6d31", "#843c39"};
   std::ostringstream svg;
   svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\"" << height
       << "\" font-family=\"sans-serif\" font-size=\"11\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-      << "<text x=\"" << left << "\" y=\"22\" font-size=\"14\">Median time to first solution (ms, log scale); "
-      << "hatched top = not every seed solved, label = success %</text>\n";
+      << "<text x=\"" << left << "\" y=\"22\" font-size=\"13\">Median time to first solution (ms, log scale); "
+      << "pale bar = not every seed solved; label = % solved</text>\n";
   auto y_of = [&](double ms) {
     const double t = (std::log10(std::max(ms, 0.1)) - lo) / (hi - lo);
     return top + plot_h - std::clamp(t, 0.0, 1.0) * plot_h;
