@@ -1,6 +1,10 @@
 // ddsnav-bench-perception: stock PCL pipeline vs ddsnav's perception on the same simulated
 // city-block lidar scans, in one run. Also times the simulator's ray casting.
 //
+// The component runs detect + track per cloud, so that sum is also compared with PCL, and the
+// tracker is timed against the straightforward reference tracker (the one before the
+// optimisation, reference/reference_tracker.cpp) on the same detections, checking they agree.
+//
 // Then drives the demo_2d scenario (2-D scanner, the demo's noise) through detector + tracker and
 // times both per scan; --svg draws the final tracked ellipses over the world.
 //
@@ -9,6 +13,7 @@
 #include "ddsnav/perception/obstacle_detector.hpp"
 #include "ddsnav/perception/obstacle_tracker.hpp"
 #include "ddsnav/perception/pcl_reference.hpp"
+#include "ddsnav/perception/reference_tracker.hpp"
 #include "ddsnav/sim/city_block.hpp"
 #include "ddsnav/sim/range_sensor.hpp"
 
@@ -171,7 +176,9 @@ int main(int argc, char** argv) {
     perception::PclReferencePipeline reference(params);
 
     perception::ObstacleTracker tracker(perception::TrackerParams::matching(params));
-    std::vector<double> pcl_cpu, ours_cpu, sim_cpu, track_cpu;
+    perception::reference::ReferenceObstacleTracker reference_tracker(perception::TrackerParams::matching(params));
+    std::vector<double> pcl_cpu, ours_cpu, sim_cpu, track_cpu, ref_track_cpu, total_cpu, total_ms;
+    std::size_t track_mismatches = 0;
     std::size_t refreshed = 0, added = 0, created = 0;
     std::vector<double> sim_ms, pcl_ms, ours_ms, voxel_ms, cluster_ms, split_ms, fit_ms;
     size_t points = 0, voxels = 0, mismatches = 0, obstacles = 0, clusters = 0;
@@ -194,9 +201,23 @@ int main(int argc, char** argv) {
       cpu = threadCpuMs();
       const auto found = detector.detect(cloud.points, cloud.origin, 3);
       const double t_ours = msSince(start), c_ours = threadCpuMs() - cpu;
+      start = Clock::now();
       cpu = threadCpuMs();
       tracker.update(found);
-      const double c_track = threadCpuMs() - cpu;
+      const double c_track = threadCpuMs() - cpu, t_track = msSince(start);
+      cpu = threadCpuMs();
+      reference_tracker.update(found);
+      const double c_ref_track = threadCpuMs() - cpu;
+      {
+        // The optimised tracker must keep the reference's tracks (ids, voxel counts, centres).
+        const auto& a = tracker.obstacles();
+        const auto& b = reference_tracker.obstacles();
+        bool same_tracks = a.size() == b.size();
+        for (std::size_t i = 0; same_tracks && i < a.size(); ++i)
+          same_tracks = a[i].id == b[i].id && a[i].support.size() == b[i].support.size() &&
+                        (a[i].center - b[i].center).cwiseAbs().maxCoeff() <= 1e-9;
+        if (k >= 0) track_mismatches += !same_tracks;
+      }
       if (k >= 0) {
         refreshed += tracker.lastUpdate().refreshed_voxels;
         added += tracker.lastUpdate().added_voxels;
@@ -215,6 +236,9 @@ int main(int argc, char** argv) {
       pcl_cpu.push_back(c_pcl);
       ours_cpu.push_back(c_ours);
       track_cpu.push_back(c_track);
+      ref_track_cpu.push_back(c_ref_track);
+      total_cpu.push_back(c_ours + c_track);
+      total_ms.push_back(t_ours + t_track);
       sim_cpu.push_back(c_sim);
       ours_ms.push_back(t_ours);
       voxel_ms.push_back(st.ms_filter + st.ms_voxel);
@@ -242,6 +266,14 @@ int main(int argc, char** argv) {
     std::printf("         tracker.update (cpu ms): median %.2f, p90 %.2f; per scan %zu voxels refreshed, %zu added to tracks,"
                 " %zu new tracks; %zu tracks after the drive\n",
                 trk.median, trk.p90, refreshed / scans, added / scans, created / scans, tracker.obstacles().size());
+    const Summary ref_trk = summarize(ref_track_cpu), tot_c = summarize(total_cpu), tot = summarize(total_ms);
+    std::printf("         reference tracker (before optimisation, cpu ms): median %.2f, p90 %.2f -> %.1fx faster;"
+                " same tracks %zu/%d\n",
+                ref_trk.median, ref_trk.p90, ref_trk.median / trk.median, scans - track_mismatches, scans);
+    std::printf("         DETECT+TRACK vs PCL: cpu median %.2f p90 %.2f ratio %.3f p90/med %.2f;"
+                " wall median %.2f p90 %.2f ratio %.3f p90/med %.2f\n",
+                tot_c.median, tot_c.p90, tot_c.median / pcl_c.median, tot_c.p90 / tot_c.median, tot.median, tot.p90,
+                tot.median / pcl.median, tot.p90 / tot.median);
     out.push_back({{"lidar", model.name},
                    {"scans", scans},
                    {"points_per_scan", points / scans},
@@ -258,8 +290,16 @@ int main(int argc, char** argv) {
                    {"sim_raycast_cpu_ms", {{"median", sim_c.median}, {"p90", sim_c.p90}}},
                    {"same_clusters_scans", scans - mismatches},
                    {"tracker_cpu_ms", {{"median", trk.median}, {"p90", trk.p90}}},
+                   {"reference_tracker_cpu_ms", {{"median", ref_trk.median}, {"p90", ref_trk.p90}}},
+                   {"same_tracks_scans", scans - track_mismatches},
+                   {"detect_track_cpu_ms", {{"median", tot_c.median}, {"p90", tot_c.p90}}},
+                   {"detect_track_ms", {{"median", tot.median}, {"p90", tot.p90}}},
+                   {"ratio_detect_track_cpu_median", tot_c.median / pcl_c.median},
+                   {"ratio_detect_track_median", tot.median / pcl.median},
                    {"tracks", tracker.obstacles().size()}});
     if (mismatches) spdlog::error("{}: {} of {} scans differ from the PCL pipeline", model.name, mismatches, scans);
+    if (track_mismatches)
+      spdlog::error("{}: {} of {} scans: tracks differ from the reference tracker", model.name, track_mismatches, scans);
   }
   out.push_back(demoDrive(scenario_path, svg_path));
   if (!json_path.empty()) {

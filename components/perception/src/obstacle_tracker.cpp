@@ -8,27 +8,76 @@
 #include <limits>
 #include <string>
 #include <stdexcept>
-#include <unordered_map>
-#include <unordered_set>
 #include <utility>
 
 namespace ddsnav::perception {
 namespace {
 
 // A cell of a grid, tagged with the dimension of the tracks that live in it (2-D and 3-D tracks
-// never share evidence).
+// never share evidence). dims is 2 or 3 for every stored key; 0 marks an empty slot of CellMap.
 struct CellKey {
   std::int32_t x, y, z, dims;
   bool operator==(const CellKey&) const = default;
 };
 
-struct CellHash {
-  std::size_t operator()(const CellKey& k) const {
-    std::uint64_t h = static_cast<std::uint32_t>(k.x) * 0x9E3779B97F4A7C15ull;
-    h ^= static_cast<std::uint32_t>(k.y) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
-    h ^= static_cast<std::uint32_t>(k.z) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
-    return static_cast<std::size_t>(h ^ static_cast<std::uint64_t>(k.dims));
+std::uint64_t hashOf(const CellKey& k) {
+  std::uint64_t h = static_cast<std::uint32_t>(k.x) * 0x9E3779B97F4A7C15ull;
+  h ^= static_cast<std::uint32_t>(k.y) * 0xC2B2AE3D27D4EB4Full;
+  h ^= static_cast<std::uint32_t>(k.z) * 0x165667B19E3779F9ull;
+  h ^= static_cast<std::uint64_t>(k.dims) << 61;
+  h ^= h >> 31;  // mix the high bits down: the slot index takes the low ones
+  h *= 0xD6E8FEB86659FD93ull;
+  return h ^ (h >> 32);
+}
+
+// A flat open-addressing (linear probing) map from cells to small values: one contiguous array,
+// no node per entry, no erase (the tracker never forgets evidence). std::unordered_map's node
+// lookups were most of the 3-D tracker's time.
+template <typename Value>
+class CellMap {
+ public:
+  Value* find(const CellKey& key) {
+    if (size_ == 0) return nullptr;
+    for (std::size_t i = hashOf(key) & mask_;; i = (i + 1) & mask_) {
+      Slot& slot = slots_[i];
+      if (slot.key.dims == 0) return nullptr;
+      if (slot.key == key) return &slot.value;
+    }
   }
+  bool contains(const CellKey& key) { return find(key) != nullptr; }
+  // The value stored for key, inserting `value` when key is new (never overwrites, like emplace).
+  Value& emplace(const CellKey& key, const Value& value) {
+    if (2 * (size_ + 1) > slots_.size()) grow();
+    for (std::size_t i = hashOf(key) & mask_;; i = (i + 1) & mask_) {
+      Slot& slot = slots_[i];
+      if (slot.key == key) return slot.value;
+      if (slot.key.dims == 0) {
+        slot.key = key;
+        slot.value = value;
+        ++size_;
+        return slot.value;
+      }
+    }
+  }
+
+ private:
+  struct Slot {
+    CellKey key{0, 0, 0, 0};
+    Value value{};
+  };
+  void grow() {
+    std::vector<Slot> old(std::max<std::size_t>(1024, 2 * slots_.size()));
+    old.swap(slots_);
+    mask_ = slots_.size() - 1;
+    for (const Slot& slot : old) {
+      if (slot.key.dims == 0) continue;
+      std::size_t i = hashOf(slot.key) & mask_;
+      while (slots_[i].key.dims != 0) i = (i + 1) & mask_;
+      slots_[i] = slot;
+    }
+  }
+  std::vector<Slot> slots_;
+  std::size_t size_ = 0, mask_ = 0;
 };
 
 // Cell of p on a grid of edge `size`; false when p is too far out for 32-bit cell indices.
@@ -39,6 +88,8 @@ bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
   return true;
 }
 
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
 }  // namespace
 
 struct ObstacleTracker::Evidence {
@@ -46,6 +97,7 @@ struct ObstacleTracker::Evidence {
     Eigen::Vector3f mean;     // running mean of the voxel centroids seen in this cell
     Eigen::Vector3f bearing;  // beam direction of the latest sighting (range-noise term)
     std::uint32_t hits;
+    std::uint32_t node;       // its entry in `nodes`
   };
   struct Track {
     int dims = 2;
@@ -55,18 +107,26 @@ struct ObstacleTracker::Evidence {
     Eigen::Vector3f lo = Eigen::Vector3f::Zero(), hi = Eigen::Vector3f::Zero();  // its voxels' box in that frame
     bool changed = false;
   };
-  struct VoxelRef {
+  // Every track voxel once more, compactly, for the lookups: its current mean (kept equal to the
+  // Voxel's), which track and voxel it is, and the next node in the same association cell.
+  struct Node {
+    Eigen::Vector3f mean;
     std::uint32_t track, voxel;
+    std::uint32_t next_nearby;  // kNone ends the association cell's list
   };
 
   std::vector<Track> tracks;
-  std::unordered_map<CellKey, VoxelRef, CellHash> owner;                 // voxel cell -> its track voxel
-  std::unordered_map<CellKey, std::vector<VoxelRef>, CellHash> nearby;   // association cell -> voxels in it
-  std::unordered_set<CellKey, CellHash> coarse;  // kCoarseCell cells holding any track voxel
-  static constexpr double kCoarseCell = 1.0;     // m
+  std::vector<Node> nodes;
+  CellMap<std::uint32_t> owner;   // voxel cell -> node of the track voxel there
+  CellMap<std::uint32_t> nearby;  // association cell -> first node of the voxels in it (a list)
+  CellMap<bool> coarse;           // kCoarseCell cells holding any track voxel
+  static constexpr double kCoarseCell = 1.0;  // m
   EuclideanClusterer clusterer;
-  // Scratch buffers of one update.
+  // Scratch buffers of one update, kept across scans.
   std::vector<SupportPoint> pending;
+  std::vector<Eigen::Vector3f> positions;
+  std::vector<std::pair<float, std::uint32_t>> order;
+  std::vector<char> assigned;
   std::vector<std::pair<float, std::uint32_t>> candidates;
   std::vector<Eigen::Vector3f> leftover_points;
   std::vector<SupportPoint> leftovers;
@@ -119,7 +179,8 @@ const std::vector<ObstacleEllipsoid>& ObstacleTracker::update(std::span<const Ob
     auto& track = ev.tracks[t];
     if (!track.changed) continue;
     track.changed = false;
-    std::vector<SupportPoint> support;
+    std::vector<SupportPoint> support = std::move(tracks_[t].support);  // reuse its capacity
+    support.clear();
     support.reserve(track.voxels.size());
     for (const auto& v : track.voxels) support.push_back({v.mean, v.bearing});
     const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxel_size,
@@ -150,12 +211,12 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     return;
   }
   // Walk the detection along its length, so a track grows voxel by voxel from the end it touches.
-  std::vector<Eigen::Vector3f> positions;
-  positions.reserve(ev.pending.size());
+  auto& positions = ev.positions;
+  positions.clear();
   for (const auto& s : ev.pending) positions.push_back(s.position);
   const Eigen::Vector3f axis = principalAxes(positions, {}, dims).col(0);
-  std::vector<std::pair<float, std::uint32_t>> order;
-  order.reserve(ev.pending.size());
+  auto& order = ev.order;
+  order.clear();
   for (std::uint32_t i = 0; i < ev.pending.size(); ++i) order.emplace_back(axis.dot(positions[i]), i);
   std::sort(order.begin(), order.end());
 
@@ -174,23 +235,32 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     previous_track = t;
     auto& track = ev.tracks[t];
     const auto index = static_cast<std::uint32_t>(track.voxels.size());
-    track.voxels.push_back({s.position, s.bearing, 1});
+    const auto node = static_cast<std::uint32_t>(ev.nodes.size());
+    track.voxels.push_back({s.position, s.bearing, 1, node});
     track.changed = true;
-    ev.owner.emplace(key, Evidence::VoxelRef{t, index});
+    ev.nodes.push_back({s.position, t, index, kNone});
+    ev.owner.emplace(key, node);
     CellKey near_key;
-    if (cellOf(s.position, tol, dims, near_key)) ev.nearby[near_key].push_back({t, index});
-    if (cellOf(s.position, Evidence::kCoarseCell, dims, near_key)) ev.coarse.insert(near_key);
+    if (cellOf(s.position, tol, dims, near_key)) {
+      // Prepend to the cell's list (the candidate order does not matter: candidates are sorted).
+      std::uint32_t& head = ev.nearby.emplace(near_key, kNone);
+      ev.nodes[node].next_nearby = head;
+      head = node;
+    }
+    if (cellOf(s.position, Evidence::kCoarseCell, dims, near_key)) ev.coarse.emplace(near_key, true);
   };
   // A voxel in a cell a track owns refreshes it (the centroid averages the noise out over scans).
   auto refresh = [&](const SupportPoint& s, const CellKey& key) {
-    const auto it = ev.owner.find(key);
-    if (it == ev.owner.end()) return false;
-    previous_track = it->second.track;
-    auto& track = ev.tracks[it->second.track];
-    auto& v = track.voxels[it->second.voxel];
+    const std::uint32_t* owned = ev.owner.find(key);
+    if (owned == nullptr) return false;
+    Evidence::Node& node = ev.nodes[*owned];
+    previous_track = node.track;
+    auto& track = ev.tracks[node.track];
+    auto& v = track.voxels[node.voxel];
     v.hits = std::min<std::uint32_t>(v.hits + 1, 1000);
     v.mean += (s.position - v.mean) / static_cast<float>(v.hits);
     v.bearing = s.bearing;
+    node.mean = v.mean;
     const Eigen::Vector3f q = track.frame.transpose() * v.mean;  // stays within its cell
     track.lo = track.lo.cwiseMin(q);
     track.hi = track.hi.cwiseMax(q);
@@ -227,12 +297,12 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       for (int step : {-1, 1}) {
         CellKey adjacent = key;
         (axis == 0 ? adjacent.x : axis == 1 ? adjacent.y : adjacent.z) += step;
-        const auto it = ev.owner.find(adjacent);
-        if (it == ev.owner.end()) continue;
-        const auto& v = ev.tracks[it->second.track].voxels[it->second.voxel];
+        const std::uint32_t* owned = ev.owner.find(adjacent);
+        if (owned == nullptr) continue;
+        const Evidence::Node& v = ev.nodes[*owned];
         if ((v.mean - s.position).squaredNorm() >= tol2) continue;
-        if (accepts(it->second.track, s)) {
-          addVoxel(it->second.track, s, key);
+        if (accepts(v.track, s)) {
+          addVoxel(v.track, s, key);
           return true;
         }
       }
@@ -243,10 +313,11 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = (dims == 3 ? -1 : 0); dz <= (dims == 3 ? 1 : 0); ++dz) {
-          const auto it = ev.nearby.find({c.x + dx, c.y + dy, c.z + dz, dims});
-          if (it == ev.nearby.end()) continue;
-          for (const auto& ref : it->second) {
-            const float d2 = (ev.tracks[ref.track].voxels[ref.voxel].mean - s.position).squaredNorm();
+          const std::uint32_t* head = ev.nearby.find({c.x + dx, c.y + dy, c.z + dz, dims});
+          if (head == nullptr) continue;
+          for (std::uint32_t n = *head; n != kNone; n = ev.nodes[n].next_nearby) {
+            const Evidence::Node& ref = ev.nodes[n];
+            const float d2 = (ref.mean - s.position).squaredNorm();
             if (d2 >= tol2) continue;
             auto found = std::find_if(ev.candidates.begin(), ev.candidates.end(),
                                       [&](const auto& cand) { return cand.second == ref.track; });
@@ -282,21 +353,22 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       near_any_track = true;  // too far out for cell indices: take the careful path
     }
   }
-  std::vector<bool> assigned(ev.pending.size(), false);
+  auto& assigned = ev.assigned;
+  assigned.assign(ev.pending.size(), 0);
   auto pass = [&](auto first, auto last) {
     for (auto it = first; it != last; ++it) {
       const std::uint32_t i = it->second;
       if (assigned[i]) continue;
       CellKey key;
       if (!cellOf(ev.pending[i].position, params_.voxel_size, dims, key)) {
-        assigned[i] = true;  // too far out to store; dropped
+        assigned[i] = 1;  // too far out to store; dropped
         continue;
       }
       if (refresh(ev.pending[i], key)) {
-        assigned[i] = true;
+        assigned[i] = 1;
         ++refreshed;
       } else if (extend(ev.pending[i], key)) {
-        assigned[i] = true;
+        assigned[i] = 1;
         ++added;
       } else {
         continue;

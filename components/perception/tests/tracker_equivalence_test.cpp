@@ -1,0 +1,147 @@
+// The optimised ObstacleTracker (flat hash maps, node lists, reused buffers) must produce exactly
+// the tracks of the straightforward reference::ReferenceObstacleTracker (the tracker before the
+// optimisation, kept verbatim in reference/reference_tracker.cpp) on recorded scan sequences:
+// same ids, same voxel sets in the same order, same ellipsoids, same per-update statistics.
+
+#include "ddsnav/perception/obstacle_detector.hpp"
+#include "ddsnav/perception/obstacle_tracker.hpp"
+#include "ddsnav/perception/reference_tracker.hpp"
+#include "ddsnav/sim/city_block.hpp"
+#include "ddsnav/sim/range_sensor.hpp"
+
+#include <ddsnav/planner/scenario.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <vector>
+
+namespace ddsnav::perception {
+namespace {
+
+void expectSameTracks(const std::vector<ObstacleEllipsoid>& fast, const std::vector<ObstacleEllipsoid>& ref,
+                      int scan) {
+  ASSERT_EQ(fast.size(), ref.size()) << "scan " << scan;
+  for (std::size_t i = 0; i < fast.size(); ++i) {
+    const auto& a = fast[i];
+    const auto& b = ref[i];
+    ASSERT_EQ(a.id, b.id) << "scan " << scan << " track " << i;
+    ASSERT_EQ(a.dimensions, b.dimensions) << "scan " << scan << " id " << a.id;
+    ASSERT_EQ(a.point_count, b.point_count) << "scan " << scan << " id " << a.id;
+    ASSERT_EQ(a.support.size(), b.support.size()) << "scan " << scan << " id " << a.id;
+    for (std::size_t k = 0; k < a.support.size(); ++k) {
+      // Bit-identical voxel centroids and bearings: the same evidence, in the same order.
+      ASSERT_EQ(a.support[k].position, b.support[k].position) << "scan " << scan << " id " << a.id << " voxel " << k;
+      ASSERT_EQ(a.support[k].bearing, b.support[k].bearing) << "scan " << scan << " id " << a.id << " voxel " << k;
+    }
+    ASSERT_LE((a.center - b.center).cwiseAbs().maxCoeff(), 1e-9) << "scan " << scan << " id " << a.id;
+    ASSERT_LE((a.semi_axes - b.semi_axes).cwiseAbs().maxCoeff(), 1e-9) << "scan " << scan << " id " << a.id;
+    ASSERT_LE((a.covariance - b.covariance).cwiseAbs().maxCoeff(), 1e-9) << "scan " << scan << " id " << a.id;
+    ASSERT_LE((a.axes - b.axes).cwiseAbs().maxCoeff(), 1e-9) << "scan " << scan << " id " << a.id;
+  }
+}
+
+void expectSameStats(const TrackerUpdateStats& a, const TrackerUpdateStats& b, int scan) {
+  EXPECT_EQ(a.fused, b.fused) << "scan " << scan;
+  EXPECT_EQ(a.created, b.created) << "scan " << scan;
+  EXPECT_EQ(a.refreshed_voxels, b.refreshed_voxels) << "scan " << scan;
+  EXPECT_EQ(a.added_voxels, b.added_voxels) << "scan " << scan;
+  EXPECT_EQ(a.ignored, b.ignored) << "scan " << scan;
+}
+
+// A city-block lidar drive (as ddsnav-bench-perception drives it, shorter): 3-D tracks that grow,
+// refresh and compete for voxels over thousands of cells per scan.
+TEST(TrackerEquivalence, CityLidarDriveGivesExactlyTheReferenceTracks) {
+  const planner::Scenario world = sim::makeCityBlock(1);
+  auto config = sim::RangeSensorConfig::lidar3d(16, 1800, -15.0, 15.0, 60.0);
+  config.range_noise_sigma = 0.02;
+  config.invalid_fraction = 0.005;
+  config.seed = 3;
+  sim::RangeSensor sensor(world, config);
+  DetectorParams params;
+  params.beam_spacing = 2.0 * std::numbers::pi / 1800;
+  ObstacleDetector detector(params);
+  ObstacleTracker fast(TrackerParams::matching(params));
+  reference::ReferenceObstacleTracker ref(TrackerParams::matching(params));
+  const int scans = 8;
+  std::size_t total_refreshed = 0, total_added = 0;
+  for (int k = 0; k < scans; ++k) {
+    // 0.5 m apart (overlapping views: refreshes and extensions) and weaving.
+    const sim::SensorPose pose{{-20.0 + 0.5 * k, 0.8 * std::sin(0.3 * k), 1.8}, 0.15 * std::sin(0.2 * k)};
+    const auto cloud = sensor.scan(pose, k * 0.1);
+    const auto detections = detector.detect(cloud.points, cloud.origin, 3);
+    ASSERT_FALSE(detections.empty());
+    const auto& a = fast.update(detections);
+    const auto& b = ref.update(detections);
+    expectSameTracks(a, b, k);
+    expectSameStats(fast.lastUpdate(), ref.lastUpdate(), k);
+    total_refreshed += fast.lastUpdate().refreshed_voxels;
+    total_added += fast.lastUpdate().added_voxels;
+  }
+  // The sequence exercised every path: new tracks, refreshed cells and extended tracks.
+  EXPECT_GT(fast.obstacles().size(), 100u);
+  EXPECT_GT(total_refreshed, 1000u);
+  EXPECT_GT(total_added, 100u);
+}
+
+// The 2-D demo drive (720-beam scanner, 1 % NaN/inf): the 2-D association order (face neighbours
+// before the previous voxel) and the dims tag of the keys.
+TEST(TrackerEquivalence, Demo2dDriveGivesExactlyTheReferenceTracks) {
+  const planner::Scenario scenario =
+      planner::loadScenario(std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml");
+  auto config = sim::RangeSensorConfig::scanner2d(720, 30.0);
+  config.walls = false;
+  config.range_noise_sigma = 0.02;
+  config.invalid_fraction = 0.01;
+  sim::RangeSensor sensor(scenario, config);
+  DetectorParams params;
+  params.beam_spacing = 2.0 * std::numbers::pi / 720;
+  ObstacleDetector detector(params);
+  ObstacleTracker fast(TrackerParams::matching(params));
+  reference::ReferenceObstacleTracker ref(TrackerParams::matching(params));
+  const Eigen::Vector3d a(3, 3, 0), b(8, 30, 0);
+  const int scans = 120;
+  for (int k = 0; k < scans; ++k) {
+    const Eigen::Vector3d p = a + (b - a) * (double(k) / scans);
+    const auto cloud = sensor.scan({p, std::atan2((b - a).y(), (b - a).x())});
+    const auto detections = detector.detect(cloud.points, cloud.origin);
+    expectSameTracks(fast.update(detections), ref.update(detections), k);
+    expectSameStats(fast.lastUpdate(), ref.lastUpdate(), k);
+  }
+  EXPECT_GT(fast.obstacles().size(), 10u);
+}
+
+// Mixed 2-D and 3-D detections in one tracker, bad detections, and an empty update.
+TEST(TrackerEquivalence, MixedDimensionsAndBadDetections) {
+  auto detection = [](Eigen::Vector3f a, Eigen::Vector3f b, int dims) {
+    std::vector<SupportPoint> support;
+    for (int i = 0; i <= 20; ++i) {
+      const Eigen::Vector3f p = a + (b - a) * (i / 20.0f);
+      support.push_back({p, p.normalized()});
+    }
+    ObstacleEllipsoid e = fitEllipsoid(support, dims, EllipsoidFitParams{0.99, 0.02, 0.1, true});
+    e.support = std::move(support);
+    return e;
+  };
+  ObstacleEllipsoid bad = detection({1, 1, 0}, {2, 1, 0}, 3);
+  bad.support[3].position.x() = std::numeric_limits<float>::quiet_NaN();
+  ObstacleEllipsoid no_support;
+  ObstacleEllipsoid huge = detection({1e12f, 0, 0}, {1e12f, 1, 0}, 3);
+  ObstacleTracker fast;
+  reference::ReferenceObstacleTracker ref;
+  const std::vector<std::vector<ObstacleEllipsoid>> sequence = {
+      {detection({5, 0, 0}, {5, 2.5, 0}, 2), detection({5, 0, 1}, {5, 2.5, 1}, 3), bad, no_support},
+      {},
+      {detection({5.05, -0.3, 0}, {5.05, 3.0, 0}, 2), detection({5.05, -0.3, 1}, {5.05, 3.0, 1.2}, 3), huge},
+  };
+  for (std::size_t k = 0; k < sequence.size(); ++k) {
+    expectSameTracks(fast.update(sequence[k]), ref.update(sequence[k]), static_cast<int>(k));
+    expectSameStats(fast.lastUpdate(), ref.lastUpdate(), static_cast<int>(k));
+  }
+  EXPECT_GE(fast.obstacles().size(), 4u);
+}
+
+}  // namespace
+}  // namespace ddsnav::perception
