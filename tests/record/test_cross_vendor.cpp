@@ -198,6 +198,7 @@ INSTANTIATE_TEST_SUITE_P(Vendors, CrossVendor,
 }  // namespace
 
 // Removes this process's temporary files when the tests end.
+namespace {
 class TempCleanup : public ::testing::Environment {
  public:
   void TearDown() override {
@@ -205,4 +206,5 @@ class TempCleanup : public ::testing::Environment {
     fs::remove_all(fs::temp_directory_path() / ("ddsnav_record_xv_" + std::to_string(::getpid())), ec);
   }
 };
-[[maybe_unused]] static ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+[[maybe_unused]] ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+}  // namespace

@@ -355,6 +355,7 @@ TEST(McapInfo, ReportsTopicsCountsDropsAndCompression) {
 }  // namespace
 
 // Removes this process's temporary files when the tests end.
+namespace {
 class TempCleanup : public ::testing::Environment {
  public:
   void TearDown() override {
@@ -362,4 +363,5 @@ class TempCleanup : public ::testing::Environment {
     fs::remove_all(fs::temp_directory_path() / ("ddsnav_mcap_test_" + std::to_string(::getpid())), ec);
   }
 };
-[[maybe_unused]] static ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+[[maybe_unused]] ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+}  // namespace

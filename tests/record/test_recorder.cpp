@@ -238,6 +238,7 @@ TEST(Recorder, KilledRecorderLeavesAReadableFile) {
 }  // namespace
 
 // Removes this process's temporary files when the tests end.
+namespace {
 class TempCleanup : public ::testing::Environment {
  public:
   void TearDown() override {
@@ -245,4 +246,5 @@ class TempCleanup : public ::testing::Environment {
     fs::remove_all(fs::temp_directory_path() / ("ddsnav_record_test_" + std::to_string(::getpid())), ec);
   }
 };
-[[maybe_unused]] static ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+[[maybe_unused]] ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+}  // namespace
