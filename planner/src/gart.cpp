@@ -111,11 +111,17 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
       const double radius = rewireRadius(gamma, tree.size(), world.dimensions(), edge_reach);
       tree.withinRadius(p, radius, near);
 
+      // v_near's edge is known free, so it is always a valid parent: only cheaper neighbours (in the
+      // order (cost, id) the sort below uses) can win, and only they need the R+ test.
       parent_order.clear();
-      parent_order.emplace_back(tree.node(v_near).cost + (p - tree.node(v_near).state.position).norm(), v_near);
+      const std::pair<double, int> through_v_near{
+          tree.node(v_near).cost + (p - tree.node(v_near).state.position).norm(), v_near};
+      parent_order.push_back(through_v_near);
       for (int u : near) {
-        if (u == v_near || !inForwardRegion(tree.node(u).state, p, region, 1e-9)) continue;
-        parent_order.emplace_back(tree.node(u).cost + (p - tree.node(u).state.position).norm(), u);
+        if (u == v_near) continue;
+        const std::pair<double, int> through_u{tree.node(u).cost + (p - tree.node(u).state.position).norm(), u};
+        if (!(through_u < through_v_near) || !inForwardRegion(tree.node(u).state, p, region, 1e-9)) continue;
+        parent_order.push_back(through_u);
       }
       std::sort(parent_order.begin(), parent_order.end());
       int parent = -1;

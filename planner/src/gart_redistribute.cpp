@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
+#include <numbers>
 
 namespace ddsnav::planner {
 
@@ -45,14 +45,58 @@ std::vector<NearbyObstacle> distinctObstacles(const Vec3& p, const CollisionWorl
 
 bool sameState(const Vec3& a, const Vec3& b) { return (a - b).norm() < 1e-9; }
 
+// wrapAngle for the difference of two angles: within (-2 pi, 2 pi) one shift by 2 pi gives exactly what
+// std::remainder gives (the subtraction is exact there), at a fraction of its cost; else wrapAngle.
+double wrapSmallAngle(double a) {
+  constexpr double kPi = std::numbers::pi;
+  if (!(std::abs(a) < 2.0 * kPi)) return wrapAngle(a);
+  if (a > kPi) return a - 2.0 * kPi;
+  if (a <= -kPi) return a + 2.0 * kPi;
+  return a;
+}
+
+// Event 1's reach search along one direction: the longest of the edge lengths J, 3J/4, J/2, J/4 (as
+// fractions of J, only those above `at_least`) whose edge from `parent` is free; 0 when none is.
+// The edges along one direction are prefixes of each other, so when the longest is blocked the shortest
+// is checked next: blocked means every longer one is too, which saves the checks in between (a node
+// pinned against a wall costs two checks per direction instead of four). The answer is the one the
+// plain longest-first scan gives. The direction's sine and cosine are computed once; positions are
+// built exactly as driveUnicycle builds them.
+double longestFreeFraction(const State& parent, double turn, double climb, double at_least,
+                           const CollisionWorld& world, const ForwardRegion& region) {
+  static constexpr double kFractions[] = {1.0, 0.75, 0.5, 0.25};
+  turn = std::clamp(turn, -region.max_turn, region.max_turn);
+  const double heading = wrapAngle(parent.heading + turn);
+  const double c = std::cos(heading), s = std::sin(heading);
+  auto endAt = [&](double fraction) {
+    const double length = std::clamp(fraction * region.reach, 0.0, region.reach);
+    const double z = region.dimensions == 3 ? std::clamp(climb * fraction, -region.max_climb, region.max_climb) : 0.0;
+    return Vec3(parent.position + Vec3(length * c, length * s, z));
+  };
+  auto isFreeAt = [&](double fraction) { return world.isSegmentFree(parent.position, endAt(fraction)); };
+  int count = 0;  // fractions above at_least: kFractions[0 .. count-1], longest first
+  while (count < 4 && kFractions[count] > at_least) ++count;
+  if (count == 0) return 0.0;
+  if (isFreeAt(kFractions[0])) return kFractions[0];
+  if (count == 1 || !isFreeAt(kFractions[count - 1])) return 0.0;
+  for (int i = 1; i + 1 < count; ++i) {
+    if (isFreeAt(kFractions[i])) return kFractions[i];
+  }
+  return kFractions[count - 1];
+}
+
 }  // namespace
 
 double gartControlEffort(const State& from, const Vec3& target, const ForwardRegion& region,
                          double turn_weight) {
-  const double turn = std::abs(turnTowards(from, target));
-  if (turn > region.max_turn) return std::numeric_limits<double>::infinity();
+  // Called for each of the k nearest nodes on every iteration, so it computes turnTowards(from, target)
+  // by hand: one hypot shared with the distance, and the angle wrap without std::remainder (same values).
   const Vec3 d = target - from.position;
-  const double distance = region.dimensions == 3 ? d.norm() : std::hypot(d.x(), d.y());
+  const double horizontal = std::hypot(d.x(), d.y());
+  const double edge_heading = horizontal <= kNoDirectionLength ? from.heading : std::atan2(d.y(), d.x());
+  const double turn = std::abs(wrapSmallAngle(edge_heading - from.heading));
+  if (turn > region.max_turn) return std::numeric_limits<double>::infinity();
+  const double distance = region.dimensions == 3 ? d.norm() : horizontal;
   const double normalised_turn = region.max_turn > 0.0 ? turn / region.max_turn : 0.0;
   return turn_weight * normalised_turn + distance / region.reach;
 }
@@ -104,24 +148,22 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
     const int steps = std::max(1, options.event1_turn_steps);
     for (int side : {-1, +1}) {
       const double limit = side * region.max_turn;
-      std::optional<State> found;
+      double found_turn = 0.0;
       double found_fraction = 0.0;
       for (int k = 1; k <= steps && found_fraction < 1.0; ++k) {
         const double turn = blocked_turn + (limit - blocked_turn) * k / steps;
-        for (double fraction : {1.0, 0.75, 0.5, 0.25}) {
-          if (fraction <= found_fraction) break;
-          const State s = driveUnicycle(parent, turn, fraction * region.reach, climb * fraction, region);
-          if (world.isSegmentFree(parent.position, s.position)) {
-            found = s;
-            found_fraction = fraction;
-            break;
-          }
+        const double fraction = longestFreeFraction(parent, turn, climb, found_fraction, world, region);
+        if (fraction > found_fraction) {
+          found_turn = turn;
+          found_fraction = fraction;
         }
       }
-      if (!found) continue;
-      if (!raw.empty() && sameState(raw.front().state.position, found->position)) continue;
+      if (found_fraction <= 0.0) continue;
+      const State found =
+          driveUnicycle(parent, found_turn, found_fraction * region.reach, climb * found_fraction, region);
+      if (!raw.empty() && sameState(raw.front().state.position, found.position)) continue;
       GartCandidate c;
-      c.state = *found;
+      c.state = found;
       c.from_collision = true;
       raw.push_back(c);
     }
