@@ -27,15 +27,7 @@ using planner::Scenario;
 
 PlanProblem makeProblem(const Scenario& scenario, const CollisionWorld& world, std::uint64_t seed, double time_limit_s,
                         bool kinodynamic, bool anytime) {
-  PlanProblem problem;
-  problem.world = &world;
-  problem.start.position = scenario.start;
-  // As `ddsnav plan`: without a heading in the scenario the vehicle starts facing the goal.
-  const planner::Vec3 to_goal = scenario.goal - scenario.start;
-  problem.start.heading = scenario.start_heading.value_or(std::atan2(to_goal.y(), to_goal.x()));
-  problem.goal = scenario.goal;
-  problem.goal_radius = scenario.goal_radius;
-  problem.vehicle = scenario.vehicle;
+  PlanProblem problem = planner::problemFromScenario(scenario, world);
   problem.kinodynamic = kinodynamic;
   problem.seed = seed;
   problem.time_limit_s = time_limit_s;

@@ -80,15 +80,7 @@ int main(int argc, char** argv) {
     const Scenario scenario = loadScenario(scenario_file);
     const auto world = makeScenarioWorld(scenario);
 
-    PlanProblem problem;
-    problem.world = world.get();
-    problem.start.position = scenario.start;
-    // Without a heading in the scenario the vehicle starts facing the goal.
-    const ddsnav::planner::Vec3 to_goal = scenario.goal - scenario.start;
-    problem.start.heading = scenario.start_heading.value_or(std::atan2(to_goal.y(), to_goal.x()));
-    problem.goal = scenario.goal;
-    problem.goal_radius = scenario.goal_radius;
-    problem.vehicle = scenario.vehicle;
+    PlanProblem problem = problemFromScenario(scenario, *world);
     problem.kinodynamic = kinodynamic;
     problem.seed = seed;
     problem.time_limit_s = time_limit;

@@ -20,13 +20,7 @@ Scenario shipped(const std::string& name) {
 }
 
 PlanProblem problemFor(const Scenario& s, const CollisionWorld& world, std::uint64_t seed) {
-  PlanProblem p;
-  p.world = &world;
-  p.start.position = s.start;
-  p.start.heading = s.start_heading.value_or(std::atan2(s.goal.y() - s.start.y(), s.goal.x() - s.start.x()));
-  p.goal = s.goal;
-  p.goal_radius = s.goal_radius;
-  p.vehicle = s.vehicle;
+  PlanProblem p = problemFromScenario(s, world);
   p.seed = seed;
   p.time_limit_s = 20.0;
   p.max_iterations = 2'000'000;

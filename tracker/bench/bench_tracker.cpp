@@ -52,13 +52,7 @@ double median(std::vector<double> v) {
 
 planner::PlanResult plan(const planner::Scenario& sc, const planner::CollisionWorld& world, const Options& opt,
                          const std::string& name, bool anytime) {
-  planner::PlanProblem p;
-  p.world = &world;
-  p.start.position = sc.start;
-  p.start.heading = sc.start_heading.value_or(0.0);
-  p.goal = sc.goal;
-  p.goal_radius = sc.goal_radius;
-  p.vehicle = sc.vehicle;
+  planner::PlanProblem p = planner::problemFromScenario(sc, world);
   p.seed = opt.seed;
   p.time_limit_s = opt.plan_time;
   p.max_iterations = opt.plan_iterations;

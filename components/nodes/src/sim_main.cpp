@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
     if (ctx.params().declare<bool>("noise", true)) vehicle_config.noise = tracker::VehicleNoise::nominal(static_cast<std::uint64_t>(ctx.params().declare<std::int64_t>("seed", 1)));
     tracker::VehicleState initial;
     initial.position = scenario.start;
-    initial.heading = scenario.start_heading.value_or(0.0);
+    initial.heading = planner::startHeading(scenario);  // the planner assumes the same
     tracker::UnicycleVehicle vehicle(vehicle_config, initial);
 
     auto clouds = ctx.bus().publisher<msg::PointCloud>("sensors/points", bus::Qos::sensorData());

@@ -67,6 +67,10 @@ struct PlanResult {
   std::vector<TreeEdge> tree;  // the final tree, for --svg
 };
 
+// The problem a scenario poses in `world`: its start (with startHeading), goal, goal radius and vehicle.
+// Seed, limits and modes keep their defaults.
+PlanProblem problemFromScenario(const Scenario& scenario, const CollisionWorld& world);
+
 class Planner {
  public:
   virtual ~Planner() = default;

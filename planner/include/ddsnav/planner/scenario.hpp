@@ -59,6 +59,9 @@ class ScenarioError : public std::runtime_error {
 };
 
 Scenario loadScenario(const std::string& path);
+
+// The heading the vehicle starts with: the scenario's, else facing the goal.
+double startHeading(const Scenario& scenario);
 Scenario parseScenario(const std::string& yaml_text, const std::string& source_name = "<string>");
 
 }  // namespace ddsnav::planner
