@@ -4,6 +4,7 @@
 #include "ddsnav/perception/obstacle_detector.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -80,6 +81,81 @@ class CellMap {
   std::size_t size_ = 0, mask_ = 0;
 };
 
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+// A sparse grid of cells -> uint32 (kNone = no entry), stored as dense blocks of 4 x 4 x 4 cells
+// found through a CellMap of block keys. A voxel's neighbour cells (6 faces, the 27 association
+// cells) mostly lie in the block just used, so most lookups hit a cached block instead of probing a
+// hash table of a million entries (cache misses on those probes were most of the tracker's time).
+class CellGrid {
+ public:
+  const std::uint32_t* find(const CellKey& cell) {
+    const std::uint32_t block = blockOf(cell, false);
+    if (block == kNone) return nullptr;
+    const std::uint32_t* value = &blocks_[block][slotOf(cell)];
+    return *value == kNone ? nullptr : value;
+  }
+  // The values of the 3 x 3 x 3 cells around c (3 x 3 in 2-D) in the order dx, dy, dz from -1 to
+  // 1 (kNone where absent); returns how many. At most 8 block lookups instead of 27 cell lookups.
+  int neighbourhood(const CellKey& c, std::array<std::uint32_t, 27>& out) {
+    const int dz_lo = c.dims == 3 ? -1 : 0, dz_hi = c.dims == 3 ? 1 : 0;
+    const std::int32_t bx0 = (c.x - 1) >> 2, by0 = (c.y - 1) >> 2, bz0 = (c.z + dz_lo) >> 2;
+    std::array<const Block*, 8> near{};
+    std::array<bool, 8> looked{};
+    int n = 0;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = dz_lo; dz <= dz_hi; ++dz) {
+          const CellKey cell{c.x + dx, c.y + dy, c.z + dz, c.dims};
+          const int b = ((cell.x >> 2) - bx0) | (((cell.y >> 2) - by0) << 1) | (((cell.z >> 2) - bz0) << 2);
+          if (!looked[b]) {
+            looked[b] = true;
+            const std::uint32_t index = blockOf(cell, false);
+            near[b] = index == kNone ? nullptr : &blocks_[index];
+          }
+          out[n++] = near[b] == nullptr ? kNone : (*near[b])[slotOf(cell)];
+        }
+    return n;
+  }
+  // The value stored for cell; `value` is stored first when the cell has none (never overwrites).
+  std::uint32_t& emplace(const CellKey& cell, std::uint32_t value) {
+    std::uint32_t& stored = blocks_[blockOf(cell, true)][slotOf(cell)];
+    if (stored == kNone) stored = value;
+    return stored;
+  }
+
+ private:
+  using Block = std::array<std::uint32_t, 64>;
+  static std::size_t slotOf(const CellKey& c) {
+    return static_cast<std::size_t>((c.x & 3) | ((c.y & 3) << 2) | ((c.z & 3) << 4));
+  }
+  std::uint32_t blockOf(const CellKey& c, bool create) {
+    const CellKey key{c.x >> 2, c.y >> 2, c.z >> 2, c.dims};  // arithmetic shift: floor(c / 4)
+    // The 2 x 2 x 2 blocks around a neighbourhood never share a cache entry.
+    Cached& cached = cache_[(key.x & 1) | ((key.y & 1) << 1) | ((key.z & 1) << 2)];
+    // Absent blocks are cached too (most lookups around new territory miss); creating a block
+    // replaces the entry of its key.
+    if (cached.valid && key == cached.key && (cached.index != kNone || !create)) return cached.index;
+    std::uint32_t index = kNone;
+    if (create) {
+      index = index_.emplace(key, static_cast<std::uint32_t>(blocks_.size()));
+      if (index == blocks_.size()) blocks_.emplace_back().fill(kNone);
+    } else if (const std::uint32_t* found = index_.find(key)) {
+      index = *found;
+    }
+    cached = {key, index, true};
+    return index;
+  }
+  CellMap<std::uint32_t> index_;  // block key -> index in blocks_
+  std::vector<Block> blocks_;
+  struct Cached {
+    CellKey key{0, 0, 0, 0};
+    std::uint32_t index = kNone;  // kNone: the block does not exist
+    bool valid = false;
+  };
+  std::array<Cached, 8> cache_{};  // the blocks used last
+};
+
 // Cell of p on a grid of edge `size`; false when p is too far out for 32-bit cell indices.
 bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
   const Eigen::Vector3d c = (p.cast<double>() / size).array().floor();
@@ -87,8 +163,6 @@ bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
   key = {static_cast<std::int32_t>(c.x()), static_cast<std::int32_t>(c.y()), static_cast<std::int32_t>(c.z()), dims};
   return true;
 }
-
-constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
 }  // namespace
 
@@ -117,9 +191,9 @@ struct ObstacleTracker::Evidence {
 
   std::vector<Track> tracks;
   std::vector<Node> nodes;
-  CellMap<std::uint32_t> owner;   // voxel cell -> node of the track voxel there
-  CellMap<std::uint32_t> nearby;  // association cell -> first node of the voxels in it (a list)
-  CellMap<bool> coarse;           // kCoarseCell cells holding any track voxel
+  CellGrid owner;          // voxel cell -> node of the track voxel there
+  CellGrid nearby;         // association cell -> first node of the voxels in it (a list)
+  CellMap<bool> coarse;    // kCoarseCell cells holding any track voxel
   static constexpr double kCoarseCell = 1.0;  // m
   EuclideanClusterer clusterer;
   // Scratch buffers of one update, kept across scans.
@@ -127,6 +201,7 @@ struct ObstacleTracker::Evidence {
   std::vector<Eigen::Vector3f> positions;
   std::vector<std::pair<float, std::uint32_t>> order;
   std::vector<char> assigned;
+  std::vector<std::uint64_t> failed_at;  // events count when the first pass could not place a voxel
   std::vector<std::pair<float, std::uint32_t>> candidates;
   std::vector<Eigen::Vector3f> leftover_points;
   std::vector<SupportPoint> leftovers;
@@ -231,7 +306,12 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   std::uint32_t previous_track = 0;
   Eigen::Vector3f previous_position = Eigen::Vector3f::Zero();
   bool has_previous = false;
+  // Refreshes and additions so far: a voxel the first pass could not place, with no event since,
+  // would fail the second pass the same way (same evidence, and no previous voxel yet), so it is
+  // skipped there.
+  std::uint64_t events = 0;
   auto addVoxel = [&](std::uint32_t t, const SupportPoint& s, const CellKey& key) {
+    ++events;
     previous_track = t;
     auto& track = ev.tracks[t];
     const auto index = static_cast<std::uint32_t>(track.voxels.size());
@@ -243,9 +323,11 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     CellKey near_key;
     if (cellOf(s.position, tol, dims, near_key)) {
       // Prepend to the cell's list (the candidate order does not matter: candidates are sorted).
-      std::uint32_t& head = ev.nearby.emplace(near_key, kNone);
-      ev.nodes[node].next_nearby = head;
-      head = node;
+      std::uint32_t& head = ev.nearby.emplace(near_key, node);
+      if (head != node) {
+        ev.nodes[node].next_nearby = head;
+        head = node;
+      }
     }
     if (cellOf(s.position, Evidence::kCoarseCell, dims, near_key)) ev.coarse.emplace(near_key, true);
   };
@@ -253,6 +335,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   auto refresh = [&](const SupportPoint& s, const CellKey& key) {
     const std::uint32_t* owned = ev.owner.find(key);
     if (owned == nullptr) return false;
+    ++events;
     Evidence::Node& node = ev.nodes[*owned];
     previous_track = node.track;
     auto& track = ev.tracks[node.track];
@@ -310,24 +393,21 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     CellKey c;
     if (!cellOf(s.position, tol, dims, c)) return false;
     ev.candidates.clear();
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = (dims == 3 ? -1 : 0); dz <= (dims == 3 ? 1 : 0); ++dz) {
-          const std::uint32_t* head = ev.nearby.find({c.x + dx, c.y + dy, c.z + dz, dims});
-          if (head == nullptr) continue;
-          for (std::uint32_t n = *head; n != kNone; n = ev.nodes[n].next_nearby) {
-            const Evidence::Node& ref = ev.nodes[n];
-            const float d2 = (ref.mean - s.position).squaredNorm();
-            if (d2 >= tol2) continue;
-            auto found = std::find_if(ev.candidates.begin(), ev.candidates.end(),
-                                      [&](const auto& cand) { return cand.second == ref.track; });
-            if (found == ev.candidates.end()) {
-              ev.candidates.emplace_back(d2, ref.track);
-            } else {
-              found->first = std::min(found->first, d2);
-            }
-          }
+    std::array<std::uint32_t, 27> heads;
+    const int cells = ev.nearby.neighbourhood(c, heads);
+    for (int k = 0; k < cells; ++k)
+      for (std::uint32_t n = heads[k]; n != kNone; n = ev.nodes[n].next_nearby) {
+        const Evidence::Node& ref = ev.nodes[n];
+        const float d2 = (ref.mean - s.position).squaredNorm();
+        if (d2 >= tol2) continue;
+        auto found = std::find_if(ev.candidates.begin(), ev.candidates.end(),
+                                  [&](const auto& cand) { return cand.second == ref.track; });
+        if (found == ev.candidates.end()) {
+          ev.candidates.emplace_back(d2, ref.track);
+        } else {
+          found->first = std::min(found->first, d2);
         }
+      }
     std::sort(ev.candidates.begin(), ev.candidates.end());
     for (const auto& [d2, t] : ev.candidates) {
       if (!accepts(t, s)) continue;
@@ -355,10 +435,12 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   }
   auto& assigned = ev.assigned;
   assigned.assign(ev.pending.size(), 0);
-  auto pass = [&](auto first, auto last) {
+  auto& failed_at = ev.failed_at;
+  failed_at.resize(ev.pending.size());
+  auto pass = [&](auto first, auto last, bool second) {
     for (auto it = first; it != last; ++it) {
       const std::uint32_t i = it->second;
-      if (assigned[i]) continue;
+      if (assigned[i] || (second && failed_at[i] == events)) continue;
       CellKey key;
       if (!cellOf(ev.pending[i].position, params_.voxel_size, dims, key)) {
         assigned[i] = 1;  // too far out to store; dropped
@@ -371,6 +453,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
         assigned[i] = 1;
         ++added;
       } else {
+        failed_at[i] = events;
         continue;
       }
       has_previous = true;  // previous_track was set by refresh / addVoxel
@@ -379,8 +462,8 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     has_previous = false;
   };
   if (near_any_track) {
-    pass(order.begin(), order.end());
-    pass(order.rbegin(), order.rend());
+    pass(order.begin(), order.end(), false);
+    pass(order.rbegin(), order.rend(), true);
   }
 
   // What no track could take: connected groups, cut to the segment length, each a new track.
