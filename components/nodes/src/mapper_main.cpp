@@ -45,6 +45,10 @@ int main(int argc, char** argv) {
         spdlog::warn("sensors/points: skipping a cloud in frame '{}' (expected '{}')", cloud.header().frame_id(), world_frame);
         return;
       }
+      if (cloud.xyz().size() % 3 != 0) {
+        spdlog::warn("sensors/points: skipping a cloud whose xyz has {} values (not a multiple of 3)", cloud.xyz().size());
+        return;
+      }
       auto scan = nodes::toScan(cloud, max_range);
       std::lock_guard lock(mutex);
       if (!map) {
