@@ -130,7 +130,8 @@ ObstacleEllipsoid fitCore(std::size_t n, PointAt point, BearingAt bearing, int d
     // noise plus half a voxel diagonal), so the true surface point behind it is enclosed too.
     const double q = chiSquareQuantile(params.probability, dimensions);
     const double margin = 3.0 * params.range_noise_sigma + 0.5 * params.voxel_size * std::sqrt(double(dimensions));
-    std::vector<Eigen::Vector3d> offsets(n);
+    thread_local std::vector<Eigen::Vector3d> offsets;  // kept between fits: no allocation per fit
+    offsets.resize(n);
     for (std::size_t k = 0; k < n; ++k) {
       Eigen::Vector3d d = point(k) - center;
       if (dimensions == 2) d.z() = 0.0;

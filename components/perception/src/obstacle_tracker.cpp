@@ -157,11 +157,18 @@ class CellGrid {
 };
 
 // Cell of p on a grid of edge `size`; false when p is too far out for 32-bit cell indices.
-bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
-  const Eigen::Vector3d c = (p.cast<double>() / size).array().floor();
-  if (!(c.cwiseAbs().maxCoeff() < 1e9)) return false;
-  key = {static_cast<std::int32_t>(c.x()), static_cast<std::int32_t>(c.y()), static_cast<std::int32_t>(c.z()), dims};
+// |floor(q)| < 1e9 exactly when -1e9 + 1 <= q < 1e9 (false for NaN); in that range floor is the
+// truncation, one lower for negative non-integers (no libm call: this runs several times per voxel).
+bool cellIndex(double q, std::int32_t& index) {
+  if (!(q >= -999999999.0 && q < 1e9)) return false;
+  const auto t = static_cast<std::int32_t>(q);
+  index = static_cast<double>(t) > q ? t - 1 : t;
   return true;
+}
+bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
+  key.dims = dims;
+  return cellIndex(static_cast<double>(p.x()) / size, key.x) && cellIndex(static_cast<double>(p.y()) / size, key.y) &&
+         cellIndex(static_cast<double>(p.z()) / size, key.z);
 }
 
 }  // namespace
