@@ -126,16 +126,25 @@ class CellGrid {
 
  private:
   using Block = std::array<std::uint32_t, 64>;
+  struct Cached {
+    CellKey key{0, 0, 0, 0};
+    std::uint32_t index = kNone;  // kNone: the block does not exist
+    bool valid = false;
+  };
   static std::size_t slotOf(const CellKey& c) {
     return static_cast<std::size_t>((c.x & 3) | ((c.y & 3) << 2) | ((c.z & 3) << 4));
   }
-  std::uint32_t blockOf(const CellKey& c, bool create) {
+  // Inlined: ~94 % of lookups hit the cache (city drive), and the call was a good part of their cost.
+  [[gnu::always_inline]] std::uint32_t blockOf(const CellKey& c, bool create) {
     const CellKey key{c.x >> 2, c.y >> 2, c.z >> 2, c.dims};  // arithmetic shift: floor(c / 4)
     // The 2 x 2 x 2 blocks around a neighbourhood never share a cache entry.
     Cached& cached = cache_[(key.x & 1) | ((key.y & 1) << 1) | ((key.z & 1) << 2)];
     // Absent blocks are cached too (most lookups around new territory miss); creating a block
     // replaces the entry of its key.
     if (cached.valid && key == cached.key && (cached.index != kNone || !create)) return cached.index;
+    return lookUp(key, create, cached);
+  }
+  [[gnu::noinline]] std::uint32_t lookUp(const CellKey& key, bool create, Cached& cached) {
     std::uint32_t index = kNone;
     if (create) {
       index = index_.emplace(key, static_cast<std::uint32_t>(blocks_.size()));
@@ -148,11 +157,6 @@ class CellGrid {
   }
   CellMap<std::uint32_t> index_;  // block key -> index in blocks_
   std::vector<Block> blocks_;
-  struct Cached {
-    CellKey key{0, 0, 0, 0};
-    std::uint32_t index = kNone;  // kNone: the block does not exist
-    bool valid = false;
-  };
   std::array<Cached, 8> cache_{};  // the blocks used last
 };
 
@@ -165,7 +169,7 @@ bool cellIndex(double q, std::int32_t& index) {
   index = static_cast<double>(t) > q ? t - 1 : t;
   return true;
 }
-bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
+[[gnu::always_inline]] inline bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
   key.dims = dims;
   return cellIndex(static_cast<double>(p.x()) / size, key.x) && cellIndex(static_cast<double>(p.y()) / size, key.y) &&
          cellIndex(static_cast<double>(p.z()) / size, key.z);
@@ -174,24 +178,23 @@ bool cellOf(const Eigen::Vector3f& p, double size, int dims, CellKey& key) {
 }  // namespace
 
 struct ObstacleTracker::Evidence {
-  struct Voxel {
-    Eigen::Vector3f mean;     // running mean of the voxel centroids seen in this cell
-    Eigen::Vector3f bearing;  // beam direction of the latest sighting (range-noise term)
-    std::uint32_t hits;
-    std::uint32_t node;       // its entry in `nodes`
-  };
   struct Track {
     int dims = 2;
     double probability = 0.99;
-    std::vector<Voxel> voxels;
+    // Per voxel: the running mean of the voxel centroids seen in its cell (`position`) and the
+    // beam direction of the latest sighting (`bearing`, the range-noise term); stored as the
+    // fit's input type, so the refit reads it in place and the output is one memcpy.
+    std::vector<SupportPoint> voxels;
     Eigen::Matrix3f frame = Eigen::Matrix3f::Identity();  // the track's own axes, fixed at creation
     Eigen::Vector3f lo = Eigen::Vector3f::Zero(), hi = Eigen::Vector3f::Zero();  // its voxels' box in that frame
     bool changed = false;
   };
   // Every track voxel once more, compactly, for the lookups: its current mean (kept equal to the
-  // Voxel's), which track and voxel it is, and the next node in the same association cell.
+  // track's voxel position), how often its cell was seen (capped), which track and voxel it is, and
+  // the next node in the same association cell.
   struct Node {
     Eigen::Vector3f mean;
+    std::uint32_t hits;
     std::uint32_t track, voxel;
     std::uint32_t next_nearby;  // kNone ends the association cell's list
   };
@@ -262,12 +265,10 @@ const std::vector<ObstacleEllipsoid>& ObstacleTracker::update(std::span<const Ob
     if (!track.changed) continue;
     track.changed = false;
     std::vector<SupportPoint> support = std::move(tracks_[t].support);  // reuse its capacity
-    support.clear();
-    support.reserve(track.voxels.size());
-    for (const auto& v : track.voxels) support.push_back({v.mean, v.bearing});
+    support.assign(track.voxels.begin(), track.voxels.end());
     const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxel_size,
                                  params_.enclose_points};
-    ObstacleEllipsoid estimate = fitEllipsoid(support, track.dims, fit);
+    ObstacleEllipsoid estimate = fitEllipsoid(track.voxels, track.dims, fit);
     estimate.id = tracks_[t].id;
     estimate.support = std::move(support);
     tracks_[t] = std::move(estimate);
@@ -323,9 +324,9 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     auto& track = ev.tracks[t];
     const auto index = static_cast<std::uint32_t>(track.voxels.size());
     const auto node = static_cast<std::uint32_t>(ev.nodes.size());
-    track.voxels.push_back({s.position, s.bearing, 1, node});
+    track.voxels.push_back({s.position, s.bearing});
     track.changed = true;
-    ev.nodes.push_back({s.position, t, index, kNone});
+    ev.nodes.push_back({s.position, 1, t, index, kNone});
     ev.owner.emplace(key, node);
     CellKey near_key;
     if (cellOf(s.position, tol, dims, near_key)) {
@@ -346,12 +347,12 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     Evidence::Node& node = ev.nodes[*owned];
     previous_track = node.track;
     auto& track = ev.tracks[node.track];
-    auto& v = track.voxels[node.voxel];
-    v.hits = std::min<std::uint32_t>(v.hits + 1, 1000);
-    v.mean += (s.position - v.mean) / static_cast<float>(v.hits);
+    SupportPoint& v = track.voxels[node.voxel];
+    node.hits = std::min<std::uint32_t>(node.hits + 1, 1000);
+    node.mean += (s.position - node.mean) / static_cast<float>(node.hits);
+    v.position = node.mean;
     v.bearing = s.bearing;
-    node.mean = v.mean;
-    const Eigen::Vector3f q = track.frame.transpose() * v.mean;  // stays within its cell
+    const Eigen::Vector3f q = track.frame.transpose() * node.mean;  // stays within its cell
     track.lo = track.lo.cwiseMin(q);
     track.hi = track.hi.cwiseMax(q);
     track.changed = true;
