@@ -167,13 +167,7 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
   }
 
   result.stats.iterations = iteration;
-  if (const int best = bestGoal(); best >= 0) {
-    result.solved = true;
-    result.exact = true;
-    result.path = tree.pathTo(best);
-    result.cost = tree.node(best).cost;
-  }
-  finishResult(result, tree, problem, node_iteration, checks_at_start, clock);
+  finishResult(result, bestGoal(), tree, problem, node_iteration, checks_at_start, clock);
   return result;
 }
 

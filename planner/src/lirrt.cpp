@@ -159,13 +159,7 @@ PlanResult LirrtPlanner::solve(const PlanProblem& problem) {
   }
 
   result.stats.iterations = iteration;
-  if (best_goal >= 0) {
-    result.solved = true;
-    result.exact = true;
-    result.path = tree.pathTo(best_goal);
-    result.cost = tree.node(best_goal).cost;
-  }
-  finishResult(result, tree, problem, node_iteration, checks_at_start, clock);
+  finishResult(result, best_goal, tree, problem, node_iteration, checks_at_start, clock);
   return result;
 }
 

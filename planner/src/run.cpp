@@ -71,9 +71,7 @@ PlanResult PlannerRun::finish() {
   for (int g : goal_nodes_) {
     if (best < 0 || tree.node(g).cost < tree.node(best).cost) best = g;
   }
-  result.solved = best >= 0;
-  if (best >= 0) result.path = tree.pathTo(best);
-  finishResult(result, tree, problem, node_iteration_, checks_at_start_, clock_);
+  finishResult(result, best, tree, problem, node_iteration_, checks_at_start_, clock_);
   return std::move(result);
 }
 

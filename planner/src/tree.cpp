@@ -178,9 +178,11 @@ std::int64_t firstGlanceConnect(const SearchTree& tree, const PlanProblem& probl
   return -1;
 }
 
-void finishResult(PlanResult& result, const SearchTree& tree, const PlanProblem& problem,
+void finishResult(PlanResult& result, int goal_node, const SearchTree& tree, const PlanProblem& problem,
                   const std::vector<std::int64_t>& node_iteration, std::uint64_t checks_at_start,
                   const RunClock& clock) {
+  result.solved = goal_node >= 0;
+  if (result.solved) result.path = tree.pathTo(goal_node);
   PlanStats& s = result.stats;
   s.time_s = clock.elapsed();
   s.validity_checks = problem.world->validityChecks() - checks_at_start;

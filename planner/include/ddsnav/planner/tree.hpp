@@ -106,10 +106,11 @@ double treeGrowth(const SearchTree& tree, const CollisionWorld& world);
 std::int64_t firstGlanceConnect(const SearchTree& tree, const PlanProblem& problem,
                                 const std::vector<std::int64_t>& node_iteration, std::int64_t up_to_iteration = -1);
 
-// Fills the derived statistics of a finished run (vertices, POUS, POR, c(G), g(G), FGC, validity
-// checks, time, tree edges) from the tree and the counters already in `result.stats`.
+// Fills the result of a finished run: the path to `goal_node` (-1: not solved) with its cost and
+// exactness, and the derived statistics (vertices, POUS, POR, c(G), g(G), FGC, validity checks, time,
+// tree edges) from the tree and the counters already in `result.stats`.
 // `checks_at_start` is world.validityChecks() when the run began.
-void finishResult(PlanResult& result, const SearchTree& tree, const PlanProblem& problem,
+void finishResult(PlanResult& result, int goal_node, const SearchTree& tree, const PlanProblem& problem,
                   const std::vector<std::int64_t>& node_iteration, std::uint64_t checks_at_start,
                   const RunClock& clock);
 
