@@ -18,6 +18,8 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -111,11 +113,11 @@ class BucketKdTree {
   void withinRadius(const Point& q, double r2, std::vector<int>& out) const {
     out.clear();
     if (root_ < 0) return;
-    hits_.clear();
+    hit_count_ = 0;
     radius_r2_ = r2;
     withinRadiusIn(root_, q);
-    sortHits(hits_);
-    for (const auto& hit : hits_) out.push_back(static_cast<int>(hit.id));
+    const RadiusKey* const sorted = sortHits();
+    for (std::size_t i = 0; i < hit_count_; ++i) out.push_back(static_cast<int>(static_cast<std::uint32_t>(sorted[i])));
   }
 
   // Longest root-to-leaf path (1 for a single leaf, 0 when empty): a diagnostic for tests and benchmarks.
@@ -144,6 +146,14 @@ class BucketKdTree {
     std::uint32_t id;
     bool operator<(const Hit& o) const { return d2 != o.d2 ? d2 < o.d2 : id < o.id; }
   };
+  // A radius hit as one integer whose order is (distance, index): the bits of a non-negative double
+  // order like its value, so (bits(d2) << 32 | id) compares without branches. Radius queries in RRT*-like
+  // planners return tens to hundreds of points, and sorting these keys is measurably faster than
+  // sorting Hit with its two-field comparison.
+  __extension__ typedef unsigned __int128 RadiusKey;
+  static RadiusKey radiusKey(double d2, std::uint32_t id) {
+    return (static_cast<RadiusKey>(std::bit_cast<std::uint64_t>(d2)) << 32) | id;
+  }
 
   static double boxDistance2(const Node& node, const Point& q) {
     double s = 0.0;
@@ -250,8 +260,13 @@ class BucketKdTree {
       for (int s = node.slab; s >= 0; s = slabs_[s].next) {
         const Slab& slab = slabs_[s];
         slabDistances2(slab, q, d2);
+        // Branch-free append: every point is written, only those inside advance the count (about as
+        // many points fall outside as inside, so a branch here would mispredict often).
+        if (hits_.size() < hit_count_ + kBucket) hits_.resize(2 * (hit_count_ + kBucket));
+        RadiusKey* out = hits_.data();
         for (int j = 0; j < slab.count; ++j) {
-          if (d2[j] < radius_r2_) hits_.push_back(Hit{d2[j], slab.id[j]});
+          out[hit_count_] = radiusKey(d2[j], slab.id[j]);
+          hit_count_ += d2[j] < radius_r2_ ? 1 : 0;
         }
       }
       return;
@@ -261,18 +276,50 @@ class BucketKdTree {
     }
   }
 
-  // Radius results are usually a handful of points: insertion sort beats std::sort's set-up there.
-  static void sortHits(std::vector<Hit>& hits) {
-    if (hits.size() > 24) {
-      std::sort(hits.begin(), hits.end());
-      return;
+  static void insertionSort(RadiusKey* first, RadiusKey* last) {
+    for (RadiusKey* i = first + (first != last); i < last; ++i) {
+      const RadiusKey h = *i;
+      RadiusKey* j = i;
+      for (; j > first && h < *(j - 1); --j) *j = *(j - 1);
+      *j = h;
     }
-    for (std::size_t i = 1; i < hits.size(); ++i) {
-      const Hit h = hits[i];
-      std::size_t j = i;
-      for (; j > 0 && h < hits[j - 1]; --j) hits[j] = hits[j - 1];
-      hits[j] = h;
+  }
+
+  // Sorts the radius hits; returns where the sorted keys are (hits_ or bucket_keys_). Short lists are
+  // insertion sorted. Longer ones (GART's rewiring radius returns ~30-300 points) are distributed into
+  // hit_count_ buckets by d2 / r2 first: for locally even points d2 is spread evenly over [0, r2) in
+  // 2-D (skewed towards r2 in 3-D; mapping by d2^1.5 there measured no faster), so the buckets hold one
+  // or two keys each and sorting becomes about linear; a crowded bucket (many equal distances) falls
+  // back to std::sort. Bucket numbers never decrease with d2, so the result is exactly the
+  // (distance, index) order.
+  const RadiusKey* sortHits() const {
+    RadiusKey* const first = hits_.data();
+    const std::size_t n = hit_count_;
+    const double scale = static_cast<double>(n) / radius_r2_;
+    if (n <= 24 || !std::isfinite(scale) || !(scale > 0.0)) {
+      if (n <= 24) insertionSort(first, first + n);
+      else std::sort(first, first + n);
+      return first;
     }
+    const auto bucketOf = [&](RadiusKey key) {
+      const double d2 = std::bit_cast<double>(static_cast<std::uint64_t>(key >> 32));
+      return std::min(n - 1, static_cast<std::size_t>(d2 * scale));
+    };
+    bucket_start_.assign(n + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) ++bucket_start_[bucketOf(first[i]) + 1];
+    for (std::size_t b = 0; b < n; ++b) bucket_start_[b + 1] += bucket_start_[b];
+    if (bucket_keys_.size() < n) bucket_keys_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) bucket_keys_[bucket_start_[bucketOf(first[i])]++] = first[i];
+    // bucket_start_[b] now holds the end of bucket b (and the start of b + 1).
+    RadiusKey* const sorted = bucket_keys_.data();
+    std::size_t begin = 0;
+    for (std::size_t b = 0; b < n; ++b) {
+      const std::size_t end = bucket_start_[b];
+      if (end - begin > 16) std::sort(sorted + begin, sorted + end);
+      else if (end - begin > 1) insertionSort(sorted + begin, sorted + end);
+      begin = end;
+    }
+    return sorted;
   }
 
   int newNode() {
@@ -402,7 +449,10 @@ class BucketKdTree {
   mutable std::uint32_t best_id_ = 0;
   mutable std::vector<Hit> knn_;
   mutable std::size_t knn_capacity_ = 0;
-  mutable std::vector<Hit> hits_;
+  mutable std::vector<RadiusKey> hits_;  // radius hits in [0, hit_count_); grown, never shrunk
+  mutable std::vector<RadiusKey> bucket_keys_;       // the hits distributed by distance (sortHits)
+  mutable std::vector<std::size_t> bucket_start_;   // bucket boundaries (sortHits)
+  mutable std::size_t hit_count_ = 0;
   mutable double radius_r2_ = 0.0;
 };
 
