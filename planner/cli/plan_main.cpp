@@ -8,11 +8,14 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <limits>
 #include <string>
+
+#include <unistd.h>
 
 namespace {
 
@@ -50,6 +53,33 @@ nlohmann::json toJson(const std::string& scenario_file, const Scenario& scenario
           {"growth", st.growth},
           {"path", path}};
 }
+
+// A one-line progress display on stderr for runs a user waits on (long time limits, --anytime): only when
+// stderr is a terminal, so logs and pipes stay clean, and at most four updates a second.
+class ProgressLine {
+ public:
+  explicit ProgressLine(double time_limit_s) : limit_s_(time_limit_s), enabled_(isatty(STDERR_FILENO) == 1) {}
+  ~ProgressLine() {
+    if (shown_) std::fprintf(stderr, "\r%*s\r", 60, "");
+  }
+  void update(std::uint64_t iterations) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    if (elapsed < 0.5 || now - last_ < std::chrono::milliseconds(250)) return;  // short runs show nothing
+    last_ = now;
+    shown_ = true;
+    std::fprintf(stderr, "\rplanning: %.1f / %.1f s, %llu iterations ", elapsed, limit_s_,
+                 static_cast<unsigned long long>(iterations));
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+  std::chrono::steady_clock::time_point last_ = start_;
+  double limit_s_;
+  bool enabled_;
+  bool shown_ = false;
+};
 
 }  // namespace
 
@@ -90,7 +120,12 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--kinodynamic needs a 'vehicle' block in " + scenario_file);
     }
 
-    const PlanResult result = planner->solve(problem);
+    PlanResult result;
+    {
+      ProgressLine progress(time_limit);
+      problem.on_progress = [&progress](std::uint64_t iterations) { progress.update(iterations); };
+      result = planner->solve(problem);
+    }
 
     if (!svg_file.empty()) {
       SvgScene scene;
