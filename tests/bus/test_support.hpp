@@ -10,7 +10,8 @@ namespace ddsnav::test {
 
 using namespace std::chrono_literals;
 
-// Bus tests use domains 150..199; every test takes its own.
+// Bus tests use domains 150..189 (offsets 0..39); every test takes its own. tests/record uses 190..199,
+// tests/pipeline 200..219: ctest runs suites side by side, so the ranges must not overlap.
 inline constexpr int kDomainBase = 150;
 
 // Generous bound for discovery + delivery; tests wait on events and return as soon as they happen.

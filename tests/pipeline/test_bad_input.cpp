@@ -28,7 +28,7 @@ msg::PointCloud boxCloud(const std::string& frame = "map") {
 }  // namespace
 
 TEST(BadInput, PerceptionAndMapperSkipBadCloudsAndKeepServing) {
-  harness::Harness h(170);
+  harness::Harness h(215);
   h.startReady({.name = "perception", .command = "ddsnav-perception", .dds = "cyclonedds"});
   h.startReady({.name = "mapper", .command = "ddsnav-mapper", .params = {{"publish_rate_hz", "10"}}, .dds = "fastdds"});
   auto clouds = h.bus().publisher<msg::PointCloud>("sensors/points", bus::Qos::sensorData());

@@ -58,7 +58,7 @@ std::string writeLaunchFile(const std::string& name, const std::string& text) {
 }  // namespace
 
 TEST(Launch, StartsInOrderRestartsOnFailureAndTearsDownWithoutOrphans) {
-  harness::Harness h(160);
+  harness::Harness h(210);
   ReadyPids ready(h.bus());
   const auto file = writeLaunchFile("launch_restart", R"(
 name: restart-test
@@ -101,7 +101,7 @@ processes:
 }
 
 TEST(Launch, ABadLaunchFileIsRejectedBeforeAnythingStarts) {
-  harness::Harness h(161);
+  harness::Harness h(211);
   const auto file = writeLaunchFile("launch_bad", "processes:\n  - name: a\n    command: ddsnav-sim\n    restart: sometimes\n");
   h.start({.name = "launcher", .command = "ddsnav-launch", .args = {file}});
   int status = 0;

@@ -19,7 +19,7 @@ const std::string kScenario = std::string(DDSNAV_SOURCE_DIR) + "/configs/scenari
 }  // namespace
 
 TEST(Pipeline, DemoYardIsDrivenToTheGoalAcrossVendors) {
-  harness::Harness h(150);
+  harness::Harness h(200);
   h.startReady({.name = "sim", .command = "ddsnav-sim", .params = {{"scenario", kScenario}}, .dds = "fastdds"});
   h.startReady({.name = "perception", .command = "ddsnav-perception", .dds = "cyclonedds"});
   h.startReady({.name = "mapper", .command = "ddsnav-mapper", .dds = "fastdds"});
@@ -67,7 +67,7 @@ TEST(Pipeline, DemoYardIsDrivenToTheGoalAcrossVendors) {
 }
 
 TEST(Pipeline, ComponentRejectsAnUnknownParameterByName) {
-  harness::Harness h(151);
+  harness::Harness h(201);
   h.start({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"wrold", "map"}}});
   EXPECT_FALSE(h.waitReady("planner", 10s));
   const int status = h.stop("planner");
@@ -76,7 +76,7 @@ TEST(Pipeline, ComponentRejectsAnUnknownParameterByName) {
 }
 
 TEST(Pipeline, MissingScenarioIsAClearError) {
-  harness::Harness h(152);
+  harness::Harness h(202);
   h.start({.name = "sim", .command = "ddsnav-sim", .params = {{"scenario", "/nonexistent/world.yaml"}}});
   EXPECT_FALSE(h.waitReady("sim", 10s));
   EXPECT_NE(h.log("sim").find("/nonexistent/world.yaml"), std::string::npos) << h.log("sim");
@@ -85,7 +85,7 @@ TEST(Pipeline, MissingScenarioIsAClearError) {
 }
 
 TEST(Pipeline, PlannerAnswersABadRequestWithAnUnsolvedPathAndKeepsServing) {
-  harness::Harness h(153);
+  harness::Harness h(203);
   h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"world", "scenario"}}, .dds = "cyclonedds"});
   auto requests = h.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
   ASSERT_TRUE(requests.waitForSubscribers(1, 10s));

@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 namespace {
 
 TEST(ClockFollowing, ComponentStampsFollowTheReplayedTime) {
-  constexpr int kDomain = 188;
+  constexpr int kDomain = 197;
   const fs::path dir = fs::temp_directory_path() / ("ddsnav_record_clock_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const fs::path file = dir / "past.mcap";

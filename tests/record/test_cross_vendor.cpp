@@ -189,8 +189,8 @@ TEST_P(CrossVendor, RecordThenReplayMatchesFieldByField) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Vendors, CrossVendor,
-                         ::testing::Values(Case{bus::Vendor::FastDDS, bus::Vendor::CycloneDDS, 181},
-                                           Case{bus::Vendor::CycloneDDS, bus::Vendor::FastDDS, 183}),
+                         ::testing::Values(Case{bus::Vendor::FastDDS, bus::Vendor::CycloneDDS, 190},
+                                           Case{bus::Vendor::CycloneDDS, bus::Vendor::FastDDS, 192}),
                          [](const auto& info) {
                            return info.param.publisher == bus::Vendor::FastDDS ? "FastToCyclone" : "CycloneToFast";
                          });

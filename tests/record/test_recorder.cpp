@@ -60,7 +60,7 @@ TEST(RecordQos, TableFollowsTheTopicsIntent) {
 }
 
 TEST(Recorder, TinyQueueCountsDropsPerTopic) {
-  constexpr int kDomain = 185;
+  constexpr int kDomain = 194;
   constexpr int kCount = 100;
   const fs::path file = tempFile("drops.mcap");
   bus::Participant pub_side({.vendor = bus::Vendor::FastDDS, .domain_id = kDomain, .name = "drops-pub"});
@@ -116,7 +116,7 @@ TEST(Recorder, TinyQueueCountsDropsPerTopic) {
 }
 
 TEST(Recorder, UnknownBestEffortTopicFallsBackToBestEffort) {
-  constexpr int kDomain = 187;
+  constexpr int kDomain = 196;
   const fs::path file = tempFile("fallback.mcap");
   bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "fb-pub"});
   bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "fb-rec"});
@@ -147,7 +147,7 @@ TEST(Recorder, UnknownBestEffortTopicFallsBackToBestEffort) {
 TEST(Recorder, FullDiskStopsWritingAndCountsTheRestAsDropped) {
   // A file size limit stands in for a full disk: writes past it fail with EFBIG (SIGXFSZ ignored).
   // Each test runs in its own process under ctest, so the limit touches nothing else.
-  constexpr int kDomain = 189;
+  constexpr int kDomain = 198;
   const fs::path file = tempFile("full.mcap");
   ::signal(SIGXFSZ, SIG_IGN);
   rlimit old{};
@@ -191,7 +191,7 @@ TEST(Recorder, FullDiskStopsWritingAndCountsTheRestAsDropped) {
 }
 
 TEST(Recorder, KilledRecorderLeavesAReadableFile) {
-  constexpr int kDomain = 186;
+  constexpr int kDomain = 195;
   const fs::path file = tempFile("killed.mcap");
   fs::remove(file);
   bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "killed-pub"});
