@@ -1,0 +1,182 @@
+// "Any stage can be swapped for a replay": record the simulator's sensor topics (domain 216), then run
+// perception and the mapper on that recording instead of the simulator with
+// configs/launch/replay_perception.yaml (domain 217), following the recording's clock.
+
+#include <ddsnav/msg/messages.hpp>
+#include <ddsnav/testing/harness.hpp>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+using namespace ddsnav;
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kSource = DDSNAV_SOURCE_DIR;
+const std::string kScenario = kSource + "/configs/scenarios/demo_2d.yaml";
+const std::string kLaunchFile = kSource + "/configs/launch/replay_perception.yaml";
+
+// Waits (bounded) for a process the harness started to end by itself; returns its wait status, or -1
+// when it was still running at the deadline (the harness then stops it).
+int waitForExit(harness::Harness& h, const std::string& name, std::chrono::seconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (h.running(name)) {
+    if (std::chrono::steady_clock::now() > deadline) return -1;
+    std::this_thread::sleep_for(50ms);
+  }
+  return h.stop(name);
+}
+
+bool exitedWith(int status, int code) { return status >= 0 && WIFEXITED(status) && WEXITSTATUS(status) == code; }
+
+// `ddsnav-info FILE --json`: what the recording holds, read back by the record library.
+nlohmann::json recordingInfo(const std::string& file) {
+  const std::string command = harness::Harness::binDir() + "/ddsnav-info '" + file + "' --json";
+  std::FILE* pipe = ::popen(command.c_str(), "r");
+  if (!pipe) return {};
+  std::string text;
+  std::array<char, 4096> buffer{};
+  for (std::size_t n; (n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0;) text.append(buffer.data(), n);
+  ::pclose(pipe);
+  return nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+}
+
+std::uint64_t messagesOn(const nlohmann::json& info, const std::string& topic) {
+  for (const auto& t : info.value("topics", nlohmann::json::array()))
+    if (t.value("topic", "") == topic) return t.value("message_count", std::uint64_t{0});
+  return 0;
+}
+
+// Distance from p to the nearest true obstacle of configs/scenarios/demo_2d.yaml, in the plane. The
+// rotated ellipse (33,22; 5 x 2 m; yaw 1.2) is taken as its 5 m bounding circle: lenient, still far
+// from the empty parts of the yard.
+double distanceToScenarioObstacle(double x, double y) {
+  auto box = [](double px, double py, double cx, double cy, double hx, double hy, double yaw) {
+    const double dx = px - cx, dy = py - cy;
+    const double lx = std::cos(yaw) * dx + std::sin(yaw) * dy, ly = -std::sin(yaw) * dx + std::cos(yaw) * dy;
+    return std::hypot(std::max(std::abs(lx) - hx, 0.0), std::max(std::abs(ly) - hy, 0.0));
+  };
+  auto circle = [](double px, double py, double cx, double cy, double r) { return std::max(std::hypot(px - cx, py - cy) - r, 0.0); };
+  return std::min({box(x, y, 11, 11, 1, 11, 0.0), box(x, y, 22, 28, 7, 1, 0.4), circle(x, y, 26, 12, 4), circle(x, y, 33, 22, 5),
+                   box(x, y, 17, 37, 1, 3, 0.0)});
+}
+
+// What the test sees on domain 217 while the replay runs.
+struct Observed {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::vector<msg::ObstacleArray> obstacles;
+  std::size_t maps = 0;
+  std::vector<std::pair<std::string, std::int64_t>> heartbeat_stamps;  // (component, stamp) of perception/mapper
+};
+
+}  // namespace
+
+TEST(Replay, PerceptionAndMapperRunOnARecordingOfTheSimulatorOnItsClock) {
+  const fs::path dir = fs::temp_directory_path() / ("ddsnav_replay_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string recording = (dir / "run.mcap").string();
+
+  // Phase 1: record the simulator's lidar clouds and vehicle states (Fast DDS sim, Cyclone recorder).
+  {
+    harness::Harness h(216);
+    h.startReady({.name = "sim", .command = "ddsnav-sim", .params = {{"scenario", kScenario}}, .dds = "fastdds"});
+    h.start({.name = "record",
+             .command = "ddsnav-record",
+             .args = {"-o", recording, "--topics", "sensors/points,vehicle/state", "--duration", "4", "--compression", "none",
+                      "--domain", "216"},
+             .dds = "cyclonedds"});
+    const int status = waitForExit(h, "record", 20s);
+    ASSERT_TRUE(exitedWith(status, 0)) << status << "\n" << h.log("record");
+    h.stop("sim");
+  }
+  const auto info = recordingInfo(recording);
+  ASSERT_TRUE(info.is_object()) << "ddsnav-info gave no JSON for " << recording;
+  ASSERT_FALSE(info.value("truncated", true));
+  ASSERT_GE(messagesOn(info, "sensors/points"), 5u) << info.dump(2);
+  ASSERT_GE(messagesOn(info, "vehicle/state"), 20u) << info.dump(2);
+  const auto recorded_from = info.value("start_time_ns", std::int64_t{0});
+  const auto recorded_to = info.value("end_time_ns", std::int64_t{0});
+  ASSERT_GT(recorded_to, recorded_from);
+
+  // Phase 2: the launch file replays it into perception and the mapper; nothing simulates anything.
+  harness::Harness h(217);
+  Observed seen;
+  auto obstacles = h.bus().subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& a) {
+    std::lock_guard lock(seen.mutex);
+    seen.obstacles.push_back(a);
+    seen.changed.notify_all();
+  });
+  auto maps = h.bus().subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [&](const msg::OccupancyMap& m) {
+    std::lock_guard lock(seen.mutex);
+    if (!m.octree().empty()) ++seen.maps;
+    seen.changed.notify_all();
+  });
+  auto statuses = h.bus().subscribe<msg::ComponentStatus>("system/status", bus::Qos::state(1), [&](const msg::ComponentStatus& s) {
+    std::lock_guard lock(seen.mutex);
+    if (s.name() == "perception" || s.name() == "mapper") seen.heartbeat_stamps.emplace_back(s.name(), s.stamp_ns());
+  });
+
+  const std::string out = (dir / "out").string();
+  h.start({.name = "launcher",
+           .command = "ddsnav-launch",
+           .args = {kLaunchFile, "--set", "recording=" + recording, "--set", "out=" + out, "--domain", "217"}});
+  {
+    std::unique_lock lock(seen.mutex);
+    const bool both = seen.changed.wait_for(lock, 30s, [&] {
+      const bool any_obstacle = std::any_of(seen.obstacles.begin(), seen.obstacles.end(),
+                                            [](const msg::ObstacleArray& a) { return !a.obstacles().empty(); });
+      return any_obstacle && seen.maps > 0;
+    });
+    ASSERT_TRUE(both) << "obstacle arrays " << seen.obstacles.size() << ", maps " << seen.maps << "\n" << h.log("launcher");
+  }
+
+  // Playback ends -> the required play process exits 0 -> the launcher tears down and returns 0.
+  const int status = waitForExit(h, "launcher", 30s);
+  EXPECT_TRUE(exitedWith(status, 0)) << status << "\n" << h.log("launcher");
+  EXPECT_NE(h.log("launcher").find("play is required: tearing down"), std::string::npos) << h.log("launcher");
+  EXPECT_TRUE(fs::exists(out + "/map.bt") && fs::file_size(out + "/map.bt") > 0) << h.log("launcher");
+
+  std::lock_guard lock(seen.mutex);
+  // The obstacles come from the recorded clouds: their stamps are the recording's, and every ellipse lies
+  // on one of the scenario's true obstacles.
+  std::size_t ellipses = 0;
+  for (const auto& array : seen.obstacles) {
+    EXPECT_EQ(array.header().frame_id(), "map");
+    EXPECT_TRUE(array.planar());
+    EXPECT_GE(array.header().stamp_ns(), recorded_from - 100'000'000);  // a cloud's stamp precedes its receipt slightly
+    EXPECT_LE(array.header().stamp_ns(), recorded_to);
+    for (const auto& o : array.obstacles()) {
+      ++ellipses;
+      EXPECT_LT(distanceToScenarioObstacle(o.centre().x(), o.centre().y()), 2.0) << "ellipse at " << o.centre().x() << ", " << o.centre().y();
+    }
+  }
+  EXPECT_GE(ellipses, 3u);
+
+  // clock: topic — the components' own time (their heartbeat stamps) is the recording's time, which ended
+  // seconds before this replay; a wall-clock stamp would lie after recorded_to. 0 = no clock sample yet.
+  std::size_t on_recorded_clock = 0;
+  for (const auto& [name, stamp] : seen.heartbeat_stamps) {
+    if (stamp == 0) continue;
+    ++on_recorded_clock;
+    EXPECT_GE(stamp, recorded_from) << name;
+    EXPECT_LE(stamp, recorded_to) << name;
+  }
+  EXPECT_GE(on_recorded_clock, 2u) << "perception/mapper never published a status stamped by system/clock";
+
+  fs::remove_all(dir);
+}
