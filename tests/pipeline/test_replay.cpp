@@ -162,7 +162,7 @@ TEST(Replay, PerceptionAndMapperRunOnARecordingOfTheSimulatorOnItsClock) {
     EXPECT_LE(array.header().stamp_ns(), recorded_to);
     for (const auto& o : array.obstacles()) {
       ++ellipses;
-      EXPECT_LT(distanceToScenarioObstacle(o.centre().x(), o.centre().y()), 2.0) << "ellipse at " << o.centre().x() << ", " << o.centre().y();
+      EXPECT_LT(distanceToScenarioObstacle(o.centre().x(), o.centre().y()), 1.0) << "ellipse at " << o.centre().x() << ", " << o.centre().y();
     }
   }
   EXPECT_GE(ellipses, 3u);
