@@ -172,9 +172,19 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
   if (root["dds"]) config.dds = reader.scalar(root["dds"], "dds");
   if (root["shutdown_timeout_s"])
     config.shutdown_timeout_s = reader.number<double>(root["shutdown_timeout_s"], "shutdown_timeout_s", 0.1);
+  std::set<std::string> required_variables;
   if (const auto vars = root["variables"]) {
     if (!vars.IsMap()) reader.fail(vars, "variables", "expected a mapping of name: value");
-    for (const auto& entry : vars) config.variables[entry.first.as<std::string>()] = reader.scalar(entry.second, entry.first.as<std::string>());
+    for (const auto& entry : vars) {
+      const std::string name = entry.first.as<std::string>();
+      // `name: ~` (or no value) declares a variable the user must give with --set.
+      if (entry.second.IsNull()) {
+        required_variables.insert(name);
+        config.variables[name] = "";
+      } else {
+        config.variables[name] = reader.scalar(entry.second, name);
+      }
+    }
   }
   // Built in: the launch file's own folder, so a launch file can name files beside it.
   if (!config.variables.count("launch_dir")) {
@@ -186,6 +196,11 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
     if (!config.variables.count(key))
       throw LaunchError(source_name + ": --set " + key + ": the launch file declares no variable '" + key + "'");
     config.variables[key] = value;
+    required_variables.erase(key);
+  }
+  if (!required_variables.empty()) {
+    const std::string& name = *required_variables.begin();
+    reader.fail(root["variables"][name], "variables." + name, "required: give it with --set " + name + "=VALUE");
   }
 
   // Variables may use each other (and launch_dir): resolve each once, depth first, rejecting cycles.

@@ -89,3 +89,13 @@ processes: [{name: a, command: x, args: ["${world}", "${here}"]}]
   EXPECT_THROW(parseLaunchConfig("variables: {a: \"${b}\", b: \"${a}\"}\nprocesses: [{name: a, command: x}]\n", "s.yaml"),
                LaunchError);
 }
+
+TEST(LaunchConfig, RequiredVariablesMustBeSetOnTheCommandLine) {
+  const std::string yaml = "variables:\n  out: out/x\n  recording: ~\nprocesses: [{name: a, command: x, args: [\"${recording}\"]}]\n";
+  const std::string error = errorOf(yaml);
+  EXPECT_NE(error.find("set.yaml:3: key 'variables.recording': required: give it with --set recording=VALUE"),
+            std::string::npos)
+      << error;
+  const auto config = parseLaunchConfig(yaml, "set.yaml", {{"recording", "/data/run.mcap"}});
+  EXPECT_EQ(config.processes[0].args, (std::vector<std::string>{"/data/run.mcap"}));
+}
