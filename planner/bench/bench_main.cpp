@@ -193,14 +193,15 @@ int main(int argc, char** argv) {
               bench::makeProblem(scenario, *world, static_cast<std::uint64_t>(seed), time_limit, kinodynamic, anytime);
           bench::RunRecord r;
           if (name.rfind("ompl:", 0) == 0) {
-            try {
-              r = bench::runOmpl(name, scenario, *world, problem);
-            } catch (const std::invalid_argument& e) {  // e.g. a control planner on a scenario without a vehicle
-              r.planner = name;
-              r.scenario = scenario.name;
-              r.seed = problem.seed;
-              r.invalid_reason = e.what();
-            }
+            // In a child process: OMPL's SST can ignore its time limit and loop forever, and Debian's OMPL
+            // aborts on failed assertions. Errors such as a control planner on a scenario without a
+            // vehicle come back as the run's note.
+            bench::RunRecord identity;
+            identity.planner = name;
+            identity.scenario = scenario.name;
+            identity.seed = problem.seed;
+            r = bench::runIsolated([&] { return bench::runOmpl(name, scenario, *world, problem); }, time_limit,
+                                   identity);
           } else {
             r = bench::runOurs(name, scenario, *world, problem);
           }

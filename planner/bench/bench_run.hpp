@@ -7,6 +7,7 @@
 #include "ddsnav/planner/scenario.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,12 @@ bool isOmplKinodynamic(const std::string& name);
 // Throws std::invalid_argument for an unknown OMPL name or when OMPL was not found at build time.
 RunRecord runOmpl(const std::string& name, const planner::Scenario& scenario, const planner::CollisionWorld& world,
                   const planner::PlanProblem& problem);
+
+// Runs `run` in a forked child and returns its record. A child that has not answered within twice the time
+// limit plus `slack_s` is killed, and one that crashes is reported; both come back as an unsolved run of
+// `identity` (scenario, planner, seed) whose note says what happened, so one bad run cannot stop a grid.
+RunRecord runIsolated(const std::function<RunRecord()>& run, double time_limit_s, const RunRecord& identity,
+                      double slack_s = 10.0);
 
 // Reports.
 void writeRunsCsv(const std::string& path, const std::vector<RunRecord>& runs);
