@@ -166,11 +166,9 @@ Obstacle readObstacle(const Reader& in, const YAML::Node& node, const std::strin
 }
 
 VehicleLimits readVehicle(const Reader& in, const YAML::Node& node, int dimensions) {
-  if (dimensions == 3) {
-    in.checkKeys(node, "vehicle", {"model", "v_max", "omega_max", "vz_max", "dt"});
-  } else {
-    in.checkKeys(node, "vehicle", {"model", "v_max", "omega_max", "dt"});
-  }
+  // vz_max is a known key in 2-D too (the format's own 2-D example carries it, marked "3-D only"): it is
+  // checked like any number and then has no effect, since a planar vehicle does not climb.
+  in.checkKeys(node, "vehicle", {"model", "v_max", "omega_max", "vz_max", "dt"});
   VehicleLimits vehicle;
   if (node["model"]) {
     vehicle.model = in.text(node["model"], "vehicle.model");
@@ -179,7 +177,8 @@ VehicleLimits readVehicle(const Reader& in, const YAML::Node& node, int dimensio
   vehicle.v_max = in.positive(in.require(node, "vehicle", "v_max"), "vehicle.v_max");
   vehicle.omega_max = in.positive(in.require(node, "vehicle", "omega_max"), "vehicle.omega_max");
   // Without an explicit climb rate the vehicle climbs as fast as it drives.
-  vehicle.vz_max = node["vz_max"] ? in.nonNegative(node["vz_max"], "vehicle.vz_max") : (dimensions == 3 ? vehicle.v_max : 0.0);
+  const double vz_max = node["vz_max"] ? in.nonNegative(node["vz_max"], "vehicle.vz_max") : vehicle.v_max;
+  vehicle.vz_max = dimensions == 3 ? vz_max : 0.0;
   if (node["dt"]) vehicle.dt = in.positive(node["dt"], "vehicle.dt");
   return vehicle;
 }

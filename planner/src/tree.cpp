@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <optional>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 
@@ -84,6 +85,27 @@ bool inside(const CollisionWorld& w, const Vec3& p) {
   }
   return true;
 }
+// Whether some state within `radius` of `goal` is free: the goal itself, then rings at 1/4, 1/2, 3/4 and
+// 0.95 of the radius, 16 directions each (and 5 elevations in 3-D). A probe, not a proof: a free pocket
+// thinner than the probe spacing is missed, which errs on the side of a clear error.
+bool goalRegionHasFreeState(const CollisionWorld& w, const Vec3& goal, double radius) {
+  if (w.isFree(goal)) return true;
+  const int dims = w.dimensions();
+  const double pi = std::numbers::pi;
+  for (const double fraction : {0.25, 0.5, 0.75, 0.95}) {
+    for (int e = 0; e < (dims == 3 ? 5 : 1); ++e) {
+      const double elevation = dims == 3 ? (e - 2) * pi / 6.0 : 0.0;
+      for (int a = 0; a < 16; ++a) {
+        const double azimuth = a * pi / 8.0;
+        const Vec3 offset(std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
+                          std::sin(elevation));
+        const Vec3 probe = goal + fraction * radius * offset;
+        if (inside(w, probe) && w.isFree(probe)) return true;
+      }
+    }
+  }
+  return false;
+}
 }  // namespace
 
 void validateProblem(const PlanProblem& problem, bool needs_vehicle) {
@@ -105,8 +127,11 @@ void validateProblem(const PlanProblem& problem, bool needs_vehicle) {
   if (!w.isFree(problem.start.position)) {
     throw std::invalid_argument("start " + describe(problem.start.position, dims) + " is in collision (or the robot does not fit inside the bounds there)");
   }
-  if (!w.isFree(problem.goal)) {
-    throw std::invalid_argument("goal " + describe(problem.goal, dims) + " is in collision (or the robot does not fit inside the bounds there)");
+  // A path is solved when it ends within goal_radius of the goal (scenario format), so only a goal region
+  // without any free state makes the problem invalid; the goal point itself may lie in an obstacle.
+  if (!goalRegionHasFreeState(w, problem.goal, problem.goal_radius)) {
+    throw std::invalid_argument("goal " + describe(problem.goal, dims) + " is in collision, and so is every probed state within goal_radius " +
+                                std::to_string(problem.goal_radius) + " of it (or the robot does not fit inside the bounds there)");
   }
   if (needs_vehicle) {
     if (!problem.vehicle) throw std::invalid_argument("this planner needs the vehicle limits (scenario 'vehicle' block)");

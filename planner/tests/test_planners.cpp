@@ -229,5 +229,33 @@ TEST(Planners, BadProblemsAreRejected) {
   }
 }
 
+// The scenario format solves a path that ends within goal_radius of the goal, so a goal point inside an
+// obstacle is a valid problem while part of the goal disc is free, and an error only when none of it is.
+TEST(BadInput, GoalPointInAnObstacleIsValidWhileItsRegionHasFreeSpace) {
+  const std::string head = "dimensions: 2\nbounds: {min: [0, 0], max: [20, 20]}\nrobot_radius: 0.2\nstart: [2, 2]\n";
+  const Scenario partly = parseScenario(head + "goal: [15, 15]\ngoal_radius: 2.0\n"
+                                        "obstacles:\n  - {type: sphere, center: [15.5, 15.5], radius: 1.0}\n", "partly.yaml");
+  const auto partly_world = makeScenarioWorld(partly);
+  ASSERT_FALSE(partly_world->isFree(Vec3(15, 15, 0)));
+  PlanProblem problem = problemFromScenario(partly, *partly_world);
+  problem.time_limit_s = 5.0;
+  const PlanResult result = makePlanner("rrt")->solve(problem);
+  ASSERT_TRUE(result.solved);
+  EXPECT_LE((result.path.back().position - Vec3(15, 15, 0)).norm(), 2.0 + 1e-9);
+  EXPECT_TRUE(partly_world->isFree(result.path.back().position));
+
+  const Scenario covered = parseScenario(head + "goal: [15, 15]\ngoal_radius: 2.0\n"
+                                         "obstacles:\n  - {type: sphere, center: [15, 15], radius: 3.0}\n", "covered.yaml");
+  const auto covered_world = makeScenarioWorld(covered);
+  PlanProblem blocked = problemFromScenario(covered, *covered_world);
+  try {
+    makePlanner("rrt")->solve(blocked);
+    ADD_FAILURE() << "a goal region without free space must be an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("every probed state within goal_radius"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace ddsnav::planner
+

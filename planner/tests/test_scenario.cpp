@@ -32,9 +32,11 @@ void expectError(const std::string& text, int line, const std::string& key, cons
   }
 }
 
+// The example of scenario-format.md as written (2-D, vz_max in the vehicle block), minus its hill: the
+// format's rules make a hill 3-D only (HillIn2DAndDimensionMismatches checks that error).
 TEST(Scenario, ParsesTheDocumentedExample) {
   const std::string text = std::string(kHeader2d) +
-                           "vehicle: {model: unicycle, v_max: 5.0, omega_max: 0.628, dt: 1.0}\n"
+                           "vehicle:\n  model: unicycle\n  v_max: 5.0\n  omega_max: 0.628\n  vz_max: 2.0\n  dt: 1.0\n"
                            "obstacles:\n"
                            "  - {type: box, min: [10, 10], max: [20, 30]}\n"
                            "  - {type: box, center: [50, 50], size: [10, 4], yaw: 0.3}\n"
@@ -49,6 +51,7 @@ TEST(Scenario, ParsesTheDocumentedExample) {
   EXPECT_FALSE(s.start_heading.has_value());
   ASSERT_TRUE(s.vehicle.has_value());
   EXPECT_DOUBLE_EQ(s.vehicle->omega_max, 0.628);
+  EXPECT_DOUBLE_EQ(s.vehicle->vz_max, 0.0);  // accepted, no effect in 2-D
   ASSERT_EQ(s.obstacles.size(), 4u);
   // {min, max} becomes centre + size + yaw 0.
   EXPECT_EQ(s.obstacles[0].center, Vec3(15, 20, 0));
@@ -112,7 +115,8 @@ TEST(Scenario, DegenerateAndNegativeSizes) {
 
 TEST(Scenario, HillIn2DAndDimensionMismatches) {
   expectError(std::string(kHeader2d) + "obstacles:\n  - {type: hill, center: [5, 5], height: 3, sigma: 1}\n", 9, "obstacles[0].type", "3-D");
-  expectError(std::string(kHeader2d) + "vehicle: {v_max: 1, omega_max: 1, vz_max: 1}\n", 8, "vehicle.vz_max", "unknown key");
+  expectError(std::string(kHeader2d) + "vehicle: {v_max: 1, omega_max: 1, vz_max: -1}\n", 8, "vehicle.vz_max", ">= 0");
+  expectError(std::string(kHeader2d) + "vehicle: {v_max: 1, omega_max: 1, vz: 1}\n", 8, "vehicle.vz", "unknown key");
   expectError(std::string(kHeader2d).replace(std::string(kHeader2d).find("[5, 5]"), 6, "[500, 5]"), 5, "start", "outside bounds");
 }
 
