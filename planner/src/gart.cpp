@@ -8,26 +8,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <stdexcept>
 
 namespace ddsnav::planner {
 
 namespace {
-
-// Karaman-Frazzoli RRT* radius gamma * (log n / n)^(1/d), capped by how far an edge can reach anyway.
-double rewireRadius(double gamma, std::size_t n, int dimensions, double edge_reach) {
-  const double count = static_cast<double>(std::max<std::size_t>(n, 2));
-  return std::min(edge_reach, gamma * std::pow(std::log(count) / count, 1.0 / dimensions));
-}
-
-double defaultGamma(const CollisionWorld& world) {
-  const Vec3 extent = world.boundsMax() - world.boundsMin();
-  const int d = world.dimensions();
-  const double volume = d == 3 ? extent.x() * extent.y() * extent.z() : extent.x() * extent.y();
-  const double unit_ball = d == 3 ? 4.0 / 3.0 * std::numbers::pi : std::numbers::pi;
-  return 2.0 * std::pow(1.0 + 1.0 / d, 1.0 / d) * std::pow(volume / unit_ball, 1.0 / d);
-}
 
 // Every child of `node` stays inside R+ of `node` if node's heading becomes `heading`.
 bool childrenStayReachable(const SearchTree& tree, int node, double heading, const ForwardRegion& region) {
@@ -52,7 +37,7 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
   const CollisionWorld& world = *problem.world;
   const ForwardRegion region = forwardRegion(*problem.vehicle, world.dimensions());
   const double edge_reach = std::hypot(region.reach, region.max_climb);
-  const double gamma = options_.rewire_gamma > 0.0 ? options_.rewire_gamma : defaultGamma(world);
+  const double gamma = options_.rewire_gamma > 0.0 ? options_.rewire_gamma : rrtStarGamma(world);
 
   RunClock clock(problem);
   const std::uint64_t checks_at_start = world.validityChecks();
@@ -108,7 +93,7 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
     // Lines 14-16: add each state with the cheapest R+-feasible parent, then rewire around it.
     for (const GartCandidate& candidate : candidates) {
       const Vec3 p = candidate.state.position;
-      const double radius = rewireRadius(gamma, tree.size(), world.dimensions(), edge_reach);
+      const double radius = rrtStarRadius(gamma, tree.size(), world.dimensions(), edge_reach);
       tree.withinRadius(p, radius, near);
 
       // v_near's edge is known free, so it is always a valid parent: only cheaper neighbours (in the

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 namespace ddsnav::planner {
 
@@ -29,10 +28,7 @@ PlanResult RrtStarPlanner::solve(const PlanProblem& problem) {
   const CollisionWorld& world = run.world;
 
   const int d = world.dimensions();
-  Vec3 extent = world.boundsMax() - world.boundsMin();
-  const double volume = d == 3 ? extent.x() * extent.y() * extent.z() : extent.x() * extent.y();
-  const double unit_ball = d == 3 ? 4.0 / 3.0 * std::numbers::pi : std::numbers::pi;
-  const double gamma = rewire_factor * 2.0 * std::pow(1.0 + 1.0 / d, 1.0 / d) * std::pow(volume / unit_ball, 1.0 / d);
+  const double gamma = rewire_factor * rrtStarGamma(world);
 
   while (run.nextIteration()) {
     const Vec3 target = shapeSample(run, run.sample(goal_bias));
@@ -43,8 +39,7 @@ PlanResult RrtStarPlanner::solve(const PlanProblem& problem) {
     if (step < 1e-9 || !world.isSegmentFree(from, to.position)) continue;
 
     // Cheapest parent among the neighbours, checking edges in order of cost so the first free one wins.
-    const double n = static_cast<double>(run.tree.size() + 1);
-    const double radius = std::min(gamma * std::pow(std::log(n) / n, 1.0 / d), steering.range());
+    const double radius = rrtStarRadius(gamma, run.tree.size() + 1, d, steering.range());
     run.tree.withinRadius(to.position, radius, near_);
     int parent = nearest;
     double cost = run.tree.node(nearest).cost + step;

@@ -143,6 +143,19 @@ void validateProblem(const PlanProblem& problem, bool needs_vehicle) {
   }
 }
 
+double rrtStarGamma(const CollisionWorld& world) {
+  const Vec3 extent = world.boundsMax() - world.boundsMin();
+  const int d = world.dimensions();
+  const double volume = d == 3 ? extent.x() * extent.y() * extent.z() : extent.x() * extent.y();
+  const double unit_ball = d == 3 ? 4.0 / 3.0 * std::numbers::pi : std::numbers::pi;
+  return 2.0 * std::pow(1.0 + 1.0 / d, 1.0 / d) * std::pow(volume / unit_ball, 1.0 / d);
+}
+
+double rrtStarRadius(double gamma, std::size_t n, int dimensions, double cap) {
+  const double count = static_cast<double>(std::max<std::size_t>(n, 2));
+  return std::min(cap, gamma * std::pow(std::log(count) / count, 1.0 / dimensions));
+}
+
 double pathLength(const std::vector<State>& path) {
   double length = 0.0;
   for (std::size_t i = 1; i < path.size(); ++i) length += (path[i].position - path[i - 1].position).norm();

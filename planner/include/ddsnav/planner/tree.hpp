@@ -89,6 +89,12 @@ void validateProblem(const PlanProblem& problem, bool needs_vehicle);
 // Path length of a polyline of states.
 double pathLength(const std::vector<State>& path);
 
+// Karaman-Frazzoli's RRT* constant for the world's bounds volume mu(X): gamma = 2 (1 + 1/d)^(1/d)
+// (mu(X) / zeta_d)^(1/d), zeta_d the volume of the unit d-ball. RRT*, GART and APGD-RRT* scale it.
+double rrtStarGamma(const CollisionWorld& world);
+// The RRT* neighbourhood radius with n nodes (n counted as at least 2): min(cap, gamma (log n / n)^(1/d)).
+double rrtStarRadius(double gamma, std::size_t n, int dimensions, double cap);
+
 // c(G) of the Li-RRT paper (eq. 1): overlay a grid of n_g points with spacing delta on the bounds;
 // c = (1/delta) * sum_j min(d_j, delta) / n_g, d_j the distance from grid point j to its nearest node.
 // Only the first `node_count` nodes are used (the tree as it was when it had that many nodes).
