@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <stdexcept>
+#include <string>
 
 namespace ddsnav::test {
 namespace {
@@ -32,6 +34,31 @@ TEST(BusErrors, UnknownVendorNamesTheChoices) {
   EXPECT_EQ(bus::vendorFromEnvironment(), Vendor::CycloneDDS);
   unsetenv("DDSNAV_DDS");
   EXPECT_EQ(bus::vendorFromEnvironment(Vendor::FastDDS), Vendor::FastDDS);
+}
+
+TEST(BusErrors, DomainFromEnvironmentIsStrict) {
+  unsetenv("DDSNAV_DOMAIN");
+  EXPECT_EQ(bus::domainFromEnvironment(7), 7);
+  setenv("DDSNAV_DOMAIN", "", 1);
+  EXPECT_EQ(bus::domainFromEnvironment(7), 7);
+  setenv("DDSNAV_DOMAIN", "42", 1);
+  EXPECT_EQ(bus::domainFromEnvironment(7), 42);
+  setenv("DDSNAV_DOMAIN", "0", 1);
+  EXPECT_EQ(bus::domainFromEnvironment(7), 0);
+  setenv("DDSNAV_DOMAIN", std::to_string(bus::kMaxDomainId).c_str(), 1);
+  EXPECT_EQ(bus::domainFromEnvironment(7), bus::kMaxDomainId);
+  // std::atoi would have read these as 0, 5, 5, 0, ...: each must be refused, naming the variable and value.
+  for (const char* bad : {"abc", "5x", "5 ", " 5", "5.0", "-1", "233", "99999999999", "0x10"}) {
+    setenv("DDSNAV_DOMAIN", bad, 1);
+    try {
+      bus::domainFromEnvironment(7);
+      ADD_FAILURE() << "DDSNAV_DOMAIN='" << bad << "' was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("DDSNAV_DOMAIN"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(std::string("'") + bad + "'"), std::string::npos) << e.what();
+    }
+  }
+  unsetenv("DDSNAV_DOMAIN");
 }
 
 TEST(BusErrors, DomainOutOfRange) {

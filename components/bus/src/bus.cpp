@@ -5,9 +5,11 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdlib>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <thread>
 
 namespace ddsnav::bus {
@@ -28,6 +30,18 @@ Vendor vendorFromEnvironment(Vendor fallback) {
   } catch (const BusError& e) {
     throw BusError(std::string("environment variable DDSNAV_DDS: ") + e.what());
   }
+}
+
+int domainFromEnvironment(int fallback) {
+  const char* env = std::getenv("DDSNAV_DOMAIN");
+  if (env == nullptr || *env == '\0') return fallback;
+  const std::string text = env;
+  int value = -1;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || value < 0 || value > kMaxDomainId)
+    throw std::invalid_argument("environment variable DDSNAV_DOMAIN='" + text + "': expected a DDS domain id, an integer in 0.." +
+                                std::to_string(kMaxDomainId));
+  return value;
 }
 
 namespace detail {

@@ -40,7 +40,8 @@ int main(int argc, char** argv) {
   std::string dds;
   app.add_option("file", file, "launch file (YAML, see docs/launch.md)")->required();
   app.add_option("--set", sets, "override a variable of the launch file: name=value")->take_all();
-  app.add_option("--domain", domain, "DDS domain id for every process (default: the file's, else DDSNAV_DOMAIN, else 0)");
+  app.add_option("--domain", domain, "DDS domain id for every process (default: the file's, else DDSNAV_DOMAIN, else 0)")
+      ->check(CLI::Range(0, bus::kMaxDomainId));
   app.add_option("--dds", dds, "default vendor for processes that do not name one: fastdds | cyclonedds");
   CLI11_PARSE(app, argc, argv);
 
@@ -54,10 +55,7 @@ int main(int argc, char** argv) {
     auto config = launch::loadLaunchConfig(file, overrides);
     if (!dds.empty()) config.dds = dds;
     if (domain < 0) domain = config.domain.value_or(-1);
-    if (domain < 0) {
-      const char* env = std::getenv("DDSNAV_DOMAIN");
-      domain = env ? std::atoi(env) : 0;
-    }
+    if (domain < 0) domain = bus::domainFromEnvironment(0);
     const auto vendor = bus::parseVendor(config.dds);
     for (const auto& p : config.processes)
       if (p.dds) bus::parseVendor(*p.dds);  // reject a typo before anything starts

@@ -239,16 +239,6 @@ class ContextImpl : public Context {
   bool heartbeat_stop_ = false;
 };
 
-int envInt(const char* name, int fallback) {
-  const char* v = std::getenv(name);
-  if (v == nullptr || *v == '\0') return fallback;
-  char* end = nullptr;
-  long n = std::strtol(v, &end, 10);
-  if (*end != '\0') throw bus::BusError(std::string("environment variable ") + name + "='" + v +
-                                        "': expected an integer");
-  return static_cast<int>(n);
-}
-
 }  // namespace
 
 int runComponent(const std::string& name, int argc, char** argv, const std::function<void(Context&)>& body,
@@ -288,7 +278,7 @@ int runComponent(const std::string& name, int argc, char** argv, const std::func
   bus::ParticipantOptions bus_options;
   try {
     bus_options.vendor = dds.empty() ? bus::vendorFromEnvironment() : bus::parseVendor(dds);
-    bus_options.domain_id = domain ? *domain : envInt("DDSNAV_DOMAIN", 0);
+    bus_options.domain_id = domain ? *domain : bus::domainFromEnvironment(0);
     if (bus_options.domain_id < 0 || bus_options.domain_id > bus::kMaxDomainId)
       throw bus::BusError("DDS domain id " + std::to_string(bus_options.domain_id) + " is out of range: expected 0.." +
                           std::to_string(bus::kMaxDomainId));

@@ -66,6 +66,10 @@ Vendor vendorFromEnvironment(Vendor fallback = Vendor::FastDDS);
 
 // RTPS port mapping (7400 + 250 * domain + ...) keeps a domain id within [0, 232].
 inline constexpr int kMaxDomainId = 232;
+// DDSNAV_DOMAIN from the environment, or fallback when unset or empty. The whole value must be a decimal
+// integer in [0, kMaxDomainId] ("abc", "5x", "300" are refused): throws std::invalid_argument naming the
+// variable and the value, so a typo never silently lands on another domain.
+int domainFromEnvironment(int fallback = 0);
 
 enum class Reliability { BestEffort, Reliable };
 enum class Durability { Volatile, TransientLocal };
