@@ -26,8 +26,19 @@ class Reader {
     throw LaunchError(out.str());
   }
 
+  // yaml-cpp keeps both entries of a repeated key and node["key"] finds the first, so a second
+  // `params:` or `restart:` would be ignored without a word: refuse it, at the repeat's line.
+  void uniqueKeys(const YAML::Node& map, const std::string& where) const {
+    std::set<std::string> seen;
+    for (const auto& entry : map) {
+      const auto key = entry.first.as<std::string>();
+      if (!seen.insert(key).second) fail(entry.first, where.empty() ? key : where + "." + key, "duplicate key");
+    }
+  }
+
   void allowOnly(const YAML::Node& map, const std::set<std::string>& allowed, const std::string& where) const {
     if (!map.IsMap()) fail(map, where, "expected a mapping");
+    uniqueKeys(map, where);
     for (const auto& entry : map) {
       const auto key = entry.first.as<std::string>();
       if (!allowed.count(key)) {
@@ -175,6 +186,7 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
   std::set<std::string> required_variables;
   if (const auto vars = root["variables"]) {
     if (!vars.IsMap()) reader.fail(vars, "variables", "expected a mapping of name: value");
+    reader.uniqueKeys(vars, "variables");
     for (const auto& entry : vars) {
       const std::string name = entry.first.as<std::string>();
       // `name: ~` (or no value) declares a variable the user must give with --set.
@@ -245,6 +257,7 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
     if (node["dds"]) spec.dds = reader.scalar(node["dds"], "dds");
     if (const auto params = node["params"]) {
       if (!params.IsMap()) reader.fail(params, "params", "expected a mapping of parameter: value");
+      reader.uniqueKeys(params, "params");
       for (const auto& entry : params) {
         const auto key = entry.first.as<std::string>();
         spec.params[key] = substitute(reader.scalar(entry.second, key), config.variables, reader, entry.second, key);

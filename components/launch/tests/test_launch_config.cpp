@@ -65,6 +65,21 @@ TEST(LaunchConfig, ErrorsNameFileLineAndKey) {
   EXPECT_NE(errorOf("processes:\n  - {name: a, command: x, max_restarts: -1}\n").find("must be >= 0"), std::string::npos);
 }
 
+TEST(LaunchConfig, DuplicateKeysAreErrorsAtTheRepeat) {
+  // yaml-cpp would keep both and hand back the first: the second `restart:` / `params:` would be ignored.
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    restart: never\n    restart: always\n"),
+            "set.yaml:5: key 'processes.restart': duplicate key");
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    params: {v: 1}\n    params: {v: 2}\n"),
+            "set.yaml:5: key 'processes.params': duplicate key");
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    params:\n      v: 1\n      v: 2\n"),
+            "set.yaml:6: key 'params.v': duplicate key");
+  EXPECT_EQ(errorOf("variables:\n  w: a\n  w: b\nprocesses: [{name: a, command: x}]\n"),
+            "set.yaml:3: key 'variables.w': duplicate key");
+  EXPECT_EQ(errorOf("domain: 1\nprocesses: [{name: a, command: x}]\ndomain: 2\n"), "set.yaml:3: key 'domain': duplicate key");
+  // The same key in two different processes is fine.
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, restart: never}\n  - {name: b, command: y, restart: always}\n"), "");
+}
+
 TEST(LaunchConfig, RejectsUnknownDependenciesAndCycles) {
   EXPECT_NE(errorOf("processes:\n  - {name: a, command: x, after: [ghost]}\n").find("unknown process 'ghost'"),
             std::string::npos);
