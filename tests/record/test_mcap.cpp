@@ -331,6 +331,101 @@ TEST(McapBadFiles, DamagedChunkIsReportedAtItsOffset) {
   EXPECT_LT(3u, chunks);
 }
 
+// Little-endian MCAP records built by hand, independent of the writer.
+struct HandBuilt {
+  std::vector<std::uint8_t> bytes = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
+  static void put(std::vector<std::uint8_t>& out, std::uint64_t v, int n) {
+    for (int i = 0; i < n; ++i) out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  }
+  static void putString(std::vector<std::uint8_t>& out, const std::string& s) {
+    put(out, s.size(), 4);
+    out.insert(out.end(), s.begin(), s.end());
+  }
+  std::uint64_t record(std::uint8_t opcode, const std::vector<std::uint8_t>& content) {
+    const std::uint64_t at = bytes.size();
+    bytes.push_back(opcode);
+    put(bytes, content.size(), 8);
+    bytes.insert(bytes.end(), content.begin(), content.end());
+    return at;
+  }
+};
+
+TEST(McapForeignFiles, LooseMessagesInAFileWithASummaryAndNoChunks) {
+  // Valid MCAP as other writers make it: messages outside chunks, then a summary with Statistics but no
+  // ChunkIndex. The summary path must not read this as an empty recording.
+  HandBuilt f;
+  std::vector<std::uint8_t> c;
+  HandBuilt::putString(c, "");  // profile
+  HandBuilt::putString(c, "hand-built");
+  f.record(0x01, c);
+  std::vector<std::uint8_t> schema;
+  HandBuilt::put(schema, 1, 2);
+  HandBuilt::putString(schema, "ddsnav::msg::Clock");
+  HandBuilt::putString(schema, "omgidl");
+  HandBuilt::putString(schema, "struct Clock { int64 stamp_ns; };");
+  std::vector<std::uint8_t> channel;
+  HandBuilt::put(channel, 5, 2);
+  HandBuilt::put(channel, 1, 2);
+  HandBuilt::putString(channel, "system/clock");
+  HandBuilt::putString(channel, "cdr");
+  HandBuilt::put(channel, 0, 4);  // no metadata
+  f.record(0x03, schema);
+  f.record(0x04, channel);
+  std::vector<Written> written;
+  for (std::uint32_t i = 0; i < 3; ++i) {
+    Written m{5, 1000 + 10 * i, 990 + 10 * i, std::vector<std::uint8_t>(4 + i, static_cast<std::uint8_t>(0xA0 + i))};
+    std::vector<std::uint8_t> msg;
+    HandBuilt::put(msg, m.channel, 2);
+    HandBuilt::put(msg, i + 1, 4);
+    HandBuilt::put(msg, m.log_time, 8);
+    HandBuilt::put(msg, m.publish_time, 8);
+    msg.insert(msg.end(), m.data.begin(), m.data.end());
+    f.record(0x05, msg);
+    written.push_back(std::move(m));
+  }
+  f.record(0x0F, std::vector<std::uint8_t>(4, 0));  // DataEnd, no CRC
+  const std::uint64_t summary_start = f.record(0x03, schema);
+  f.record(0x04, channel);
+  std::vector<std::uint8_t> stats;
+  HandBuilt::put(stats, 3, 8);  // messages
+  HandBuilt::put(stats, 1, 2);  // schemas
+  HandBuilt::put(stats, 1, 4);  // channels
+  HandBuilt::put(stats, 0, 4);  // attachments
+  HandBuilt::put(stats, 0, 4);  // metadata
+  HandBuilt::put(stats, 0, 4);  // chunks
+  HandBuilt::put(stats, written.front().log_time, 8);
+  HandBuilt::put(stats, written.back().log_time, 8);
+  HandBuilt::put(stats, 10, 4);  // channel_message_counts: one (u16, u64) entry
+  HandBuilt::put(stats, 5, 2);
+  HandBuilt::put(stats, 3, 8);
+  const std::uint64_t stats_at = f.record(0x0B, stats);
+  std::vector<std::uint8_t> offset;
+  HandBuilt::put(offset, 0x0B, 1);
+  HandBuilt::put(offset, stats_at, 8);
+  HandBuilt::put(offset, f.bytes.size() - stats_at, 8);
+  const std::uint64_t summary_offset_start = f.record(0x0E, offset);
+  std::vector<std::uint8_t> footer;
+  HandBuilt::put(footer, summary_start, 8);
+  HandBuilt::put(footer, summary_offset_start, 8);
+  HandBuilt::put(footer, 0, 4);  // no summary CRC
+  f.record(0x02, footer);
+  f.bytes.insert(f.bytes.end(), f.bytes.begin(), f.bytes.begin() + 8);
+  const fs::path path = tempFile("loose.mcap");
+  writeBytes(path, f.bytes, f.bytes.size());
+
+  McapReader r(path.string());
+  EXPECT_TRUE(r.hasSummary());
+  EXPECT_FALSE(r.truncated());
+  EXPECT_TRUE(r.chunks().empty());
+  EXPECT_EQ(r.summary().message_count, 3u);
+  expectSame(readAll(r), written);
+  EXPECT_EQ(describeRecording(r)["topics"][0]["message_count"].get<std::uint64_t>(), 3u);
+
+  McapReader scanned(path.string(), /*force_scan=*/true);
+  EXPECT_FALSE(scanned.truncated()) << scanned.truncationReason();
+  expectSame(readAll(scanned), written);
+}
+
 TEST(McapInfo, ReportsTopicsCountsDropsAndCompression) {
   const fs::path path = tempFile("info.mcap");
   const auto written = writeSample(path, Compression::Zstd, 16 * 1024, 300);

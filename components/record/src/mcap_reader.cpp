@@ -123,6 +123,7 @@ McapReader::McapReader(const std::string& path, bool force_scan) : path_(path) {
           channels_.clear();
           chunks_.clear();
           metadata_.clear();
+          loose_messages_.clear();
           summary_ = {};
         }
       }
@@ -234,6 +235,38 @@ void McapReader::readSummary(std::uint64_t summary_start, std::uint64_t summary_
   }
   if (!statistics) fail(summary_start, "summary without a Statistics record");
   std::sort(chunks_.begin(), chunks_.end(), [](const ChunkInfo& a, const ChunkInfo& b) { return a.offset < b.offset; });
+  // The summary indexes chunks only. Messages outside chunks are valid MCAP (other writers make files with
+  // no chunks at all); when the chunks' message indexes do not account for every counted message, walk
+  // the data section's record headers to find the loose ones.
+  if (indexedChunkMessages() < summary_.message_count) findLooseMessages(summary_start);
+}
+
+std::uint64_t McapReader::indexedChunkMessages() const {
+  // A MessageIndex record is opcode + length (9) + channel (2) + entries byte length (4) + 16 per message,
+  // so the ChunkIndex's index length and index count give the message count without reading anything.
+  std::uint64_t count = 0;
+  for (const ChunkInfo& c : chunks_) {
+    const std::uint64_t overhead = (kRecordPrefix + 2 + 4) * c.message_index_offsets.size();
+    if (c.message_index_offsets.empty() || c.message_index_length < overhead) return 0;  // unindexed: unknown
+    count += (c.message_index_length - overhead) / 16;
+  }
+  return count;
+}
+
+void McapReader::findLooseMessages(std::uint64_t summary_start) {
+  // Record headers only: chunks are skipped, not decoded. Stops at DataEnd (or the summary).
+  std::uint64_t offset = sizeof kMagic;
+  while (offset + kRecordPrefix <= summary_start) {
+    const auto prefix = readAt(offset, kRecordPrefix);
+    In p(prefix.data(), prefix.size(), offset, path_);
+    const std::uint8_t opcode = p.u8();
+    const std::uint64_t length = p.u64();
+    if (length > summary_start - offset - kRecordPrefix)
+      fail(offset, opcodeName(opcode) + " record runs into the summary section");
+    if (opcode == kDataEnd) break;
+    if (opcode == kMessage) loose_messages_.push_back(offset);
+    offset += kRecordPrefix + length;
+  }
 }
 
 void McapReader::scan() {

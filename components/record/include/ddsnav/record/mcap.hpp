@@ -182,6 +182,8 @@ class McapReader {
 
  private:
   void readSummary(std::uint64_t summary_start, std::uint64_t summary_offset_start);
+  std::uint64_t indexedChunkMessages() const;  // messages the chunks' MessageIndex records list (0: unknown)
+  void findLooseMessages(std::uint64_t summary_start);
   void scan();
   std::vector<std::uint8_t> readAt(std::uint64_t offset, std::uint64_t size) const;
   std::vector<std::uint8_t> chunkRecords(const ChunkInfo& chunk) const;
