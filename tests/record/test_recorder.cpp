@@ -11,8 +11,10 @@
 
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <csignal>
 #include <filesystem>
+#include <future>
 
 using namespace ddsnav;
 namespace fs = std::filesystem;
@@ -233,6 +235,135 @@ TEST(Recorder, KilledRecorderLeavesAReadableFile) {
   const auto info = record::describeRecording(r);
   EXPECT_TRUE(info["truncated"].get<bool>());
   EXPECT_FALSE(info["topic_counts_recorded"].get<bool>());
+}
+
+// Domain 199: the recorder asked for topics nobody publishes, and the player given nothing to play.
+constexpr int kNothingDomain = 199;
+
+TEST(Recorder, RequestedTopicsNeverDiscoveredAreNamed) {
+  const fs::path file = tempFile("partly.mcap");
+  bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kNothingDomain, .name = "nd-pub"});
+  bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kNothingDomain, .name = "nd-rec"});
+  auto pub = pub_side.publisher<msg::Clock>("test/present", bus::Qos::commands());
+  record::RecorderOptions options;
+  options.output = file.string();
+  options.topics = {"test/present", "test/presnet"};
+  {
+    record::Recorder recorder(rec_side, options);
+    ASSERT_TRUE(pollUntilSubscribed(recorder, 1, std::chrono::seconds(10)));
+    EXPECT_EQ(recorder.notDiscovered(), std::vector<std::string>{"test/presnet"});
+    EXPECT_EQ(recorder.messagesWritten(), 0u);
+    recorder.stop();
+  }
+  record::McapReader r(file.string());
+  const auto end = std::find_if(r.metadata().begin(), r.metadata().end(), [](const auto& m) { return m.name == "ddsnav.recording_end"; });
+  ASSERT_NE(end, r.metadata().end());
+  EXPECT_EQ(end->values.at("not_discovered"), "test/presnet");
+}
+
+TEST(Recorder, RecordingNothingExitsNonZeroNamingTheMissingTopics) {
+  const fs::path file = tempFile("nothing.mcap");
+  record_test::Child recorder({DDSNAV_RECORD_BIN, "--dds", "cyclonedds", "--domain", std::to_string(kNothingDomain), "--topics",
+                               "no/such_topic,control/cmd_vle", "--duration", "0.5", "-o", file.string()},
+                              tempFile("nothing.log").string());
+  ASSERT_TRUE(recorder.wait(std::chrono::seconds(30))) << recorder.log();
+  EXPECT_EQ(recorder.exitCode(), 1) << recorder.log();
+  const std::string log = recorder.log();
+  EXPECT_NE(log.find("no/such_topic: no publisher discovered; nothing recorded"), std::string::npos) << log;
+  EXPECT_NE(log.find("control/cmd_vle: no publisher discovered; nothing recorded"), std::string::npos) << log;
+  EXPECT_NE(log.find("nothing was recorded"), std::string::npos) << log;
+  record::McapReader r(file.string());  // still a valid, closed (empty) recording
+  EXPECT_FALSE(r.truncated());
+  EXPECT_EQ(r.summary().message_count, 0u);
+}
+
+TEST(Recorder, BadDomainInTheEnvironmentIsRefused) {
+  // std::atoi read "19x" as domain 19: the recorder would have listened on the wrong domain, silently.
+  const fs::path file = tempFile("baddomain.mcap");
+  ::setenv("DDSNAV_DOMAIN", "19x", 1);
+  record_test::Child recorder({DDSNAV_RECORD_BIN, "--dds", "cyclonedds", "--duration", "0.5", "-o", file.string()},
+                              tempFile("baddomain.log").string());
+  ::unsetenv("DDSNAV_DOMAIN");
+  ASSERT_TRUE(recorder.wait(std::chrono::seconds(30))) << recorder.log();
+  EXPECT_NE(recorder.exitCode(), 0) << recorder.log();
+  EXPECT_NE(recorder.log().find("DDSNAV_DOMAIN='19x'"), std::string::npos) << recorder.log();
+  EXPECT_FALSE(fs::exists(file));
+}
+
+// Two channels: vehicle/state with `count` messages 10 ms apart, control/cmd_vel with none.
+void writeSparseRecording(const fs::path& path, int count) {
+  record::McapWriter w(path.string());
+  const auto state_schema = w.addSchema("ddsnav::msg::VehicleState", "omgidl", *record::idlSchemaFor("ddsnav::msg::VehicleState"));
+  const auto cmd_schema = w.addSchema("ddsnav::msg::VelocityCommand", "omgidl", *record::idlSchemaFor("ddsnav::msg::VelocityCommand"));
+  const auto state = w.addChannel(state_schema, "vehicle/state", "cdr",
+                                  {{"dds_type", "ddsnav::msg::VehicleState"}, {"keyed", "false"}, {"qos", "sensorData"}});
+  w.addChannel(cmd_schema, "control/cmd_vel", "cdr", {{"dds_type", "ddsnav::msg::VelocityCommand"}, {"keyed", "false"}, {"qos", "commands"}});
+  const auto& ts = msg::type_support<msg::VehicleState>();
+  for (int i = 0; i < count; ++i) {
+    msg::VehicleState s;
+    s.header().stamp_ns(i);
+    std::vector<std::uint8_t> bytes(ts.serialized_size(&s));
+    ASSERT_EQ(ts.serialize(&s, bytes.data(), bytes.size()), bytes.size());
+    const std::uint64_t t = 1'000'000'000ull + 10'000'000ull * static_cast<std::uint64_t>(i);
+    w.write(state, t, t, bytes);
+  }
+  w.close();
+}
+
+// play() with --loop on a file where nothing passes the filters: must end with an error, not spin.
+std::string loopError(const fs::path& file, record::PlayerOptions options) {
+  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = kNothingDomain, .name = "nd-play"});
+  record::McapReader reader(file.string());
+  options.loop = true;
+  options.wait_subscribers = std::chrono::milliseconds(0);
+  options.settle = std::chrono::milliseconds(0);
+  std::atomic<bool> stop{false};
+  auto result = std::async(std::launch::async, [&]() -> std::string {
+    try {
+      record::play(participant, reader, options, stop);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "(returned without an error)";
+  });
+  if (result.wait_for(std::chrono::seconds(20)) != std::future_status::ready) {
+    stop.store(true);  // the old behaviour: looping over nothing until stopped
+    result.wait();
+    return "(still looping after 20 s)";
+  }
+  return result.get();
+}
+
+TEST(Player, LoopOverNothingPlayableFailsWithTheReason) {
+  const fs::path sparse = tempFile("sparse.mcap");
+  writeSparseRecording(sparse, 5);
+  record::PlayerOptions options;
+  options.topics = {"control/cmd_vel"};
+  std::string e = loopError(sparse, options);
+  EXPECT_NE(e.find(sparse.string() + ": nothing to play"), std::string::npos) << e;
+  EXPECT_NE(e.find("(control/cmd_vel) have no messages"), std::string::npos) << e;
+
+  options = {};
+  options.start_s = 5.0;  // the recording is 40 ms long
+  e = loopError(sparse, options);
+  EXPECT_NE(e.find(sparse.string() + ": nothing to play"), std::string::npos) << e;
+  EXPECT_NE(e.find("--start 5 s is past the end of the recording (0.040 s long)"), std::string::npos) << e;
+
+  const fs::path empty = tempFile("empty.mcap");
+  writeSparseRecording(empty, 0);
+  e = loopError(empty, {});
+  EXPECT_NE(e.find(empty.string() + ": nothing to play: the recording holds no messages"), std::string::npos) << e;
+}
+
+TEST(Player, PlayExitsNonZeroWhenNothingIsPlayable) {
+  const fs::path sparse = tempFile("sparse_cli.mcap");
+  writeSparseRecording(sparse, 3);
+  record_test::Child player({DDSNAV_PLAY_BIN, sparse.string(), "--dds", "cyclonedds", "--domain", std::to_string(kNothingDomain),
+                             "--loop", "--start", "60", "--wait-subscribers", "0", "--settle", "0", "--linger", "0"},
+                            tempFile("sparse_cli.log").string());
+  ASSERT_TRUE(player.wait(std::chrono::seconds(30))) << "still looping:\n" << player.log();
+  EXPECT_EQ(player.exitCode(), 1) << player.log();
+  EXPECT_NE(player.log().find("nothing to play: --start 60 s is past the end"), std::string::npos) << player.log();
 }
 
 }  // namespace

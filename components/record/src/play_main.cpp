@@ -15,18 +15,14 @@ using namespace ddsnav;
 namespace {
 std::atomic<bool> g_stop{false};
 void onSignal(int) { g_stop.store(true); }
-std::string envOr(const char* name, const std::string& fallback) {
-  const char* v = std::getenv(name);
-  return v && *v ? v : fallback;
-}
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"Replay an MCAP recording onto DDS (docs/record.md)."};
   std::string path;
   record::PlayerOptions options;
-  std::string dds = envOr("DDSNAV_DDS", "fastdds");
-  int domain = std::atoi(envOr("DDSNAV_DOMAIN", "0").c_str());
+  std::string dds;   // empty: DDSNAV_DDS, else fastdds
+  int domain = -1;   // unset: DDSNAV_DOMAIN, else 0
   double wait_s = 2.0;
   double settle_s = 1.0;
   double linger_s = 1.0;
@@ -53,10 +49,12 @@ int main(int argc, char** argv) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
   try {
+    const bus::Vendor vendor = dds.empty() ? bus::vendorFromEnvironment() : bus::parseVendor(dds);
+    if (domain < 0) domain = bus::domainFromEnvironment(0);
     record::McapReader file(path);
     if (file.truncated())
       spdlog::warn("{}: truncated at byte {} ({}); playing what is complete", path, file.truncatedAt(), file.truncationReason());
-    bus::Participant participant({.vendor = bus::parseVendor(dds), .domain_id = domain, .name = "ddsnav-play"});
+    bus::Participant participant({.vendor = vendor, .domain_id = domain, .name = "ddsnav-play"});
     const bool tty = ::isatty(STDERR_FILENO);
     const auto result = record::play(participant, file, options, g_stop, [&](const record::PlaybackProgress& p) {
       std::fprintf(stderr, "%s%.1f / %.1f s  published %llu%s", tty ? "\r" : "", p.recorded_s, p.duration_s,

@@ -1,10 +1,12 @@
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/record/recorder.hpp>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <thread>
 
 namespace ddsnav::record {
@@ -23,6 +25,29 @@ bool chosen(const PlayerOptions& options, const std::string& topic) {
   if (topic == "system/status") return false;
   if (options.clock && topic == "system/clock") return false;
   return true;
+}
+
+// Why no message of `file` passes the player's filters (only called when none did).
+std::string whyNothingPlays(const McapReader& file, const PlayerOptions& options, const std::map<std::uint16_t, Output>& outputs,
+                            std::uint64_t begin) {
+  const McapSummary& summary = file.summary();
+  if (summary.message_count == 0) return "the recording holds no messages";
+  std::uint64_t playable = 0;
+  for (const auto& [id, out] : outputs) {
+    const auto n = summary.channel_message_counts.find(id);
+    if (out.enabled && n != summary.channel_message_counts.end()) playable += n->second;
+  }
+  if (playable == 0) {
+    std::string topics;
+    for (const auto& [id, out] : outputs)
+      if (out.enabled) topics += (topics.empty() ? "" : ", ") + out.topic;
+    return topics.empty() ? "no recorded topic can be replayed (chosen by --topics, publishable, see warnings above)"
+                          : "the replayed topics (" + topics + ") have no messages in the recording";
+  }
+  if (begin > summary.message_end_time)
+    return fmt::format("--start {:g} s is past the end of the recording ({:.3f} s long)", options.start_s,
+                       static_cast<double>(summary.message_end_time - summary.message_start_time) * 1e-9);
+  return fmt::format("no message of the replayed topics at or after --start {:g} s", options.start_s);
 }
 
 }  // namespace
@@ -91,6 +116,7 @@ PlaybackProgress play(bus::Participant& bus, const McapReader& file, const Playe
 
   do {
     const auto wall_start = Clock::now();
+    std::uint64_t attempted = 0;  // messages this pass reached the publish step
     // Recorded time -> wall time: offset from `begin`, divided by the rate.
     auto due = [&](std::uint64_t log_time) {
       return wall_start + std::chrono::nanoseconds(static_cast<std::int64_t>(static_cast<double>(log_time - begin) / options.rate));
@@ -126,6 +152,7 @@ PlaybackProgress play(bus::Participant& bus, const McapReader& file, const Playe
       }
       // The clock reaches the message's time before the message is out.
       if (options.clock) publishClock(m.log_time);
+      ++attempted;
       try {
         out.publisher.publish(m.data);
         ++p.published;
@@ -139,6 +166,9 @@ PlaybackProgress play(bus::Participant& bus, const McapReader& file, const Playe
       }
       return true;
     });
+    // A pass with nothing to publish would repeat instantly forever under --loop; without it, it is still
+    // a replay that did nothing. Either way the caller gets the reason.
+    if (attempted == 0 && !stop.load()) throw std::runtime_error(file.path() + ": nothing to play: " + whyNothingPlays(file, options, outputs, begin));
   } while (options.loop && !stop.load());
   if (progress) progress(p);
   return p;

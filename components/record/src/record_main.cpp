@@ -22,11 +22,6 @@ std::string defaultName() {
   return buf;
 }
 
-std::string envOr(const char* name, const std::string& fallback) {
-  const char* v = std::getenv(name);
-  return v && *v ? v : fallback;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -40,8 +35,8 @@ int main(int argc, char** argv) {
   CLI::App app{"Record DDS topics as raw payloads into an MCAP file (docs/record.md)."};
   record::RecorderOptions options;
   options.output = defaultName();
-  std::string dds = envOr("DDSNAV_DDS", "fastdds");
-  int domain = std::atoi(envOr("DDSNAV_DOMAIN", "0").c_str());
+  std::string dds;   // empty: DDSNAV_DDS, else fastdds
+  int domain = -1;   // unset: DDSNAV_DOMAIN, else 0
   bool all = false;
   double duration = 0;
   std::string compression = "zstd";
@@ -70,12 +65,14 @@ int main(int argc, char** argv) {
   spdlog::set_pattern("[%H:%M:%S.%e] [record] [%^%l%$] %v");
 
   try {
+    const bus::Vendor vendor = dds.empty() ? bus::vendorFromEnvironment() : bus::parseVendor(dds);
+    if (domain < 0) domain = bus::domainFromEnvironment(0);
     options.mcap.compression = compression == "zstd" ? record::Compression::Zstd : record::Compression::None;
     options.mcap.chunk_size = chunk_kb * 1024;
     options.queue_bytes = static_cast<std::size_t>(queue_mb * (1 << 20));
     options.write_delay = std::chrono::microseconds(write_delay_us);
     options.domain_id = domain;
-    bus::Participant participant({.vendor = bus::parseVendor(dds), .domain_id = domain, .name = "ddsnav-record"});
+    bus::Participant participant({.vendor = vendor, .domain_id = domain, .name = "ddsnav-record"});
     options.vendor_name = std::string(bus::vendorName(participant.vendor()));
     record::Recorder recorder(participant, options);
     spdlog::info("recording {} to {} (domain {}, {})", options.topics.empty() ? std::string("every topic") : fmt::format("{}", fmt::join(options.topics, ",")),
@@ -120,8 +117,14 @@ int main(int argc, char** argv) {
     for (const auto& c : recorder.counts())
       spdlog::info("{}: received {} written {} dropped {}", c.topic, c.received, c.written, c.dropped);
     for (const auto& s : recorder.skipped()) spdlog::warn("not recorded: {}", s);
+    // A topic asked for by name that never appeared is most often a typo: say so, by name.
+    for (const auto& topic : recorder.notDiscovered()) spdlog::warn("{}: no publisher discovered; nothing recorded", topic);
     if (recorder.failed()) {
       spdlog::error("recording stopped early: {}", recorder.error());
+      return 1;
+    }
+    if (recorder.messagesWritten() == 0) {
+      spdlog::error("nothing was recorded: {} holds no messages", options.output);
       return 1;
     }
   } catch (const std::exception& e) {

@@ -238,9 +238,12 @@ void Recorder::stop() {
     counts[c.topic + ":written"] = std::to_string(c.written);
     counts[c.topic + ":dropped"] = std::to_string(c.dropped);
   }
+  std::string not_discovered;
+  for (const std::string& topic : notDiscovered()) not_discovered += (not_discovered.empty() ? "" : ",") + topic;
   std::lock_guard lock(writer_mutex_);
   writer_.addMetadata("ddsnav.topic_counts", counts);
-  writer_.addMetadata("ddsnav.recording_end", {{"end_time_ns", std::to_string(nowNs())}, {"error", error_}});
+  writer_.addMetadata("ddsnav.recording_end",
+                      {{"end_time_ns", std::to_string(nowNs())}, {"error", error_}, {"not_discovered", not_discovered}});
   writer_.close();
 }
 
@@ -249,6 +252,16 @@ std::vector<TopicCounts> Recorder::counts() const {
   std::vector<TopicCounts> out;
   for (const auto& t : topics_)
     out.push_back({t->info.topic, t->info.type_name, t->qos.profile, t->received.load(), t->written.load(), t->dropped.load()});
+  return out;
+}
+
+std::vector<std::string> Recorder::notDiscovered() const {
+  std::lock_guard lock(topics_mutex_);
+  std::vector<std::string> out;
+  for (const std::string& topic : options_.topics) {
+    const bool seen = std::any_of(seen_.begin(), seen_.end(), [&](const auto& s) { return s.first == topic; });
+    if (!seen && std::find(out.begin(), out.end(), topic) == out.end()) out.push_back(topic);
+  }
   return out;
 }
 

@@ -78,6 +78,10 @@ class Recorder {
   std::string error() const;
   // Topics the recorder could not subscribe to (type unknown to this build, type conflicts), with why.
   std::vector<std::string> skipped() const;
+  // Topics asked for with RecorderOptions::topics that no publisher ever announced (a typo, or a component
+  // that never started): nothing of them is in the file.
+  std::vector<std::string> notDiscovered() const;
+  std::uint64_t messagesWritten() const { return total_written_.load(); }
 
  private:
   struct Topic {
