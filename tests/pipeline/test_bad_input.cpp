@@ -1,12 +1,19 @@
-// Bad clouds on sensors/points: perception and the mapper log and skip (or clean) them and keep serving.
+// Bad input from outside: perception and the mapper log and skip (or clean) bad clouds on sensors/points;
+// the planner and the tracker drop malformed perception/obstacles arrays (keeping the last good one) and
+// keep answering; bad parameters end a component at startup with status 2 and the parameter named.
+// Everything here shares domain 215, so the parts run one after the other inside one test.
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/testing/harness.hpp>
 
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <thread>
 
 using namespace ddsnav;
 using namespace std::chrono_literals;
@@ -25,10 +32,81 @@ msg::PointCloud boxCloud(const std::string& frame = "map") {
   return cloud;
 }
 
-}  // namespace
+constexpr int kDomain = 215;
+const std::string kScenario = std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml";
 
-TEST(BadInput, PerceptionAndMapperSkipBadCloudsAndKeepServing) {
-  harness::Harness h(215);
+// Polls NAME's log until it contains `text`; bounded.
+bool waitForLog(harness::Harness& h, const std::string& name, const std::string& text, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (h.log(name).find(text) == std::string::npos) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(50ms);
+  }
+  return true;
+}
+
+msg::ObstacleEllipsoid ellipse(std::uint32_t id, double x, double y, double a, double b) {
+  msg::ObstacleEllipsoid o;
+  o.id(id);
+  o.centre().x(x);
+  o.centre().y(y);
+  o.semi_axes().x(a);
+  o.semi_axes().y(b);
+  o.orientation().w(1.0);
+  o.probability_bound(0.99);
+  return o;
+}
+
+// demo_2d's yard with one small obstacle off the straight line from start to goal.
+msg::ObstacleArray goodArray() {
+  msg::ObstacleArray array;
+  array.header().frame_id("map");
+  array.planar(true);
+  array.obstacles().push_back(ellipse(1, 30, 8, 1.0, 1.0));
+  return array;
+}
+
+// One negative semi-axis and one NaN centre: no world can be built from it.
+msg::ObstacleArray malformedArray() {
+  auto array = goodArray();
+  array.obstacles().push_back(ellipse(2, 20, 20, -1.0, 0.5));
+  array.obstacles().push_back(ellipse(3, std::nan(""), 5, 1.0, 1.0));
+  return array;
+}
+
+msg::PlanRequest request(std::uint32_t id) {
+  msg::PlanRequest r;
+  r.header().frame_id("map");
+  r.request_id(id);
+  r.planner("rrtstar");
+  r.start().x(3);
+  r.start().y(3);
+  r.goal().x(36);
+  r.goal().y(35);
+  r.goal_radius(1.5);
+  r.time_budget_s(1.0);
+  r.seed(id);
+  return r;
+}
+
+std::optional<msg::Path> answerTo(bus::Inbox<msg::Path>& paths, std::uint32_t id) {
+  for (auto p = paths.wait(15s); p; p = paths.wait(15s))
+    if (p->request_id() == id) return p;
+  return std::nullopt;
+}
+
+// Starts NAME with `params`, waits (bounded) for it to end by itself and returns its log; the exit status goes to `status`.
+std::string runToExit(const std::string& name, const std::map<std::string, std::string>& params, int& status) {
+  harness::Harness h(kDomain);
+  h.start({.name = name, .command = "ddsnav-" + name, .params = params});
+  const auto deadline = std::chrono::steady_clock::now() + 20s;
+  while (h.running(name) && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
+  status = h.stop(name);  // kills it (status: signalled) if it is still running
+  return h.log(name);
+}
+
+void perceptionAndMapperSkipBadCloudsAndKeepServing() {
+  harness::Harness h(kDomain);
   h.startReady({.name = "perception", .command = "ddsnav-perception", .dds = "cyclonedds"});
   h.startReady({.name = "mapper", .command = "ddsnav-mapper", .params = {{"publish_rate_hz", "10"}}, .dds = "fastdds"});
   auto clouds = h.bus().publisher<msg::PointCloud>("sensors/points", bus::Qos::sensorData());
@@ -87,4 +165,118 @@ TEST(BadInput, PerceptionAndMapperSkipBadCloudsAndKeepServing) {
   EXPECT_NE(mapper_log.find("frame 'lidar'"), std::string::npos) << mapper_log;
   EXPECT_NE(mapper_log.find("not a multiple of 3"), std::string::npos) << mapper_log;
   EXPECT_NE(mapper_log.find("rejected"), std::string::npos) << mapper_log;
+}
+
+void plannerAndTrackerDropMalformedWorlds() {
+  harness::Harness h(kDomain);
+  h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}}, .dds = "cyclonedds"});
+  h.startReady({.name = "tracker",
+                .command = "ddsnav-tracker",
+                .params = {{"scenario", kScenario}, {"planner", "rrtstar"}, {"time_budget_s", "1"}, {"replan_check_period_s", "0.1"}},
+                .dds = "fastdds"});
+  auto obstacles = h.bus().publisher<msg::ObstacleArray>("perception/obstacles", bus::Qos::state());
+  auto requests = h.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
+  auto paths = h.bus().inbox<msg::Path>("planning/path", bus::Qos::state());
+  auto trajectories = h.bus().inbox<msg::Trajectory>("control/trajectory", bus::Qos::state());
+  ASSERT_TRUE(obstacles.waitForSubscribers(2, 20s));
+  ASSERT_TRUE(requests.waitForSubscribers(1, 20s));
+
+  // The vehicle stands at the start, so the tracker plans, follows and keeps checking its world.
+  std::atomic<bool> driving{true};
+  std::thread vehicle([&] {
+    auto states = h.bus().publisher<msg::VehicleState>("vehicle/state", bus::Qos::sensorData());
+    while (driving) {
+      msg::VehicleState s;
+      s.header().frame_id("map");
+      s.header().stamp_ns(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+      s.position().x(3);
+      s.position().y(3);
+      s.heading(std::atan2(32.0, 33.0));
+      states.publish(s);
+      std::this_thread::sleep_for(50ms);
+    }
+  });
+  struct Join {
+    std::atomic<bool>& flag;
+    std::thread& thread;
+    ~Join() {
+      flag = false;
+      thread.join();
+    }
+  } join{driving, vehicle};
+
+  // 1. Only a malformed array so far: dropped on arrival, so the planner has no world and says so.
+  obstacles.publish(malformedArray());
+  ASSERT_TRUE(waitForLog(h, "planner", "perception/obstacles: dropping", 10s)) << h.log("planner");
+  requests.publish(request(1001));
+  auto answer = answerTo(paths, 1001);
+  ASSERT_TRUE(answer) << h.log("planner");
+  EXPECT_FALSE(answer->solved());
+  EXPECT_NE(h.log("planner").find("obstacle 1 (id 2): semi-axis x is -1"), std::string::npos) << h.log("planner");
+
+  // 2. A good array: planned around.
+  obstacles.publish(goodArray());
+  requests.publish(request(1002));
+  answer = answerTo(paths, 1002);
+  ASSERT_TRUE(answer) << h.log("planner");
+  EXPECT_TRUE(answer->solved()) << h.log("planner");
+  // The tracker saw the good world too: it planned and smoothed a trajectory, and now checks it against the world.
+  ASSERT_TRUE(trajectories.wait(20s)) << h.log("tracker");
+
+  // 3. Malformed again: the last good world stays in use for both.
+  obstacles.publish(malformedArray());
+  ASSERT_TRUE(waitForLog(h, "planner", "(2 dropped so far)", 10s)) << h.log("planner");
+  requests.publish(request(1003));
+  answer = answerTo(paths, 1003);
+  ASSERT_TRUE(answer) << h.log("planner");
+  EXPECT_TRUE(answer->solved()) << h.log("planner");
+  ASSERT_TRUE(waitForLog(h, "tracker", "(2 dropped so far)", 10s)) << h.log("tracker");
+  std::this_thread::sleep_for(1s);  // ten world checks by the tracker with the malformed array around
+
+  EXPECT_TRUE(h.running("planner")) << h.log("planner");
+  EXPECT_TRUE(h.running("tracker")) << h.log("tracker");
+  EXPECT_EQ(h.log("planner").find("threw"), std::string::npos) << h.log("planner");
+}
+
+void badParametersEndTheComponentWithStatus2() {
+  struct Case {
+    std::string component;
+    std::map<std::string, std::string> params;
+    std::string named;
+  };
+  const std::vector<Case> cases = {
+      {"mapper", {{"resolution", "0"}}, "'resolution'"},
+      {"mapper", {{"prob_hit", "0.3"}}, "'prob_hit'"},
+      {"tracker", {{"scenario", kScenario}, {"max_plan_attempts", "0"}}, "parameter max_plan_attempts"},
+      {"tracker", {{"scenario", kScenario}, {"replan_deviation", "-1"}}, "parameter replan_deviation"},
+      {"planner", {{"scenario", kScenario}, {"max_time_budget_s", "0"}}, "parameter max_time_budget_s"},
+      {"sim", {{"scenario", kScenario}, {"beams", "0"}}, "parameter beams"},
+      {"sim", {{"scenario", kScenario}, {"command_timeout_s", "-1"}}, "parameter command_timeout_s"},
+      {"perception", {{"beam_spacing_rad", "0"}}, "parameter beam_spacing_rad"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.component + ": " + c.named);
+    int status = 0;
+    const auto log = runToExit(c.component, c.params, status);
+    ASSERT_TRUE(WIFEXITED(status)) << "still running after 20 s or killed by a signal\n" << log;
+    EXPECT_EQ(WEXITSTATUS(status), 2) << log;
+    EXPECT_NE(log.find(c.named), std::string::npos) << log;
+  }
+}
+
+}  // namespace
+
+TEST(BadInput, ComponentsSurviveBadMessagesAndRefuseBadParameters) {
+  {
+    SCOPED_TRACE("bad clouds");
+    perceptionAndMapperSkipBadCloudsAndKeepServing();
+  }
+  {
+    SCOPED_TRACE("malformed obstacle arrays");
+    plannerAndTrackerDropMalformedWorlds();
+  }
+  {
+    SCOPED_TRACE("bad parameters");
+    badParametersEndTheComponentWithStatus2();
+  }
 }

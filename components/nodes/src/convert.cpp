@@ -1,10 +1,12 @@
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/validate.hpp"
 
 #include <ddsnav/mapper/occupancy_mapper.hpp>
 #include <ddsnav/perception/obstacle.hpp>
 #include <ddsnav/sim/range_sensor.hpp>
 
 #include <cmath>
+#include <stdexcept>
 
 namespace ddsnav::nodes {
 
@@ -113,6 +115,8 @@ msg::ObstacleEllipsoid toMsg(const perception::ObstacleEllipsoid& obstacle) {
 }
 
 std::vector<planner::EllipsoidObstacle> toEllipsoidObstacles(const msg::ObstacleArray& array) {
+  if (const auto error = checkObstacleArray(array, ""); !error.empty())
+    throw std::invalid_argument("perception/obstacles: " + error);
   std::vector<planner::EllipsoidObstacle> out;
   out.reserve(array.obstacles().size());
   for (const auto& o : array.obstacles()) {
@@ -122,8 +126,7 @@ std::vector<planner::EllipsoidObstacle> toEllipsoidObstacles(const msg::Obstacle
     e.semi_axes = fromMsg(o.semi_axes());
     const auto& q = o.orientation();
     Eigen::Quaterniond rotation(q.w(), q.x(), q.y(), q.z());
-    // A zero quaternion would make a NaN rotation: treat it as "axis aligned" rather than poison the world.
-    e.axes = rotation.norm() > 1e-9 ? rotation.normalized().toRotationMatrix() : Eigen::Matrix3d::Identity();
+    e.axes = rotation.normalized().toRotationMatrix();  // non-zero norm: checked above
     out.push_back(e);
   }
   return out;

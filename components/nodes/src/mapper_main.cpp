@@ -3,6 +3,7 @@
 // late-joining planner gets the current map. Writes a .bt file on shutdown when save_path is set.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 
 #include <ddsnav/mapper/occupancy_mapper.hpp>
@@ -30,10 +31,16 @@ int main(int argc, char** argv) {
     const double publish_rate = ctx.params().declare<double>("publish_rate_hz", 1.0);
     const std::string save_path = ctx.params().declare<std::string>("save_path", "");
     const std::string world_frame = ctx.params().declare<std::string>("frame", nodes::kWorldFrame);
-    if (!(max_range > 0)) throw runtime::ParameterError("parameter max_range: expected > 0");
-    if (!(publish_rate > 0 && publish_rate <= 100)) throw runtime::ParameterError("parameter publish_rate_hz: expected (0, 100]");
-    if (config.dimensions != 0) {
-      if (const auto error = mapper::validateConfig(config); !error.empty()) throw std::invalid_argument(error);
+    if (!(max_range > 0)) throw runtime::ParameterError(fmt::format("parameter max_range: expected > 0 m, got {}", max_range));
+    if (!(publish_rate > 0 && publish_rate <= 100))
+      throw runtime::ParameterError(fmt::format("parameter publish_rate_hz: expected (0, 100] Hz, got {}", publish_rate));
+    if (config.dimensions != 0 && config.dimensions != 2 && config.dimensions != 3)
+      throw runtime::ParameterError(fmt::format("parameter dimensions: expected 0 (infer), 2 or 3, got {}", config.dimensions));
+    {
+      // Checked now, not at the first cloud: with dimensions 0 (inferred later) a stand-in of 3 checks the rest.
+      mapper::MapperConfig check = config;
+      if (check.dimensions == 0) check.dimensions = 3;
+      if (const auto error = mapper::validateConfig(check); !error.empty()) throw runtime::ParameterError(error);
     }
 
     std::mutex mutex;
@@ -54,11 +61,8 @@ int main(int argc, char** argv) {
       if (!map) {
         // A planar scanner's clouds lie in z = 0 (its origin too): map them on one slab.
         mapper::MapperConfig first = config;
-        if (first.dimensions == 0) {
-          bool planar = scan.origin.z == 0.0f;
-          for (const auto& p : scan.points) planar = planar && (!std::isfinite(p.z) || p.z == 0.0f);
-          first.dimensions = planar ? 2 : 3;
-        }
+        if (first.dimensions == 0)
+          first.dimensions = scan.origin.z == 0.0f && nodes::isPlanarCloud(nodes::pointsOf(cloud)) ? 2 : 3;
         map = std::make_unique<mapper::OccupancyMapper>(first);
         spdlog::info("mapping in {}-D at {} m", first.dimensions, first.resolution);
       }

@@ -4,6 +4,7 @@
 // reports the goal reached, 1 when timeout_s passes first.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 
 #include <ddsnav/planner/svg.hpp>
@@ -58,6 +59,11 @@ int main(int argc, char** argv) {
       if (seen.track.empty() || (seen.track.back() - p).norm() > 0.05) seen.track.push_back(p);
     });
     auto s2 = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& m) {
+      // Drawn with toEllipsoidObstacles at the end, which refuses malformed obstacles: keep the last good array.
+      if (const auto error = nodes::checkObstacleArray(m, ""); !error.empty()) {
+        spdlog::warn("perception/obstacles: ignoring an array: {}", error);
+        return;
+      }
       std::lock_guard lock(mutex);
       seen.obstacles = m;
     });

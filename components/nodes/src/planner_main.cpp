@@ -30,6 +30,8 @@ int main(int argc, char** argv) {
     const auto kind = nodes::parseWorldKind(ctx.params().declare<std::string>("world", "obstacles"));
     const bool kinodynamic = ctx.params().declare<bool>("kinodynamic", scenario.vehicle.has_value());
     const double max_budget = ctx.params().declare<double>("max_time_budget_s", 30.0);
+    if (!(max_budget > 0) || !std::isfinite(max_budget))
+      throw runtime::ParameterError(fmt::format("parameter max_time_budget_s: expected a positive finite number of seconds, got {}", max_budget));
     if (kinodynamic && !scenario.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
 
     nodes::WorldSource world_source(ctx.bus(), kind, scenario);
@@ -51,7 +53,14 @@ int main(int argc, char** argv) {
       } catch (const std::exception& e) {
         return fail(e.what());
       }
-      auto world = world_source.snapshot(nodes::fromMsg(request.start()).position);
+      // Every failure below is answered with an unsolved Path (the reason goes to the log): the requester
+      // must hear back, and a bad world must not escape this bus callback.
+      std::unique_ptr<planner::CollisionWorld> world;
+      try {
+        world = world_source.snapshot(nodes::fromMsg(request.start()).position);
+      } catch (const std::exception& e) {
+        return fail(std::string("cannot build the world: ") + e.what());
+      }
       if (!world) return fail(kind == nodes::WorldKind::Map ? "no map/octomap received yet" : "no perception/obstacles received yet");
       planner::PlanProblem problem;
       problem.world = world.get();

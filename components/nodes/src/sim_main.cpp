@@ -18,12 +18,19 @@ using nodes::sleepFor;
 
 namespace {
 
+// An integer parameter within [lo, hi], checked here so the error names the parameter the user set (a
+// planar scanner's 'beams' are the sensor config's 'columns').
+int countParam(runtime::Context& ctx, const char* name, std::int64_t fallback, std::int64_t lo, std::int64_t hi) {
+  const auto value = ctx.params().declare<std::int64_t>(name, fallback);
+  if (value < lo || value > hi) throw runtime::ParameterError(fmt::format("parameter {}: expected [{}, {}], got {}", name, lo, hi, value));
+  return static_cast<int>(value);
+}
+
 sim::RangeSensorConfig sensorConfig(runtime::Context& ctx, const planner::Scenario& scenario) {
   sim::RangeSensorConfig config =
       scenario.dimensions == 2
-          ? sim::RangeSensorConfig::scanner2d(static_cast<int>(ctx.params().declare<std::int64_t>("beams", 720)), ctx.params().declare<double>("max_range", 30.0))
-          : sim::RangeSensorConfig::lidar3d(static_cast<int>(ctx.params().declare<std::int64_t>("rings", 32)),
-                                            static_cast<int>(ctx.params().declare<std::int64_t>("columns", 1024)),
+          ? sim::RangeSensorConfig::scanner2d(countParam(ctx, "beams", 720, 1, 1 << 16), ctx.params().declare<double>("max_range", 30.0))
+          : sim::RangeSensorConfig::lidar3d(countParam(ctx, "rings", 32, 1, 4096), countParam(ctx, "columns", 1024, 1, 1 << 16),
                                             ctx.params().declare<double>("vertical_min_deg", -15.0), ctx.params().declare<double>("vertical_max_deg", 15.0),
                                             ctx.params().declare<double>("max_range", 50.0));
   config.range_noise_sigma = ctx.params().declare<double>("range_noise_sigma", 0.02);
@@ -31,7 +38,11 @@ sim::RangeSensorConfig sensorConfig(runtime::Context& ctx, const planner::Scenar
   // The bounds are a modelling device, not a wall the vehicle could see: off unless asked for.
   config.walls = ctx.params().declare<bool>("walls", false);
   config.seed = static_cast<std::uint64_t>(ctx.params().declare<std::int64_t>("seed", 1));
-  config.validate();
+  try {
+    config.validate();
+  } catch (const std::invalid_argument& e) {
+    throw runtime::ParameterError(e.what());
+  }
   return config;
 }
 
@@ -44,6 +55,8 @@ int main(int argc, char** argv) {
     const double lidar_rate = ctx.params().declare<double>("lidar_rate_hz", 10.0);
     const double state_rate = ctx.params().declare<double>("state_rate_hz", 50.0);
     const double command_timeout = ctx.params().declare<double>("command_timeout_s", 0.5);
+    if (!(command_timeout > 0) || !std::isfinite(command_timeout))
+      throw runtime::ParameterError(fmt::format("parameter command_timeout_s: expected a positive finite number of seconds, got {}", command_timeout));
     if (!(lidar_rate > 0 && lidar_rate <= 100)) throw runtime::ParameterError("parameter lidar_rate_hz: expected (0, 100]");
     if (!(state_rate >= lidar_rate && state_rate <= 1000))
       throw runtime::ParameterError("parameter state_rate_hz: expected [lidar_rate_hz, 1000]");

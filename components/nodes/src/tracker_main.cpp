@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
     const double control_rate = ctx.params().declare<double>("control_rate_hz", 20.0);
     const double time_budget = ctx.params().declare<double>("time_budget_s", 5.0);
     const auto seed = static_cast<std::uint64_t>(ctx.params().declare<std::int64_t>("seed", 1));
-    const int max_attempts = static_cast<int>(ctx.params().declare<std::int64_t>("max_plan_attempts", 10));
+    const std::int64_t max_attempts = ctx.params().declare<std::int64_t>("max_plan_attempts", 10);
     const double retry_delay = ctx.params().declare<double>("plan_retry_delay_s", 1.0);
     const bool wait_for_world = ctx.params().declare<bool>("wait_for_world", true);
     const double replan_check_period = ctx.params().declare<double>("replan_check_period_s", 0.5);
@@ -37,8 +37,21 @@ int main(int argc, char** argv) {
     tracker_config.replan_horizon = ctx.params().declare<double>("replan_horizon_s", 8.0);
     tracker::SmootherConfig smoother_config;
     smoother_config.sample_dt = ctx.params().declare<double>("sample_dt", smoother_config.sample_dt);
-    if (!(control_rate > 0 && control_rate <= 1000)) throw runtime::ParameterError("parameter control_rate_hz: expected (0, 1000]");
-    if (!(time_budget > 0)) throw runtime::ParameterError("parameter time_budget_s: expected > 0");
+    auto require = [](bool ok, const char* name, const char* expected, auto got) {
+      if (!ok) throw runtime::ParameterError(fmt::format("parameter {}: expected {}, got {}", name, expected, got));
+    };
+    require(control_rate > 0 && control_rate <= 1000, "control_rate_hz", "(0, 1000] Hz", control_rate);
+    require(time_budget > 0 && std::isfinite(time_budget), "time_budget_s", "a positive finite number of seconds", time_budget);
+    require(max_attempts >= 1, "max_plan_attempts", "at least 1", max_attempts);
+    require(retry_delay >= 0 && std::isfinite(retry_delay), "plan_retry_delay_s", "a finite number of seconds >= 0", retry_delay);
+    require(replan_check_period > 0 && std::isfinite(replan_check_period), "replan_check_period_s",
+            "a positive finite number of seconds", replan_check_period);
+    require(tracker_config.replan_deviation > 0 && std::isfinite(tracker_config.replan_deviation), "replan_deviation",
+            "a positive finite number of metres", tracker_config.replan_deviation);
+    require(tracker_config.replan_horizon > 0, "replan_horizon_s", "a positive number of seconds (inf: the whole trajectory)",
+            tracker_config.replan_horizon);
+    require(smoother_config.sample_dt > 0 && std::isfinite(smoother_config.sample_dt), "sample_dt",
+            "a positive finite number of seconds", smoother_config.sample_dt);
 
     std::mutex mutex;
     std::optional<tracker::VehicleState> vehicle;
@@ -58,10 +71,18 @@ int main(int argc, char** argv) {
 
     // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
     nodes::WorldSource world_source(ctx.bus(), nodes::parseWorldKind(ctx.params().declare<std::string>("world", "obstacles")), scenario);
-    auto currentWorld = [&](const Eigen::Vector3d& position) { return world_source.snapshot(position); };
+    // nullptr (logged) when there is none yet or it cannot be built: the tracker keeps running either way.
+    auto currentWorld = [&](const Eigen::Vector3d& position) -> std::unique_ptr<planner::CollisionWorld> {
+      try {
+        return world_source.snapshot(position);
+      } catch (const std::exception& e) {
+        spdlog::warn("cannot build the planner's world: {}", e.what());
+        return nullptr;
+      }
+    };
 
     std::uint32_t request_id = 0;
-    int attempts = 0;
+    std::int64_t attempts = 0;
     std::optional<std::int64_t> retry_at_ns;  // a failed attempt is retried after plan_retry_delay_s
     std::optional<std::int64_t> pending_since;
     auto requestPlan = [&](const tracker::VehicleState& from, const std::string& why) {
@@ -123,7 +144,7 @@ int main(int argc, char** argv) {
         }
         try {
           auto world = currentWorld(state->position);
-          if (!world) throw tracker::SmoothingError("the tracker has not received the planner's world yet");
+          if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
           smoother_config.initial_heading = state->heading;
           auto trajectory = tracker::smoothPath(nodes::statesOf(*path), *world, limits, smoother_config);
           spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m", request_id,
@@ -145,8 +166,14 @@ int main(int argc, char** argv) {
         continue;
       }
       if (!follower) {
-        // A request may be lost while the planner restarts: ask again after twice its budget.
-        if (pending_since && (ctx.clock().nowNs() - *pending_since) * 1e-9 > 2 * time_budget + 2) requestPlan(*state, "no answer");
+        // A request may be lost while the planner restarts: ask again after twice its budget. Unanswered
+        // requests count as attempts, so a missing planner ends the mission instead of being asked forever.
+        if (pending_since && (ctx.clock().nowNs() - *pending_since) * 1e-9 > 2 * time_budget + 2) {
+          spdlog::warn("plan {}: no answer from the planner", request_id);
+          if (attempts >= max_attempts)
+            throw std::runtime_error("no answer from the planner (planning/path) after " + std::to_string(attempts) + " attempts");
+          requestPlan(*state, "no answer");
+        }
         continue;
       }
       const auto command = follower->update(*state, dt);

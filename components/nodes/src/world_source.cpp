@@ -1,6 +1,7 @@
 #include "ddsnav/nodes/world_source.hpp"
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/validate.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -18,12 +19,28 @@ WorldKind parseWorldKind(const std::string& text, const std::string& param) {
 WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario)
     : kind_(kind), scenario_(scenario) {
   obstacles_sub_ = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [this](const msg::ObstacleArray& a) {
+    const auto error = checkObstacleArray(a, kWorldFrame);
     std::lock_guard lock(mutex_);
+    if (!error.empty()) {
+      ++dropped_obstacles_;
+      spdlog::warn("perception/obstacles: dropping an array of {} obstacle(s) (stamp {} ns): {}; keeping the {} ({} dropped so far)",
+                   a.obstacles().size(), a.header().stamp_ns(), error, obstacles_ ? "last good array" : "world empty",
+                   dropped_obstacles_);
+      return;
+    }
     obstacles_ = a;
   });
   if (kind_ == WorldKind::Map) {
     map_sub_ = bus.subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [this](const msg::OccupancyMap& m) {
+      // Parsed outside the lock: a large octree takes a while, and snapshot() must not wait for it.
+      const auto error = checkOccupancyMap(m, kWorldFrame, scenario_);
       std::lock_guard lock(mutex_);
+      if (!error.empty()) {
+        ++dropped_maps_;
+        spdlog::warn("map/octomap: dropping a map of {} bytes (stamp {} ns): {}; keeping the {} ({} dropped so far)",
+                     m.octree().size(), m.header().stamp_ns(), error, map_ ? "last good map" : "world empty", dropped_maps_);
+        return;
+      }
       map_ = m;
     });
   }
@@ -42,6 +59,16 @@ bool WorldSource::available() const {
 bool WorldSource::hasObstacles() const {
   std::lock_guard lock(mutex_);
   return obstacles_.has_value();
+}
+
+std::size_t WorldSource::droppedObstacleArrays() const {
+  std::lock_guard lock(mutex_);
+  return dropped_obstacles_;
+}
+
+std::size_t WorldSource::droppedMaps() const {
+  std::lock_guard lock(mutex_);
+  return dropped_maps_;
 }
 
 std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Vec3& robot_position) const {

@@ -52,6 +52,8 @@ tracker::VehicleCommand fromMsg(const msg::VelocityCommand& command);
 
 // Obstacles.
 msg::ObstacleEllipsoid toMsg(const perception::ObstacleEllipsoid& obstacle);
+// Throws std::invalid_argument naming the first malformed obstacle (see checkObstacleArray); the frame is
+// not checked here.
 std::vector<planner::EllipsoidObstacle> toEllipsoidObstacles(const msg::ObstacleArray& array);
 // Removes the obstacles that a robot of `radius` at `position` would touch. The robot is physically there, so such an ellipse is
 // perception's over-estimate of an obstacle's extent, not a wall around the robot; keeping it would leave
