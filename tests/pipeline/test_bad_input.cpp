@@ -95,13 +95,15 @@ std::optional<msg::Path> answerTo(bus::Inbox<msg::Path>& paths, std::uint32_t id
   return std::nullopt;
 }
 
-// Starts NAME with `params`, waits (bounded) for it to end by itself and returns its log; the exit status goes to `status`.
-std::string runToExit(const std::string& name, const std::map<std::string, std::string>& params, int& status) {
+// Starts NAME with `params`, waits (bounded) for it to end by itself and returns its log; whether it did goes
+// to `ended`, its wait status to `status`.
+std::string runToExit(const std::string& name, const std::map<std::string, std::string>& params, bool& ended, int& status) {
   harness::Harness h(kDomain);
   h.start({.name = name, .command = "ddsnav-" + name, .params = params});
   const auto deadline = std::chrono::steady_clock::now() + 20s;
   while (h.running(name) && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
-  status = h.stop(name);  // kills it (status: signalled) if it is still running
+  ended = !h.running(name);
+  status = h.stop(name);  // ends it if it is still running
   return h.log(name);
 }
 
@@ -238,6 +240,37 @@ void plannerAndTrackerDropMalformedWorlds() {
   EXPECT_EQ(h.log("planner").find("threw"), std::string::npos) << h.log("planner");
 }
 
+// Nobody answers the tracker's requests (the test only listens on planning/request): after
+// max_plan_attempts unanswered requests it ends with a failure naming the cause instead of asking forever.
+void trackerGivesUpWhenThePlannerNeverAnswers() {
+  harness::Harness h(kDomain);
+  auto requests = h.bus().inbox<msg::PlanRequest>("planning/request", bus::Qos::commands());
+  auto states = h.bus().publisher<msg::VehicleState>("vehicle/state", bus::Qos::sensorData());
+  // world=scenario is there from the start; an unanswered request is re-sent after 2 * 0.5 + 2 = 3 s.
+  h.startReady({.name = "tracker",
+                .command = "ddsnav-tracker",
+                .params = {{"scenario", kScenario}, {"world", "scenario"}, {"time_budget_s", "0.5"}, {"max_plan_attempts", "2"}}});
+  ASSERT_TRUE(states.waitForSubscribers(1, 20s));
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (h.running("tracker") && std::chrono::steady_clock::now() < deadline) {
+    msg::VehicleState s;
+    s.header().frame_id("map");
+    s.position().x(3);
+    s.position().y(3);
+    states.publish(s);
+    std::this_thread::sleep_for(50ms);
+  }
+  const bool ended_by_itself = !h.running("tracker");
+  const int status = h.stop("tracker");
+  const std::string log = h.log("tracker");
+  ASSERT_TRUE(ended_by_itself && WIFEXITED(status)) << "still running after 30 s\n" << log;
+  EXPECT_EQ(WEXITSTATUS(status), 1) << log;
+  EXPECT_NE(log.find("no answer from the planner (planning/path) after 2 attempts"), std::string::npos) << log;
+  std::size_t asked = 0;
+  while (requests.wait(100ms)) ++asked;
+  EXPECT_EQ(asked, 2u) << log;
+}
+
 void badParametersEndTheComponentWithStatus2() {
   struct Case {
     std::string component;
@@ -257,8 +290,9 @@ void badParametersEndTheComponentWithStatus2() {
   for (const auto& c : cases) {
     SCOPED_TRACE(c.component + ": " + c.named);
     int status = 0;
-    const auto log = runToExit(c.component, c.params, status);
-    ASSERT_TRUE(WIFEXITED(status)) << "still running after 20 s or killed by a signal\n" << log;
+    bool ended = false;
+    const auto log = runToExit(c.component, c.params, ended, status);
+    ASSERT_TRUE(ended && WIFEXITED(status)) << "still running after 20 s or killed by a signal\n" << log;
     EXPECT_EQ(WEXITSTATUS(status), 2) << log;
     EXPECT_NE(log.find(c.named), std::string::npos) << log;
   }
@@ -274,6 +308,10 @@ TEST(BadInput, ComponentsSurviveBadMessagesAndRefuseBadParameters) {
   {
     SCOPED_TRACE("malformed obstacle arrays");
     plannerAndTrackerDropMalformedWorlds();
+  }
+  {
+    SCOPED_TRACE("planner never answers");
+    trackerGivesUpWhenThePlannerNeverAnswers();
   }
   {
     SCOPED_TRACE("bad parameters");
