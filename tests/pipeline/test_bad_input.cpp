@@ -240,6 +240,30 @@ void plannerAndTrackerDropMalformedWorlds() {
   EXPECT_EQ(h.log("planner").find("threw"), std::string::npos) << h.log("planner");
 }
 
+// A map/octomap whose bytes are no octree is dropped by a planner on world=map; it keeps answering.
+void plannerDropsAMapThatIsNoOctree() {
+  harness::Harness h(kDomain);
+  h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"world", "map"}}});
+  auto maps = h.bus().publisher<msg::OccupancyMap>("map/octomap", bus::Qos::state());
+  auto requests = h.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
+  auto paths = h.bus().inbox<msg::Path>("planning/path", bus::Qos::state());
+  ASSERT_TRUE(maps.waitForSubscribers(1, 20s));
+  ASSERT_TRUE(requests.waitForSubscribers(1, 20s));
+  msg::OccupancyMap garbage;
+  garbage.header().frame_id("map");
+  garbage.resolution(0.1);
+  const std::string text = "# not an octree\n";
+  garbage.octree().assign(text.begin(), text.end());
+  maps.publish(garbage);
+  ASSERT_TRUE(waitForLog(h, "planner", "map/octomap: dropping", 10s)) << h.log("planner");
+  requests.publish(request(2001));
+  const auto answer = answerTo(paths, 2001);
+  ASSERT_TRUE(answer) << h.log("planner");
+  EXPECT_FALSE(answer->solved());
+  EXPECT_NE(h.log("planner").find("not a binary OctoMap"), std::string::npos) << h.log("planner");
+  EXPECT_TRUE(h.running("planner")) << h.log("planner");
+}
+
 // Nobody answers the tracker's requests (the test only listens on planning/request): after
 // max_plan_attempts unanswered requests it ends with a failure naming the cause instead of asking forever.
 void trackerGivesUpWhenThePlannerNeverAnswers() {
@@ -283,6 +307,7 @@ void badParametersEndTheComponentWithStatus2() {
       {"tracker", {{"scenario", kScenario}, {"max_plan_attempts", "0"}}, "parameter max_plan_attempts"},
       {"tracker", {{"scenario", kScenario}, {"replan_deviation", "-1"}}, "parameter replan_deviation"},
       {"planner", {{"scenario", kScenario}, {"max_time_budget_s", "0"}}, "parameter max_time_budget_s"},
+      {"planner", {{"scenario", kScenario}, {"world", "lidar"}}, "parameter world"},
       {"sim", {{"scenario", kScenario}, {"beams", "0"}}, "parameter beams"},
       {"sim", {{"scenario", kScenario}, {"command_timeout_s", "-1"}}, "parameter command_timeout_s"},
       {"perception", {{"beam_spacing_rad", "0"}}, "parameter beam_spacing_rad"},
@@ -308,6 +333,10 @@ TEST(BadInput, ComponentsSurviveBadMessagesAndRefuseBadParameters) {
   {
     SCOPED_TRACE("malformed obstacle arrays");
     plannerAndTrackerDropMalformedWorlds();
+  }
+  {
+    SCOPED_TRACE("malformed map");
+    plannerDropsAMapThatIsNoOctree();
   }
   {
     SCOPED_TRACE("planner never answers");

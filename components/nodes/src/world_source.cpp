@@ -13,7 +13,7 @@ WorldKind parseWorldKind(const std::string& text, const std::string& param) {
   if (text == "obstacles") return WorldKind::Obstacles;
   if (text == "map") return WorldKind::Map;
   if (text == "scenario") return WorldKind::Scenario;
-  throw std::invalid_argument("parameter " + param + ": '" + text + "' is not one of obstacles, map, scenario");
+  throw runtime::ParameterError("parameter " + param + ": expected one of obstacles, map, scenario, got '" + text + "'");
 }
 
 WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario)

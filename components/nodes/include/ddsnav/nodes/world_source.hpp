@@ -8,6 +8,7 @@
 #include <ddsnav/bus/bus.hpp>
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/collision_world.hpp>
+#include <ddsnav/runtime/parameters.hpp>
 
 #include <memory>
 #include <mutex>
@@ -18,7 +19,7 @@ namespace ddsnav::nodes {
 
 enum class WorldKind { Obstacles, Map, Scenario };
 
-// "obstacles" | "map" | "scenario"; throws std::invalid_argument naming the parameter `param`.
+// "obstacles" | "map" | "scenario"; throws runtime::ParameterError naming the parameter `param` (exit status 2).
 WorldKind parseWorldKind(const std::string& text, const std::string& param = "world");
 
 class WorldSource {
