@@ -181,7 +181,7 @@ int main(int argc, char** argv) {
       if (!profile_ours) {
         for (const OctoMapMethod& m : octomap_methods) {
           applySensorModel(*m.tree, config);
-          runs.push_back(Run{m.name});
+          runs.emplace_back().method = m.name;
         }
       }
       for (const OurMethod& m : our_methods) {
@@ -189,7 +189,7 @@ int main(int argc, char** argv) {
         c.discretize = m.discretize;
         c.threads = m.threads;
         mappers.push_back(std::make_unique<OccupancyMapper>(c));
-        runs.push_back(Run{m.name});
+        runs.emplace_back().method = m.name;
       }
       const std::size_t first_ours = profile_ours ? 0 : octomap_methods.size();
       for (std::size_t i = 0; i < scan_list.size(); ++i) {

@@ -40,7 +40,9 @@ void expectIdentical(const Case& c, bool lazy_reference = false, int expect_walk
     ASSERT_TRUE(r.inserted) << r.message;
     EXPECT_GT(r.free_cells, 0u);
     EXPECT_GT(r.occupied_cells, 0u);
-    if (expect_walk_threads > 0) EXPECT_EQ(r.walk_threads, expect_walk_threads);
+    if (expect_walk_threads > 0) {
+      EXPECT_EQ(r.walk_threads, expect_walk_threads);
+    }
     reference.insertPointCloud(toOctomapCloud(scan, c.config), toOrigin(scan, c.config), c.max_range, lazy_reference,
                                c.config.discretize);
   }

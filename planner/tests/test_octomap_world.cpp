@@ -139,7 +139,9 @@ TEST(OctoMapWorld, ObstaclesNearAreTheOccupiedVoxelsInRangeNearestFirst) {
     for (std::size_t k = 0; k < got.size(); ++k) {
       EXPECT_NEAR(got[k].distance, expected[k], 1e-12);
       EXPECT_NEAR((got[k].nearest_point - p).norm(), got[k].distance, 1e-12);
-      if (k > 0) EXPECT_NE(got[k].id, got[k - 1].id);
+      if (k > 0) {
+        EXPECT_NE(got[k].id, got[k - 1].id);
+      }
     }
   }
   EXPECT_TRUE(world->obstaclesNear(Vec3(1000, 1000, 1000), 1.0).empty());

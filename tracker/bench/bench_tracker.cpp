@@ -121,7 +121,10 @@ Drive drive(const tracker::Trajectory& traj, const planner::Scenario& sc, const 
 void writePicture(const std::string& file, const planner::Scenario& sc, const std::vector<planner::State>& path,
                   const tracker::Trajectory& traj, const std::vector<tracker::VehicleState>& track,
                   const std::string& title) {
-  planner::SvgScene scene{&sc, {}, path, title};
+  planner::SvgScene scene;
+  scene.scenario = &sc;
+  scene.path = path;
+  scene.title = title;
   planner::SvgPolyline smoothed{{}, "#1f77b4", 1.5, false, "smoothed trajectory"};
   for (const auto& s : traj.samples) smoothed.points.push_back(s.position);
   planner::SvgPolyline driven{{}, "#ff7f0e", 1.0, true, "driven (nominal noise)"};

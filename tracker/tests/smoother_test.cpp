@@ -34,7 +34,9 @@ void expectDrivable(const Trajectory& t, const ddsnav::planner::CollisionWorld& 
     EXPECT_GE(s.speed, 0.0) << "sample " << i;
     EXPECT_LE(std::abs(s.yaw_rate), l.omega_max + tol) << "sample " << i;
     EXPECT_LE(std::abs(s.speed * s.curvature), l.omega_max * (1 + 1e-6) + tol) << "sample " << i;
-    if (t.dimensions == 3) EXPECT_LE(std::abs(s.vz), l.vz_max + tol) << "sample " << i;
+    if (t.dimensions == 3) {
+      EXPECT_LE(std::abs(s.vz), l.vz_max + tol) << "sample " << i;
+    }
     if (i > 0) {
       const auto& p = t.samples[i - 1];
       const double dt = s.time - p.time;

@@ -83,7 +83,10 @@ int main(int argc, char** argv) {
 
     std::uint32_t request_id = 0;
     std::int64_t attempts = 0;
-    std::optional<std::int64_t> retry_at_ns;  // a failed attempt is retried after plan_retry_delay_s
+    // A failed attempt is retried after plan_retry_delay_s; kNoRetry: none pending. (A plain sentinel, not
+    // std::optional: GCC 12 reports a false maybe-uninitialized on the optional here.)
+    constexpr std::int64_t kNoRetry = -1;
+    std::int64_t retry_at_ns = kNoRetry;
     std::optional<std::int64_t> pending_since;
     auto requestPlan = [&](const tracker::VehicleState& from, const std::string& why) {
       msg::PlanRequest request;
@@ -160,8 +163,8 @@ int main(int argc, char** argv) {
           continue;
         }
       }
-      if (retry_at_ns && ctx.clock().nowNs() >= *retry_at_ns) {
-        retry_at_ns.reset();
+      if (retry_at_ns != kNoRetry && ctx.clock().nowNs() >= retry_at_ns) {
+        retry_at_ns = kNoRetry;
         requestPlan(*state, "retrying");
         continue;
       }

@@ -89,7 +89,10 @@ nlohmann::json demoDrive(const std::string& scenario_path, const std::string& sv
   perception::ObstacleTracker tracker(perception::TrackerParams::matching(params));
   const std::vector<Eigen::Vector3d> waypoints = {{3, 3, 0}, {8, 6, 0}, {8, 30, 0}, {36, 35, 0}};
   std::vector<double> detect_cpu, track_cpu;
-  planner::SvgPolyline driven{.colour = "#1f77b4", .width_px = 2.0, .label = "drive"};
+  planner::SvgPolyline driven;
+  driven.colour = "#1f77b4";
+  driven.width_px = 2.0;
+  driven.label = "drive";
   std::size_t detections = 0;
   for (std::size_t w = 0; w + 1 < waypoints.size(); ++w) {
     const Eigen::Vector3d d = waypoints[w + 1] - waypoints[w];
