@@ -1,0 +1,105 @@
+#pragma once
+// The tracker component's mission logic, without DDS: when to ask the planner for a plan (at the start,
+// after a failure, after a lost request, when a replan is needed), how many attempts to allow, when the
+// goal region is reached and when to give up. The component feeds it plain inputs (time, vehicle state,
+// the answer to a request, whether smoothing worked, the tracking status) and carries out its decisions
+// (publish a request, smooth, drive, stop). See docs/tracking.md, "Mission".
+
+#include "ddsnav/tracker/tracker.hpp"
+#include "ddsnav/tracker/vehicle.hpp"
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace ddsnav::tracker {
+
+struct MissionConfig {
+  Vec3 goal = Vec3::Zero();
+  double goal_radius = 0.0;            // m, the scenario's goal region
+  std::int64_t max_plan_attempts = 10; // requests (answered or not) without a drivable trajectory before giving up
+  double plan_retry_delay_s = 1.0;     // s between a failed plan (or smoothing) and the next request
+  double time_budget_s = 5.0;          // s the planner may take per request
+  double replan_check_period_s = 0.5;  // s of driving between two replan checks
+  bool wait_for_world = true;          // no first request before the planner's world exists
+
+  // A request unanswered this long counts as lost (e.g. the planner restarted): twice the budget + 2 s.
+  double answerTimeoutS() const { return 2 * time_budget_s + 2; }
+};
+
+// The planner's answer to a request (planning/path), reduced to what the mission decides on.
+struct PlanAnswer {
+  std::uint32_t request_id = 0;
+  bool solved = false;
+};
+
+enum class MissionAction {
+  Wait,         // nothing to do this control period
+  RequestPlan,  // publish a plan request `request_id` from `from`, for `reason`
+  SmoothPath,   // the answer to the current request is a path: smooth it, then call pathSmoothed()
+  Drive,        // step the trajectory tracker, then call tracked()
+  CheckReplan,  // check the trajectory against the current world; if a replan is needed, call replan()
+  Finished,     // goal reached: stop and keep reporting it
+  Failed,       // give up: `reason` names the cause
+};
+const char* toString(MissionAction action);
+
+struct MissionDecision {
+  MissionAction action = MissionAction::Wait;
+  std::uint32_t request_id = 0;  // RequestPlan: the new request; SmoothPath: the answered request
+  VehicleState from;             // RequestPlan: the start state of the request
+  std::string reason;            // RequestPlan: why ("start", "retrying", ...); Failed: the cause
+  std::string warning;           // to be logged as a warning before acting, when not empty
+};
+
+class Mission {
+ public:
+  explicit Mission(const MissionConfig& config);
+
+  // Once per control period. `state`: the latest vehicle state (none before the first one); `answer`: a
+  // path received since the last call, if any. Answers to other requests than the current one are ignored
+  // (so is any answer while there is no vehicle state). Returns Wait, RequestPlan, SmoothPath, Drive,
+  // Finished or Failed.
+  MissionDecision update(std::int64_t now_ns, const std::optional<VehicleState>& state, bool world_available,
+                         const std::optional<PlanAnswer>& answer);
+
+  // After SmoothPath: whether the path became a trajectory (which the caller now follows). Success resets the
+  // attempt count and continues as update() would (normally Drive); failure retries after the delay, or
+  // gives up after max_plan_attempts.
+  MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok);
+
+  // After Drive, with the tracker's status after the step of `dt` seconds: Finished when the vehicle is in
+  // the goal region (see inGoalRegion), CheckReplan once every replan_check_period_s of driving, else Drive.
+  MissionDecision tracked(const VehicleState& state, const TrackingStatus& status, double dt);
+
+  // The replan check said a new plan is needed: stop following and ask from `state`.
+  MissionDecision replan(std::int64_t now_ns, const VehicleState& state, const std::string& why);
+
+  // The mission's goal is the scenario's goal region; the controller's own test (trajectory finished and the
+  // vehicle within its tolerance of the end) is stricter, and either one ends the mission.
+  bool inGoalRegion(const VehicleState& state, const TrackingStatus& status) const;
+
+  const MissionConfig& config() const { return config_; }
+  std::uint32_t requestId() const { return request_id_; }  // 0: nothing requested yet
+  std::int64_t attempts() const { return attempts_; }       // requests since the last drivable trajectory
+  bool driving() const { return driving_; }
+  bool finished() const { return finished_; }
+
+ private:
+  MissionDecision request(std::int64_t now_ns, const VehicleState& from, std::string reason);
+  MissionDecision fail(std::string cause, std::string warning);
+  MissionDecision retryLater(std::int64_t now_ns, const std::string& cause, std::string warning);
+  MissionDecision afterAnswer(std::int64_t now_ns, const VehicleState& state);
+
+  MissionConfig config_;
+  std::uint32_t request_id_ = 0;
+  std::int64_t attempts_ = 0;
+  std::optional<std::int64_t> retry_at_ns_;      // a failed attempt waiting for its retry
+  std::optional<std::int64_t> pending_since_ns_; // the current request, not answered yet
+  bool driving_ = false;
+  bool finished_ = false;
+  std::optional<std::string> failure_;
+  double since_replan_check_ = 0.0;  // s of driving since the last replan check
+};
+
+}  // namespace ddsnav::tracker

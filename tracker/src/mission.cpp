@@ -1,0 +1,142 @@
+#include "ddsnav/tracker/mission.hpp"
+
+#include <stdexcept>
+#include <utility>
+
+namespace ddsnav::tracker {
+
+const char* toString(MissionAction action) {
+  switch (action) {
+    case MissionAction::Wait: return "wait";
+    case MissionAction::RequestPlan: return "request plan";
+    case MissionAction::SmoothPath: return "smooth path";
+    case MissionAction::Drive: return "drive";
+    case MissionAction::CheckReplan: return "check replan";
+    case MissionAction::Finished: return "finished";
+    case MissionAction::Failed: return "failed";
+  }
+  return "?";
+}
+
+namespace {
+
+MissionDecision just(MissionAction action) {
+  MissionDecision d;
+  d.action = action;
+  return d;
+}
+
+std::int64_t secondsToNs(double s) { return static_cast<std::int64_t>(s * 1e9); }
+
+}  // namespace
+
+Mission::Mission(const MissionConfig& config) : config_(config) {
+  // The component checks its parameters with their names; this guards other callers.
+  if (config_.max_plan_attempts < 1) throw std::invalid_argument("Mission: max_plan_attempts must be at least 1");
+  if (!(config_.plan_retry_delay_s >= 0)) throw std::invalid_argument("Mission: plan_retry_delay_s must be >= 0");
+  if (!(config_.time_budget_s > 0)) throw std::invalid_argument("Mission: time_budget_s must be positive");
+  if (!(config_.replan_check_period_s > 0)) throw std::invalid_argument("Mission: replan_check_period_s must be positive");
+}
+
+MissionDecision Mission::update(std::int64_t now_ns, const std::optional<VehicleState>& state, bool world_available,
+                                const std::optional<PlanAnswer>& answer) {
+  if (failure_) return fail(*failure_, "");
+  if (finished_) return just(MissionAction::Finished);
+  if (!state) return just(MissionAction::Wait);
+  if (request_id_ == 0) {
+    // The planner's world must exist before the first request (perception's first scan, the first map).
+    if (config_.wait_for_world && !world_available) return just(MissionAction::Wait);
+    return request(now_ns, *state, "start");
+  }
+  if (answer && answer->request_id == request_id_) {
+    pending_since_ns_.reset();
+    if (!answer->solved) {
+      return retryLater(now_ns, "no plan after " + std::to_string(attempts_) + " attempts",
+                        "plan " + std::to_string(request_id_) + " failed");
+    }
+    MissionDecision d = just(MissionAction::SmoothPath);
+    d.request_id = request_id_;
+    return d;
+  }
+  return afterAnswer(now_ns, *state);
+}
+
+MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok) {
+  if (!ok) return retryLater(now_ns, "no drivable trajectory after " + std::to_string(attempts_) + " attempts", "");
+  driving_ = true;
+  attempts_ = 0;
+  return afterAnswer(now_ns, state);
+}
+
+MissionDecision Mission::afterAnswer(std::int64_t now_ns, const VehicleState& state) {
+  if (retry_at_ns_ && now_ns >= *retry_at_ns_) {
+    retry_at_ns_.reset();
+    return request(now_ns, state, "retrying");
+  }
+  if (driving_) return just(MissionAction::Drive);
+  // A request may be lost while the planner restarts: ask again after the answer timeout. Unanswered
+  // requests count as attempts, so a missing planner ends the mission instead of being asked forever.
+  if (pending_since_ns_ && static_cast<double>(now_ns - *pending_since_ns_) * 1e-9 > config_.answerTimeoutS()) {
+    std::string warning = "plan " + std::to_string(request_id_) + ": no answer from the planner";
+    if (attempts_ >= config_.max_plan_attempts)
+      return fail("no answer from the planner (planning/path) after " + std::to_string(attempts_) + " attempts",
+                  std::move(warning));
+    MissionDecision d = request(now_ns, state, "no answer");
+    d.warning = std::move(warning);
+    return d;
+  }
+  return just(MissionAction::Wait);
+}
+
+MissionDecision Mission::tracked(const VehicleState& state, const TrackingStatus& status, double dt) {
+  if (status.goal_reached || inGoalRegion(state, status)) {
+    finished_ = true;
+    return just(MissionAction::Finished);
+  }
+  since_replan_check_ += dt;
+  if (since_replan_check_ >= config_.replan_check_period_s) {
+    since_replan_check_ = 0.0;
+    return just(MissionAction::CheckReplan);
+  }
+  return just(MissionAction::Drive);
+}
+
+MissionDecision Mission::replan(std::int64_t now_ns, const VehicleState& state, const std::string& why) {
+  driving_ = false;
+  return request(now_ns, state, why);
+}
+
+bool Mission::inGoalRegion(const VehicleState& state, const TrackingStatus& status) const {
+  return status.progress > 0.95 && (state.position - config_.goal).norm() <= config_.goal_radius;
+}
+
+MissionDecision Mission::request(std::int64_t now_ns, const VehicleState& from, std::string reason) {
+  ++request_id_;
+  ++attempts_;
+  pending_since_ns_ = now_ns;
+  MissionDecision d = just(MissionAction::RequestPlan);
+  d.request_id = request_id_;
+  d.from = from;
+  d.reason = std::move(reason);
+  return d;
+}
+
+MissionDecision Mission::fail(std::string cause, std::string warning) {
+  failure_ = cause;
+  MissionDecision d = just(MissionAction::Failed);
+  d.reason = std::move(cause);
+  d.warning = std::move(warning);
+  return d;
+}
+
+// A failed attempt (unsolved, or not smoothable): ask again after the retry delay, unless the attempts are
+// used up.
+MissionDecision Mission::retryLater(std::int64_t now_ns, const std::string& cause, std::string warning) {
+  if (attempts_ >= config_.max_plan_attempts) return fail(cause, std::move(warning));
+  retry_at_ns_ = now_ns + secondsToNs(config_.plan_retry_delay_s);
+  MissionDecision d = just(MissionAction::Wait);
+  d.warning = std::move(warning);
+  return d;
+}
+
+}  // namespace ddsnav::tracker

@@ -1,0 +1,232 @@
+#include "ddsnav/tracker/mission.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <optional>
+
+using namespace ddsnav::tracker;
+
+namespace {
+
+constexpr std::int64_t kSecond = 1'000'000'000;
+
+MissionConfig config() {
+  MissionConfig c;
+  c.goal = {10, 0, 0};
+  c.goal_radius = 1.0;
+  c.max_plan_attempts = 3;
+  c.plan_retry_delay_s = 1.0;
+  c.time_budget_s = 0.5;  // answer timeout 2 * 0.5 + 2 = 3 s
+  c.replan_check_period_s = 0.5;
+  c.wait_for_world = true;
+  return c;
+}
+
+VehicleState at(double x, double y = 0.0) {
+  VehicleState s;
+  s.position = {x, y, 0};
+  return s;
+}
+
+std::optional<PlanAnswer> answer(std::uint32_t id, bool solved) { return PlanAnswer{id, solved}; }
+
+// Starts a mission and returns it with its first request (id 1) sent at t = 0.
+Mission started(const MissionConfig& c = config()) {
+  Mission m(c);
+  const auto d = m.update(0, at(0), true, std::nullopt);
+  EXPECT_EQ(d.action, MissionAction::RequestPlan);
+  return m;
+}
+
+// A status that is neither at the end of the trajectory nor reports the controller's goal.
+TrackingStatus midway() {
+  TrackingStatus s;
+  s.progress = 0.5;
+  return s;
+}
+
+}  // namespace
+
+TEST(Mission, FirstRequestWaitsForTheVehicleAndTheWorld) {
+  Mission m(config());
+  EXPECT_EQ(m.update(0, std::nullopt, true, std::nullopt).action, MissionAction::Wait);
+  EXPECT_EQ(m.update(1, at(2, 3), false, std::nullopt).action, MissionAction::Wait);  // no world yet
+  EXPECT_EQ(m.requestId(), 0u);
+  const auto d = m.update(2, at(2, 3), true, std::nullopt);
+  ASSERT_EQ(d.action, MissionAction::RequestPlan);
+  EXPECT_EQ(d.request_id, 1u);
+  EXPECT_EQ(d.reason, "start");
+  EXPECT_EQ(d.from.position, (Vec3{2, 3, 0}));
+  EXPECT_EQ(m.attempts(), 1);
+  // Then it waits for the answer.
+  EXPECT_EQ(m.update(3, at(2, 3), true, std::nullopt).action, MissionAction::Wait);
+}
+
+TEST(Mission, FirstRequestWithoutWaitingForTheWorld) {
+  auto c = config();
+  c.wait_for_world = false;
+  Mission m(c);
+  EXPECT_EQ(m.update(0, at(0), false, std::nullopt).action, MissionAction::RequestPlan);
+}
+
+TEST(Mission, FailedPlanIsRetriedAfterTheDelayAndCounted) {
+  Mission m = started();
+  auto d = m.update(kSecond / 10, at(0), true, answer(1, false));
+  EXPECT_EQ(d.action, MissionAction::Wait);
+  EXPECT_EQ(d.warning, "plan 1 failed");
+  // Not before the delay (1 s after the failure) ...
+  EXPECT_EQ(m.update(kSecond, at(0), true, std::nullopt).action, MissionAction::Wait);
+  // ... then from the current state, as request 2 and attempt 2.
+  d = m.update(kSecond / 10 + kSecond, at(1), true, std::nullopt);
+  ASSERT_EQ(d.action, MissionAction::RequestPlan);
+  EXPECT_EQ(d.request_id, 2u);
+  EXPECT_EQ(d.reason, "retrying");
+  EXPECT_EQ(d.from.position.x(), 1.0);
+  EXPECT_EQ(m.attempts(), 2);
+}
+
+TEST(Mission, AnswersToOtherRequestsAreIgnored) {
+  Mission m = started();
+  EXPECT_EQ(m.update(kSecond, at(0), true, answer(7, false)).action, MissionAction::Wait);
+  EXPECT_EQ(m.update(2 * kSecond, at(0), true, answer(7, true)).action, MissionAction::Wait);
+  EXPECT_EQ(m.attempts(), 1);
+  EXPECT_EQ(m.update(2 * kSecond, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
+}
+
+TEST(Mission, UnansweredRequestIsRepeatedAfterItsTimeoutAndCounted) {
+  Mission m = started();
+  EXPECT_DOUBLE_EQ(m.config().answerTimeoutS(), 3.0);
+  EXPECT_EQ(m.update(3 * kSecond, at(0), true, std::nullopt).action, MissionAction::Wait);  // not more than 3 s yet
+  const auto d = m.update(3 * kSecond + 1000, at(0), true, std::nullopt);
+  ASSERT_EQ(d.action, MissionAction::RequestPlan);
+  EXPECT_EQ(d.request_id, 2u);
+  EXPECT_EQ(d.reason, "no answer");
+  EXPECT_EQ(d.warning, "plan 1: no answer from the planner");
+  EXPECT_EQ(m.attempts(), 2);
+}
+
+TEST(Mission, GivesUpAfterMaxAttemptsWithoutAnswers) {
+  Mission m = started();  // attempt 1 at t = 0
+  std::int64_t t = 0;
+  for (int attempt = 2; attempt <= 3; ++attempt) {
+    t += 3 * kSecond + 1;
+    ASSERT_EQ(m.update(t, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+    EXPECT_EQ(m.attempts(), attempt);
+  }
+  t += 3 * kSecond + 1;
+  const auto d = m.update(t, at(0), true, std::nullopt);
+  ASSERT_EQ(d.action, MissionAction::Failed);
+  EXPECT_EQ(d.reason, "no answer from the planner (planning/path) after 3 attempts");
+  EXPECT_EQ(d.warning, "plan 3: no answer from the planner");
+  // It stays failed.
+  EXPECT_EQ(m.update(t + kSecond, at(0), true, answer(3, true)).action, MissionAction::Failed);
+}
+
+TEST(Mission, GivesUpAfterMaxFailedPlans) {
+  Mission m = started();
+  std::int64_t t = 0;
+  for (std::uint32_t id = 1; id < 3; ++id) {
+    ASSERT_EQ(m.update(t, at(0), true, answer(id, false)).action, MissionAction::Wait);
+    t += kSecond;
+    ASSERT_EQ(m.update(t, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  }
+  const auto d = m.update(t, at(0), true, answer(3, false));
+  ASSERT_EQ(d.action, MissionAction::Failed);
+  EXPECT_EQ(d.reason, "no plan after 3 attempts");
+  EXPECT_EQ(d.warning, "plan 3 failed");
+}
+
+TEST(Mission, UnsmoothablePathsAreRetriedAndEndTheMissionAfterMaxAttempts) {
+  Mission m = started();
+  std::int64_t t = 0;
+  for (std::uint32_t id = 1; id <= 3; ++id) {
+    ASSERT_EQ(m.update(t, at(0), true, answer(id, true)).action, MissionAction::SmoothPath);
+    const auto d = m.pathSmoothed(t, at(0), false);
+    if (id == 3) {
+      ASSERT_EQ(d.action, MissionAction::Failed);
+      EXPECT_EQ(d.reason, "no drivable trajectory after 3 attempts");
+      break;
+    }
+    ASSERT_EQ(d.action, MissionAction::Wait);
+    t += kSecond;
+    ASSERT_EQ(m.update(t, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  }
+  EXPECT_FALSE(m.driving());
+}
+
+TEST(Mission, DrivableTrajectoryResetsTheAttempts) {
+  Mission m = started();
+  ASSERT_EQ(m.update(0, at(0), true, answer(1, false)).action, MissionAction::Wait);
+  ASSERT_EQ(m.update(kSecond, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  EXPECT_EQ(m.attempts(), 2);
+  ASSERT_EQ(m.update(kSecond, at(0), true, answer(2, true)).action, MissionAction::SmoothPath);
+  EXPECT_EQ(m.pathSmoothed(kSecond, at(0), true).action, MissionAction::Drive);
+  EXPECT_EQ(m.attempts(), 0);
+  EXPECT_TRUE(m.driving());
+  // While driving, no answer timeout applies.
+  EXPECT_EQ(m.update(100 * kSecond, at(0), true, std::nullopt).action, MissionAction::Drive);
+}
+
+TEST(Mission, GoalRegionEndsTheMission) {
+  Mission m = started();
+  m.update(0, at(0), true, answer(1, true));
+  ASSERT_EQ(m.pathSmoothed(0, at(0), true).action, MissionAction::Drive);
+  auto near_end = midway();
+  near_end.progress = 0.97;
+  // Inside the goal region but not near the end of the trajectory, or near the end but outside: go on.
+  EXPECT_NE(m.tracked(at(9.5), midway(), 0.05).action, MissionAction::Finished);
+  EXPECT_NE(m.tracked(at(8.5), near_end, 0.05).action, MissionAction::Finished);
+  EXPECT_FALSE(m.finished());
+  EXPECT_EQ(m.tracked(at(9.5), near_end, 0.05).action, MissionAction::Finished);
+  EXPECT_TRUE(m.finished());
+  // Finished stays finished, whatever arrives.
+  EXPECT_EQ(m.update(kSecond, at(9.5), true, answer(1, false)).action, MissionAction::Finished);
+}
+
+TEST(Mission, ControllersGoalEndsTheMissionOutsideTheRegion) {
+  Mission m = started();
+  m.update(0, at(0), true, answer(1, true));
+  m.pathSmoothed(0, at(0), true);
+  auto done = midway();
+  done.goal_reached = true;
+  EXPECT_EQ(m.tracked(at(5), done, 0.05).action, MissionAction::Finished);
+}
+
+TEST(Mission, PeriodicReplanCheckAndReplan) {
+  Mission m = started();
+  m.update(0, at(0), true, answer(1, true));
+  ASSERT_EQ(m.pathSmoothed(0, at(0), true).action, MissionAction::Drive);
+  // Control period 0.1 s, check period 0.5 s: the 5th step checks (0.1 * 5 may round below 0.5: at most a 6th).
+  int steps = 0;
+  MissionAction a = MissionAction::Drive;
+  while (a == MissionAction::Drive && steps < 20) {
+    a = m.tracked(at(1), midway(), 0.1).action;
+    ++steps;
+  }
+  EXPECT_EQ(a, MissionAction::CheckReplan);
+  EXPECT_GE(steps, 5);
+  EXPECT_LE(steps, 6);
+  // The check found a reason: a new request from the current state, driving stops until it is answered.
+  const auto d = m.replan(3 * kSecond, at(2, 1), "cross-track error 1.2 m > 1 m");
+  ASSERT_EQ(d.action, MissionAction::RequestPlan);
+  EXPECT_EQ(d.request_id, 2u);
+  EXPECT_EQ(d.reason, "cross-track error 1.2 m > 1 m");
+  EXPECT_EQ(d.from.position, (Vec3{2, 1, 0}));
+  EXPECT_FALSE(m.driving());
+  EXPECT_EQ(m.attempts(), 1);
+  EXPECT_EQ(m.update(3 * kSecond + 1, at(2, 1), true, std::nullopt).action, MissionAction::Wait);
+  // The counter restarted: the next check is a full period later.
+  m.update(4 * kSecond, at(2, 1), true, answer(2, true));
+  ASSERT_EQ(m.pathSmoothed(4 * kSecond, at(2, 1), true).action, MissionAction::Drive);
+  EXPECT_EQ(m.tracked(at(2, 1), midway(), 0.1).action, MissionAction::Drive);
+}
+
+TEST(Mission, RejectsABadConfig) {
+  auto c = config();
+  c.max_plan_attempts = 0;
+  EXPECT_THROW(Mission{c}, std::invalid_argument);
+  c = config();
+  c.replan_check_period_s = 0;
+  EXPECT_THROW(Mission{c}, std::invalid_argument);
+}
