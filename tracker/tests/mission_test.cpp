@@ -175,7 +175,9 @@ TEST(Mission, GoalRegionEndsTheMission) {
   auto near_end = midway();
   near_end.progress = 0.97;
   // Inside the goal region but not near the end of the trajectory, or near the end but outside: go on.
-  EXPECT_NE(m.tracked(at(9.5), midway(), 0.05).action, MissionAction::Finished);
+  auto before_end = midway();
+  before_end.progress = 0.94;
+  EXPECT_NE(m.tracked(at(9.5), before_end, 0.05).action, MissionAction::Finished);
   EXPECT_NE(m.tracked(at(8.5), near_end, 0.05).action, MissionAction::Finished);
   EXPECT_FALSE(m.finished());
   EXPECT_EQ(m.tracked(at(9.5), near_end, 0.05).action, MissionAction::Finished);

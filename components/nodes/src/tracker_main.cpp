@@ -1,12 +1,14 @@
 // ddsnav-tracker: drives the vehicle to the scenario's goal. Asks for a plan (planning/request), smooths
 // the answer into a trajectory (control/trajectory), follows it with the trajectory controller
 // (control/cmd_vel, control/tracking), and asks again from the current state when the vehicle
-// deviates or newly perceived obstacles block the rest of the trajectory.
+// deviates or newly perceived obstacles block the rest of the trajectory. The mission's decisions (when to
+// ask, retry, give up, when the goal is reached) are tracker::Mission's; this file carries them out.
 
 #include "ddsnav/nodes/convert.hpp"
 #include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
+#include <ddsnav/tracker/mission.hpp>
 #include <ddsnav/tracker/smoother.hpp>
 #include <ddsnav/tracker/tracker.hpp>
 
@@ -81,43 +83,71 @@ int main(int argc, char** argv) {
       }
     };
 
-    std::uint32_t request_id = 0;
-    std::int64_t attempts = 0;
-    // A failed attempt is retried after plan_retry_delay_s; kNoRetry: none pending. (A plain sentinel, not
-    // std::optional: GCC 12 reports a false maybe-uninitialized on the optional here.)
-    constexpr std::int64_t kNoRetry = -1;
-    std::int64_t retry_at_ns = kNoRetry;
-    std::optional<std::int64_t> pending_since;
-    auto requestPlan = [&](const tracker::VehicleState& from, const std::string& why) {
-      msg::PlanRequest request;
-      msg::Header header;
-      header.stamp_ns(ctx.clock().nowNs());
-      header.frame_id(nodes::kWorldFrame);
-      request.header(header);
-      request.request_id(++request_id);
-      request.start(nodes::toMsg(planner::State{from.position, from.heading}));
-      request.goal(nodes::toMsg(planner::State{scenario.goal, 0.0}));
-      request.goal_radius(scenario.goal_radius);
-      request.planner(planner_name);
-      request.time_budget_s(time_budget);
-      request.seed(seed + request_id - 1);
-      ++attempts;
-      pending_since = ctx.clock().nowNs();
-      spdlog::info("requesting plan {} with {} ({})", request_id, planner_name, why);
-      requests.publish(request);
-    };
+    tracker::MissionConfig mission_config;
+    mission_config.goal = scenario.goal;
+    mission_config.goal_radius = scenario.goal_radius;
+    mission_config.max_plan_attempts = max_attempts;
+    mission_config.plan_retry_delay_s = retry_delay;
+    mission_config.time_budget_s = time_budget;
+    mission_config.replan_check_period_s = replan_check_period;
+    mission_config.wait_for_world = wait_for_world;
+    tracker::Mission mission(mission_config);
+
     auto stop = [&] { commands.publish(nodes::toMsg(tracker::VehicleCommand{}, ctx.clock().nowNs())); };
+    std::optional<tracker::TrajectoryTracker> follower;
+    msg::TrackingStatus last_status;
+    // Carries out what the mission decided; returns whether the vehicle should be driven this period.
+    auto act = [&](const tracker::MissionDecision& d) {
+      if (!d.warning.empty()) spdlog::warn("{}", d.warning);
+      switch (d.action) {
+        case tracker::MissionAction::RequestPlan: {
+          msg::PlanRequest request;
+          msg::Header header;
+          header.stamp_ns(ctx.clock().nowNs());
+          header.frame_id(nodes::kWorldFrame);
+          request.header(header);
+          request.request_id(d.request_id);
+          request.start(nodes::toMsg(planner::State{d.from.position, d.from.heading}));
+          request.goal(nodes::toMsg(planner::State{scenario.goal, 0.0}));
+          request.goal_radius(scenario.goal_radius);
+          request.planner(planner_name);
+          request.time_budget_s(time_budget);
+          request.seed(seed + d.request_id - 1);
+          spdlog::info("requesting plan {} with {} ({})", d.request_id, planner_name, d.reason);
+          requests.publish(request);
+          return false;
+        }
+        case tracker::MissionAction::Failed: throw std::runtime_error(d.reason);
+        case tracker::MissionAction::Finished: statuses.publish(last_status); return false;  // best effort: keep saying so
+        case tracker::MissionAction::Drive: return true;
+        default: return false;
+      }
+    };
+    // The answer to the current request, smoothed into the trajectory to follow; false when it cannot be.
+    auto smooth = [&](const msg::Path& path, const tracker::VehicleState& state) {
+      try {
+        auto world = currentWorld(state.position);
+        if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
+        smoother_config.initial_heading = state.heading;
+        auto trajectory = tracker::smoothPath(nodes::statesOf(path), *world, limits, smoother_config);
+        spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m", path.request_id(),
+                     trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
+                     trajectory.report.min_clearance);
+        trajectories.publish(nodes::toMsg(trajectory, path.request_id(), ctx.clock().nowNs()));
+        follower.emplace(std::move(trajectory), limits, tracker_config);
+        return true;
+      } catch (const std::exception& e) {
+        spdlog::warn("cannot smooth plan {}: {}", path.request_id(), e.what());
+        return false;
+      }
+    };
 
     // Wait for the vehicle (and the first obstacles) before the first request; readiness first, so the
     // launcher can start whoever waits for us.
     ctx.ready();
     if (!requests.waitForSubscribers(1, std::chrono::seconds(20))) spdlog::warn("no planner subscribed to planning/request yet");
-    std::optional<tracker::TrajectoryTracker> follower;
-    bool goal_reached = false;
     const double dt = 1.0 / control_rate;
     const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / control_rate));
-    double since_replan_check = 0.0;
-    msg::TrackingStatus last_status;
     while (sleepFor(ctx, period)) {
       std::optional<tracker::VehicleState> state;
       std::optional<msg::Path> path;
@@ -126,93 +156,39 @@ int main(int argc, char** argv) {
         state = vehicle;
         path.swap(new_path);
       }
-      if (goal_reached) {
-        statuses.publish(last_status);  // keep saying so: the status topic is best effort
-        continue;
-      }
-      if (!state) continue;
-      if (request_id == 0) {
-        // The planner's world must exist before the first request (perception's first scan, the first map).
-        if (wait_for_world && !world_source.available()) continue;
-        requestPlan(*state, "start");
-        continue;
-      }
-      if (path && path->request_id() == request_id) {
-        pending_since.reset();
-        if (!path->solved()) {
-          spdlog::warn("plan {} failed", request_id);
-          if (attempts >= max_attempts) throw std::runtime_error("no plan after " + std::to_string(attempts) + " attempts");
-          retry_at_ns = ctx.clock().nowNs() + static_cast<std::int64_t>(retry_delay * 1e9);
-          continue;
-        }
-        try {
-          auto world = currentWorld(state->position);
-          if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
-          smoother_config.initial_heading = state->heading;
-          auto trajectory = tracker::smoothPath(nodes::statesOf(*path), *world, limits, smoother_config);
-          spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m", request_id,
-                       trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
-                       trajectory.report.min_clearance);
-          trajectories.publish(nodes::toMsg(trajectory, request_id, ctx.clock().nowNs()));
-          follower.emplace(std::move(trajectory), limits, tracker_config);
-          attempts = 0;
-        } catch (const std::exception& e) {
-          spdlog::warn("cannot smooth plan {}: {}", request_id, e.what());
-          if (attempts >= max_attempts) throw std::runtime_error("no drivable trajectory after " + std::to_string(attempts) + " attempts");
-          retry_at_ns = ctx.clock().nowNs() + static_cast<std::int64_t>(retry_delay * 1e9);
-          continue;
-        }
-      }
-      if (retry_at_ns != kNoRetry && ctx.clock().nowNs() >= retry_at_ns) {
-        retry_at_ns = kNoRetry;
-        requestPlan(*state, "retrying");
-        continue;
-      }
-      if (!follower) {
-        // A request may be lost while the planner restarts: ask again after twice its budget. Unanswered
-        // requests count as attempts, so a missing planner ends the mission instead of being asked forever.
-        if (pending_since && (ctx.clock().nowNs() - *pending_since) * 1e-9 > 2 * time_budget + 2) {
-          spdlog::warn("plan {}: no answer from the planner", request_id);
-          if (attempts >= max_attempts)
-            throw std::runtime_error("no answer from the planner (planning/path) after " + std::to_string(attempts) + " attempts");
-          requestPlan(*state, "no answer");
-        }
-        continue;
-      }
+      std::optional<tracker::PlanAnswer> answer;
+      if (path) answer = tracker::PlanAnswer{path->request_id(), path->solved()};
+      auto decision = mission.update(ctx.clock().nowNs(), state, world_source.available(), answer);
+      if (decision.action == tracker::MissionAction::SmoothPath)
+        decision = mission.pathSmoothed(ctx.clock().nowNs(), *state, smooth(*path, *state));
+      if (!act(decision)) continue;
+
       const auto command = follower->update(*state, dt);
       const auto& status = follower->status();
       commands.publish(nodes::toMsg(command, ctx.clock().nowNs()));
+      const auto next = mission.tracked(*state, status, dt);
       msg::TrackingStatus out;
       out.stamp_ns(ctx.clock().nowNs());
-      out.request_id(request_id);
+      out.request_id(mission.requestId());
       out.cross_track_error(status.cross_track_error);
       out.along_track_error(status.along_track_error);
       out.mean_cross_track_error(status.mean_cross_track_error);
       out.max_cross_track_error(status.max_cross_track_error);
       out.progress(status.progress);
-      // The mission's goal is the scenario's goal region; the controller's own test (trajectory finished and
-      // the vehicle within its tolerance of the end) is stricter than that.
-      const bool in_goal_region = status.progress > 0.95 && (state->position - scenario.goal).norm() <= scenario.goal_radius;
-      const bool arrived = status.goal_reached || in_goal_region;
-      out.goal_reached(arrived);
+      out.goal_reached(next.action == tracker::MissionAction::Finished);
       statuses.publish(out);
       last_status = out;
-      if (arrived) {
-        goal_reached = true;
+      if (next.action == tracker::MissionAction::Finished) {
         stop();
         spdlog::info("goal reached: mean cross-track error {:.3f} m, max {:.3f} m", status.mean_cross_track_error,
                      status.max_cross_track_error);
-        continue;
-      }
-      since_replan_check += dt;
-      if (since_replan_check >= replan_check_period) {
-        since_replan_check = 0.0;
+      } else if (next.action == tracker::MissionAction::CheckReplan) {
         const auto world = currentWorld(state->position);
-        const auto decision = world ? follower->checkReplan(*world) : tracker::ReplanDecision{};
-        if (decision.needed) {
+        const auto replan = world ? follower->checkReplan(*world) : tracker::ReplanDecision{};
+        if (replan.needed) {
           stop();
           follower.reset();
-          requestPlan(*state, decision.message);
+          act(mission.replan(ctx.clock().nowNs(), *state, replan.message));
         }
       }
     }
