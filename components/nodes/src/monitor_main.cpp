@@ -4,16 +4,13 @@
 // reports the goal reached, 1 when timeout_s passes first.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/run_report.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 
-#include <ddsnav/planner/svg.hpp>
-
-#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <optional>
 
@@ -34,10 +31,35 @@ struct Observations {
   std::size_t cloud_points = 0;
 };
 
-void writeFile(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+// What the report needs from the messages, as plain types.
+nodes::RunObservations toRunObservations(const std::string& scenario, bool reached, double elapsed, const Observations& seen) {
+  nodes::RunObservations run;
+  run.scenario = scenario;
+  run.goal_reached = reached;
+  run.elapsed_s = elapsed;
+  run.failure = seen.failure;
+  run.clouds = seen.clouds;
+  run.cloud_points = seen.cloud_points;
+  if (seen.obstacles) run.obstacles = nodes::toEllipsoidObstacles(*seen.obstacles);
+  for (const auto& m : seen.paths) {
+    nodes::PlannedPath path;
+    for (const auto& s : m.states()) path.states.emplace_back(s.x(), s.y(), s.z());
+    path.planner = m.planner();
+    path.cost_m = m.cost();
+    path.plan_time_s = m.statistics().time_s();
+    path.iterations = m.statistics().iterations();
+    run.paths.push_back(std::move(path));
+  }
+  if (seen.trajectory) {
+    run.trajectory.emplace();
+    for (const auto& s : seen.trajectory->samples()) run.trajectory->push_back(nodes::fromMsg(s.position()));
+  }
+  run.track = seen.track;
+  if (seen.status)
+    run.tracking = nodes::TrackingSummary{seen.status->mean_cross_track_error(), seen.status->max_cross_track_error(),
+                                          seen.status->progress()};
+  if (seen.map) run.map = nodes::MapSummary{seen.map->octree().size(), seen.map->resolution()};
+  return run;
 }
 
 }  // namespace
@@ -119,71 +141,11 @@ int main(int argc, char** argv) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = bus::Subscription();
 
-    // The picture.
-    planner::SvgScene scene;
-    scene.scenario = &scenario;
-    scene.title = scenario.name + (reached ? ": goal reached" : ": goal NOT reached");
-    if (seen.obstacles) scene.ellipses = nodes::toEllipsoidObstacles(*seen.obstacles);
-    for (std::size_t i = 0; i < seen.paths.size(); ++i) {
-      planner::SvgPolyline line;
-      for (const auto& s : seen.paths[i].states()) line.points.emplace_back(s.x(), s.y(), s.z());
-      line.colour = "#d62728";
-      line.width_px = i + 1 == seen.paths.size() ? 2.0 : 1.0;
-      line.dashed = i + 1 != seen.paths.size();
-      line.label = i + 1 == seen.paths.size() ? "planned path" : "";
-      scene.polylines.push_back(std::move(line));
-    }
-    if (seen.trajectory) {
-      planner::SvgPolyline line;
-      for (const auto& s : seen.trajectory->samples()) line.points.push_back(nodes::fromMsg(s.position()));
-      line.colour = "#2ca02c";
-      line.width_px = 2.0;
-      line.label = "smoothed trajectory";
-      scene.polylines.push_back(std::move(line));
-    }
-    scene.polylines.push_back({seen.track, "#1f77b4", 2.0, true, "driven track"});
-    const std::string svg = planner::renderSvg(scene, 900);
-
-    nlohmann::json summary;
-    summary["scenario"] = scenario.name;
-    summary["goal_reached"] = reached;
-    summary["elapsed_s"] = elapsed;
-    if (!seen.failure.empty()) summary["failure"] = seen.failure;
-    summary["clouds"] = seen.clouds;
-    summary["cloud_points"] = seen.cloud_points;
-    summary["obstacles"] = seen.obstacles ? seen.obstacles->obstacles().size() : 0;
-    summary["plans"] = seen.paths.size();
-    if (!seen.paths.empty()) {
-      const auto& p = seen.paths.back();
-      summary["planner"] = p.planner();
-      summary["path_cost_m"] = p.cost();
-      summary["plan_time_s"] = p.statistics().time_s();
-      summary["plan_iterations"] = p.statistics().iterations();
-    }
-    if (seen.trajectory) summary["trajectory_samples"] = seen.trajectory->samples().size();
-    if (seen.status) {
-      summary["mean_cross_track_error_m"] = seen.status->mean_cross_track_error();
-      summary["max_cross_track_error_m"] = seen.status->max_cross_track_error();
-      summary["progress"] = seen.status->progress();
-    }
-    if (seen.map) {
-      summary["map_bytes"] = seen.map->octree().size();
-      summary["map_resolution_m"] = seen.map->resolution();
-    }
-    writeFile(out_dir / "summary.json", summary.dump(2) + "\n");
-    writeFile(out_dir / "report.svg", svg);
-    std::string rows;
-    for (const auto& [key, value] : summary.items()) rows += "<tr><th>" + key + "</th><td>" + value.dump() + "</td></tr>\n";
-    writeFile(out_dir / "report.html",
-              "<!doctype html><html><head><meta charset='utf-8'><title>ddsnav demo: " + scenario.name +
-                  "</title><style>body{font-family:sans-serif;margin:2em}th{text-align:left;padding-right:2em}"
-                  "</style></head><body><h1>ddsnav demo: " + scenario.name + "</h1>\n" + svg +
-                  "<p>Grey: the world's true obstacles. Orange: the ellipses perception reported (probability bound "
-                  "from the obstacle message). Red: planned paths (dashed: replaced by a replan).</p>\n<table>\n" + rows +
-                  "</table></body></html>\n");
+    const nodes::RunObservations run = toRunObservations(scenario.name, reached, elapsed, seen);
+    nodes::writeReport(out_dir, scenario, run);
     spdlog::info("{}: {} after {:.1f} s; report in {}", scenario.name, reached ? "goal reached" : "goal NOT reached", elapsed,
                  (out_dir / "report.html").string());
-    std::printf("%s\n", summary.dump().c_str());
+    std::printf("%s\n", nodes::summaryJson(run).dump().c_str());
     if (!reached)
       throw std::runtime_error(seen.failure.empty() ? "goal not reached within timeout_s" : "goal not reached: " + seen.failure);
   });

@@ -1,0 +1,71 @@
+#pragma once
+// The run report ddsnav-monitor writes at the end of a pipeline run: summary.json (the numbers),
+// report.svg (world, perceived ellipses, planned paths, trajectory, driven track) and report.html (both
+// together). No DDS here: the monitor converts what it heard on the bus into RunObservations.
+
+#include <ddsnav/planner/collision_world.hpp>
+#include <ddsnav/planner/scenario.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace ddsnav::nodes {
+
+// One path the planner published, in publication order.
+struct PlannedPath {
+  std::vector<planner::Vec3> states;
+  std::string planner;        // planner name as published
+  double cost_m = 0.0;        // path length
+  double plan_time_s = 0.0;
+  std::uint64_t iterations = 0;
+};
+
+// The tracker's last status.
+struct TrackingSummary {
+  double mean_cross_track_error_m = 0.0;
+  double max_cross_track_error_m = 0.0;
+  double progress = 0.0;  // 0..1 along the trajectory
+};
+
+// The last map the mapper published.
+struct MapSummary {
+  std::size_t bytes = 0;  // size of the serialised octree
+  double resolution_m = 0.0;
+};
+
+struct RunObservations {
+  std::string scenario;   // scenario name
+  bool goal_reached = false;
+  double elapsed_s = 0.0;
+  std::string failure;    // "component: detail" of the first component that failed; empty when none did
+  std::size_t clouds = 0;
+  std::size_t cloud_points = 0;
+  // Perception's last obstacle array; nullopt when none arrived (reported as 0 obstacles).
+  std::optional<std::vector<planner::EllipsoidObstacle>> obstacles;
+  std::vector<PlannedPath> paths;                         // every plan, the last one is the current one
+  std::optional<std::vector<planner::Vec3>> trajectory;   // positions of the last smoothed trajectory
+  std::vector<planner::Vec3> track;                       // where the vehicle actually drove
+  std::optional<TrackingSummary> tracking;
+  std::optional<MapSummary> map;
+};
+
+// The summary.json content (keys in the order nlohmann::json keeps them: sorted).
+nlohmann::json summaryJson(const RunObservations& run);
+
+// report.svg: `world` gives the true geometry, start and goal; the title is the scenario name and outcome.
+std::string reportSvg(const planner::Scenario& world, const RunObservations& run);
+
+// report.html: the SVG above with a table of the summary numbers.
+std::string reportHtml(const planner::Scenario& world, const RunObservations& run);
+
+// Creates `dir` if needed and writes summary.json, report.svg and report.html into it. Throws
+// std::runtime_error naming the directory or file that cannot be created or written.
+void writeReport(const std::filesystem::path& dir, const planner::Scenario& world, const RunObservations& run);
+
+}  // namespace ddsnav::nodes

@@ -1,0 +1,190 @@
+// The monitor's run report built from hand-made observations: no DDS, no files except in a temp dir.
+#include "ddsnav/nodes/run_report.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+using namespace ddsnav;
+
+namespace {
+
+planner::Scenario corridor() {
+  planner::Scenario s;
+  s.name = "corridor";
+  s.dimensions = 2;
+  s.bounds_min = {0, 0, 0};
+  s.bounds_max = {10, 5, 0};
+  s.robot_radius = 0.2;
+  s.start = {1, 2.5, 0};
+  s.goal = {9, 2.5, 0};
+  s.goal_radius = 0.3;
+  planner::Obstacle box;
+  box.type = planner::ObstacleType::Box;
+  box.center = {5, 2.5, 0};
+  box.size = {1, 1, 0};
+  s.obstacles.push_back(box);
+  return s;
+}
+
+planner::EllipsoidObstacle ellipse(int id, const planner::Vec3& centre) {
+  planner::EllipsoidObstacle e;
+  e.id = id;
+  e.center = centre;
+  e.semi_axes = {0.6, 0.4, 0.1};
+  e.axes = Eigen::Matrix3d::Identity();
+  return e;
+}
+
+// A run that reached the goal after one replan.
+nodes::RunObservations reachedRun() {
+  nodes::RunObservations run;
+  run.scenario = "corridor";
+  run.goal_reached = true;
+  run.elapsed_s = 12.5;
+  run.clouds = 40;
+  run.cloud_points = 12345;
+  run.obstacles = std::vector{ellipse(1, {5, 2.5, 0}), ellipse(2, {7, 1, 0})};
+  run.paths.push_back({{{1, 2.5, 0}, {5, 4, 0}, {9, 2.5, 0}}, "rrt", 9.1, 0.25, 700});
+  run.paths.push_back({{{1, 2.5, 0}, {5, 1, 0}, {9, 2.5, 0}}, "rrt_star", 8.6, 0.5, 1500});
+  run.trajectory = std::vector<planner::Vec3>{{1, 2.5, 0}, {3, 2, 0}, {5, 1.1, 0}, {9, 2.5, 0}};
+  run.track = {{1, 2.5, 0}, {2, 2.3, 0}, {4, 1.4, 0}};
+  run.tracking = nodes::TrackingSummary{0.04, 0.12, 1.0};
+  run.map = nodes::MapSummary{2048, 0.1};
+  return run;
+}
+
+// A run that heard nothing but a component failure.
+nodes::RunObservations failedRun() {
+  nodes::RunObservations run;
+  run.scenario = "corridor";
+  run.goal_reached = false;
+  run.elapsed_s = 3.0;
+  run.failure = "planner: start in collision";
+  return run;
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + what.size())) ++n;
+  return n;
+}
+
+std::string readFile(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+struct TempDir {
+  std::filesystem::path path = std::filesystem::temp_directory_path() / ("ddsnav_run_report_" + std::to_string(::getpid()));
+  TempDir() { std::filesystem::remove_all(path); }
+  ~TempDir() { std::filesystem::remove_all(path); }
+};
+
+}  // namespace
+
+TEST(RunReport, SummaryOfAReachedGoalHasTheLastPlanAndTrackingNumbers) {
+  const auto j = nodes::summaryJson(reachedRun());
+  EXPECT_EQ(j.at("scenario"), "corridor");
+  EXPECT_EQ(j.at("goal_reached"), true);
+  EXPECT_DOUBLE_EQ(j.at("elapsed_s").get<double>(), 12.5);
+  EXPECT_FALSE(j.contains("failure"));
+  EXPECT_EQ(j.at("clouds"), 40);
+  EXPECT_EQ(j.at("cloud_points"), 12345);
+  EXPECT_EQ(j.at("obstacles"), 2);
+  EXPECT_EQ(j.at("plans"), 2);
+  EXPECT_EQ(j.at("planner"), "rrt_star");  // the last plan, not the first
+  EXPECT_DOUBLE_EQ(j.at("path_cost_m").get<double>(), 8.6);
+  EXPECT_DOUBLE_EQ(j.at("plan_time_s").get<double>(), 0.5);
+  EXPECT_EQ(j.at("plan_iterations"), 1500);
+  EXPECT_EQ(j.at("trajectory_samples"), 4);
+  EXPECT_DOUBLE_EQ(j.at("mean_cross_track_error_m").get<double>(), 0.04);
+  EXPECT_DOUBLE_EQ(j.at("max_cross_track_error_m").get<double>(), 0.12);
+  EXPECT_DOUBLE_EQ(j.at("progress").get<double>(), 1.0);
+  EXPECT_EQ(j.at("map_bytes"), 2048);
+  EXPECT_DOUBLE_EQ(j.at("map_resolution_m").get<double>(), 0.1);
+  EXPECT_EQ(j.size(), 17u);
+}
+
+TEST(RunReport, SummaryOfAFailedRunNamesTheFailureAndOmitsWhatNeverArrived) {
+  const auto j = nodes::summaryJson(failedRun());
+  EXPECT_EQ(j.at("goal_reached"), false);
+  EXPECT_EQ(j.at("failure"), "planner: start in collision");
+  EXPECT_EQ(j.at("obstacles"), 0);
+  EXPECT_EQ(j.at("plans"), 0);
+  EXPECT_EQ(j.at("clouds"), 0);
+  for (const char* key : {"planner", "path_cost_m", "plan_time_s", "plan_iterations", "trajectory_samples",
+                          "mean_cross_track_error_m", "max_cross_track_error_m", "progress", "map_bytes", "map_resolution_m"})
+    EXPECT_FALSE(j.contains(key)) << key;
+  EXPECT_EQ(j.size(), 8u);
+}
+
+TEST(RunReport, SvgDrawsEllipsesEveryPathTrajectoryTrackAndLegend) {
+  const std::string svg = nodes::reportSvg(corridor(), reachedRun());
+  EXPECT_NE(svg.find("<text x='" ), std::string::npos);
+  EXPECT_NE(svg.find(">corridor: goal reached</text>"), std::string::npos);
+  EXPECT_EQ(count(svg, "class='perceived'"), 2u);
+  // Two paths + trajectory + track.
+  EXPECT_EQ(count(svg, "<polyline fill='none'"), 4u);
+  // Only the replaced plan is dashed, plus the driven track and its legend entry.
+  EXPECT_EQ(count(svg, "stroke-dasharray"), 3u);
+  // Legend: one entry per labelled line; the replaced plan has none.
+  EXPECT_EQ(count(svg, ">planned path</text>"), 1u);
+  EXPECT_EQ(count(svg, ">smoothed trajectory</text>"), 1u);
+  EXPECT_EQ(count(svg, ">driven track</text>"), 1u);
+  // Red: two path lines and one legend line.
+  EXPECT_EQ(count(svg, "stroke='#d62728'"), 3u);
+  EXPECT_EQ(count(svg, "class='obs'"), 1u);  // the scenario's one true box
+}
+
+TEST(RunReport, SvgOfAFailedRunSaysNotReachedAndDrawsNoPaths) {
+  const std::string svg = nodes::reportSvg(corridor(), failedRun());
+  EXPECT_NE(svg.find(">corridor: goal NOT reached</text>"), std::string::npos);
+  EXPECT_EQ(count(svg, "class='perceived'"), 0u);
+  EXPECT_EQ(count(svg, "<polyline fill='none'"), 0u);  // the empty track is skipped
+  EXPECT_EQ(count(svg, "stroke='#d62728'"), 0u);
+}
+
+TEST(RunReport, HtmlEmbedsTheSvgAndTheSummaryNumbers) {
+  const auto run = reachedRun();
+  const std::string html = nodes::reportHtml(corridor(), run);
+  const std::string svg = nodes::reportSvg(corridor(), run);
+  EXPECT_EQ(html.rfind("<!doctype html>", 0), 0u);
+  EXPECT_NE(html.find("<title>ddsnav demo: corridor</title>"), std::string::npos);
+  EXPECT_NE(html.find(svg), std::string::npos);
+  EXPECT_NE(html.find("<tr><th>planner</th><td>\"rrt_star\"</td></tr>"), std::string::npos);
+  EXPECT_NE(html.find("<tr><th>plan_iterations</th><td>1500</td></tr>"), std::string::npos);
+  EXPECT_NE(html.find("<tr><th>map_bytes</th><td>2048</td></tr>"), std::string::npos);
+  EXPECT_NE(html.find("<tr><th>goal_reached</th><td>true</td></tr>"), std::string::npos);
+  EXPECT_EQ(count(html, "<tr>"), nodes::summaryJson(run).size());
+}
+
+TEST(RunReport, WriteReportWritesTheThreeFiles) {
+  TempDir tmp;
+  const auto dir = tmp.path / "nested" / "out";
+  const auto run = reachedRun();
+  nodes::writeReport(dir, corridor(), run);
+  EXPECT_EQ(nlohmann::json::parse(readFile(dir / "summary.json")), nodes::summaryJson(run));
+  EXPECT_EQ(readFile(dir / "report.svg"), nodes::reportSvg(corridor(), run));
+  EXPECT_EQ(readFile(dir / "report.html"), nodes::reportHtml(corridor(), run));
+}
+
+TEST(RunReport, WriteReportNamesADirectoryItCannotCreate) {
+  TempDir tmp;
+  std::filesystem::create_directories(tmp.path);
+  const auto blocker = tmp.path / "a_file";
+  std::ofstream(blocker) << "not a directory";
+  const auto dir = blocker / "report";
+  try {
+    nodes::writeReport(dir, corridor(), failedRun());
+    FAIL() << "expected an error for " << dir;
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot create report directory " + dir.string()), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir));
+}
