@@ -1,6 +1,7 @@
 // Record typed publishers of one vendor with a recorder of the other, replay with the first vendor to
 // typed subscribers of the second, and compare every message field by field. Every hop crosses vendors.
 #include "child.hpp"
+#include "scratch_cleanup.hpp"
 
 #include <ddsnav/bus/bus.hpp>
 #include <ddsnav/msg/messages.hpp>
@@ -199,12 +200,5 @@ INSTANTIATE_TEST_SUITE_P(Vendors, CrossVendor,
 
 // Removes this process's temporary files when the tests end.
 namespace {
-class TempCleanup : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(fs::temp_directory_path() / ("ddsnav_record_xv_" + std::to_string(::getpid())), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+[[maybe_unused]] const bool kScratchCleanup = ddsnav::record_test::removeScratchAtExit("ddsnav_record_xv_");
 }  // namespace

@@ -1,5 +1,7 @@
 // The MCAP writer and reader against each other and against the specification's byte layout: every
 // record type, zstd and uncompressed chunks, summary vs. record-by-record scan, truncated and bad files.
+#include "scratch_cleanup.hpp"
+
 #include <ddsnav/record/info.hpp>
 #include <ddsnav/record/mcap.hpp>
 
@@ -451,12 +453,5 @@ TEST(McapInfo, ReportsTopicsCountsDropsAndCompression) {
 
 // Removes this process's temporary files when the tests end.
 namespace {
-class TempCleanup : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(fs::temp_directory_path() / ("ddsnav_mcap_test_" + std::to_string(::getpid())), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+[[maybe_unused]] const bool kScratchCleanup = ddsnav::record_test::removeScratchAtExit("ddsnav_mcap_test_");
 }  // namespace

@@ -1,6 +1,7 @@
 // The recorder in-process: schemas from the IDL, per-topic drop counts with a tiny queue and a slow
 // "disk", and a killed recorder process leaving a readable file.
 #include "child.hpp"
+#include "scratch_cleanup.hpp"
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/record/info.hpp>
@@ -370,12 +371,5 @@ TEST(Player, PlayExitsNonZeroWhenNothingIsPlayable) {
 
 // Removes this process's temporary files when the tests end.
 namespace {
-class TempCleanup : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(fs::temp_directory_path() / ("ddsnav_record_test_" + std::to_string(::getpid())), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kTempCleanup = ::testing::AddGlobalTestEnvironment(new TempCleanup);
+[[maybe_unused]] const bool kScratchCleanup = ddsnav::record_test::removeScratchAtExit("ddsnav_record_test_");
 }  // namespace
