@@ -108,6 +108,7 @@ TEST(Pipeline, PlannerAnswersABadRequestWithAnUnsolvedPathAndKeepsServing) {
   ASSERT_TRUE(answer) << h.log("planner");
   EXPECT_EQ(answer->request_id(), 1u);
   EXPECT_FALSE(answer->solved());
+  EXPECT_NE(answer->failure().find("unknown planner 'no-such-planner'"), std::string::npos) << answer->failure();
 
   msg::PlanRequest good = bad;
   good.request_id(2);
@@ -122,6 +123,7 @@ TEST(Pipeline, PlannerAnswersABadRequestWithAnUnsolvedPathAndKeepsServing) {
   }
   ASSERT_TRUE(answer) << h.log("planner");
   EXPECT_TRUE(answer->solved());
+  EXPECT_TRUE(answer->failure().empty()) << answer->failure();
   EXPECT_GT(answer->cost(), std::hypot(33.0, 32.0) - 1.5);
   EXPECT_NE(h.log("planner").find("no-such-planner"), std::string::npos);
 }

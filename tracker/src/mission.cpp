@@ -51,8 +51,9 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
   if (answer && answer->request_id == request_id_) {
     pending_since_ns_.reset();
     if (!answer->solved) {
-      return retryLater(now_ns, "no plan after " + std::to_string(attempts_) + " attempts",
-                        "plan " + std::to_string(request_id_) + " failed");
+      std::string warning = "plan " + std::to_string(request_id_) + " failed";
+      if (!answer->failure.empty()) warning += ": " + answer->failure;
+      return retryLater(now_ns, "no plan after " + std::to_string(attempts_) + " attempts", std::move(warning));
     }
     MissionDecision d = just(MissionAction::SmoothPath);
     d.request_id = request_id_;

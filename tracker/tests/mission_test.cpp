@@ -29,7 +29,9 @@ VehicleState at(double x, double y = 0.0) {
   return s;
 }
 
-std::optional<PlanAnswer> answer(std::uint32_t id, bool solved) { return PlanAnswer{id, solved}; }
+std::optional<PlanAnswer> answer(std::uint32_t id, bool solved, std::string failure = "") {
+  return PlanAnswer{id, solved, std::move(failure)};
+}
 
 // Starts a mission and returns it with its first request (id 1) sent at t = 0.
 Mission started(const MissionConfig& c = config()) {
@@ -72,9 +74,9 @@ TEST(Mission, FirstRequestWithoutWaitingForTheWorld) {
 
 TEST(Mission, FailedPlanIsRetriedAfterTheDelayAndCounted) {
   Mission m = started();
-  auto d = m.update(kSecond / 10, at(0), true, answer(1, false));
+  auto d = m.update(kSecond / 10, at(0), true, answer(1, false, "no perception/obstacles received yet"));
   EXPECT_EQ(d.action, MissionAction::Wait);
-  EXPECT_EQ(d.warning, "plan 1 failed");
+  EXPECT_EQ(d.warning, "plan 1 failed: no perception/obstacles received yet");  // the planner's reason, passed on
   // Not before the delay (1 s after the failure) ...
   EXPECT_EQ(m.update(kSecond, at(0), true, std::nullopt).action, MissionAction::Wait);
   // ... then from the current state, as request 2 and attempt 2.

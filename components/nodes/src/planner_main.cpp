@@ -42,7 +42,9 @@ int main(int argc, char** argv) {
         spdlog::warn("planning/request {}: {}", request.request_id(), why);
         planner::PlanResult failed;
         failed.planner = request.planner();
-        paths.publish(nodes::toMsg(failed, request.request_id(), ctx.clock().nowNs()));
+        msg::Path path = nodes::toMsg(failed, request.request_id(), ctx.clock().nowNs());
+        path.failure(why);
+        paths.publish(path);
       };
       if (!finite(request.start()) || !finite(request.goal()) || !std::isfinite(request.goal_radius()) ||
           !(request.goal_radius() > 0) || !(request.time_budget_s() > 0) || !std::isfinite(request.time_budget_s()))
@@ -75,7 +77,12 @@ int main(int argc, char** argv) {
         const auto result = algorithm->solve(problem);
         spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result.planner,
                      result.solved ? "solved" : "failed", result.stats.time_s, result.stats.iterations, result.cost);
-        paths.publish(nodes::toMsg(result, request.request_id(), ctx.clock().nowNs()));
+        msg::Path path = nodes::toMsg(result, request.request_id(), ctx.clock().nowNs());
+        if (!result.solved) {
+          path.failure(fmt::format("no path within the time budget ({:.2f} s, {} iterations)", problem.time_limit_s,
+                                   result.stats.iterations));
+        }
+        paths.publish(path);
       } catch (const std::exception& e) {
         fail(e.what());
       }

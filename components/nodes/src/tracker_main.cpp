@@ -157,7 +157,7 @@ int main(int argc, char** argv) {
         path.swap(new_path);
       }
       std::optional<tracker::PlanAnswer> answer;
-      if (path) answer = tracker::PlanAnswer{path->request_id(), path->solved()};
+      if (path) answer = tracker::PlanAnswer{path->request_id(), path->solved(), path->failure()};
       auto decision = mission.update(ctx.clock().nowNs(), state, world_source.available(), answer);
       if (decision.action == tracker::MissionAction::SmoothPath)
         decision = mission.pathSmoothed(ctx.clock().nowNs(), *state, smooth(*path, *state));

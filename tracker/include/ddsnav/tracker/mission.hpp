@@ -31,6 +31,7 @@ struct MissionConfig {
 struct PlanAnswer {
   std::uint32_t request_id = 0;
   bool solved = false;
+  std::string failure;  // the planner's reason when not solved (may be empty)
 };
 
 enum class MissionAction {
