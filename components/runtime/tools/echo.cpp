@@ -40,8 +40,9 @@ std::string summary(const msg::PlanRequest& r) {
                      r.planner(), r.start().x(), r.start().y(), r.goal().x(), r.goal().y(), r.time_budget_s());
 }
 std::string summary(const msg::Path& p) {
-  return fmt::format("request {} {} {} states, cost {:.3f}, {} iterations", p.request_id(),
-                     p.solved() ? "solved" : "unsolved", p.states().size(), p.cost(), p.statistics().iterations());
+  return fmt::format("request {} {} {} states, cost {:.3f}, {} iterations{}{}", p.request_id(),
+                     p.solved() ? "solved" : "unsolved", p.states().size(), p.cost(), p.statistics().iterations(),
+                     p.failure().empty() ? "" : ": ", p.failure());
 }
 std::string summary(const msg::Trajectory& t) {
   return fmt::format("request {} {} samples", t.request_id(), t.samples().size());
