@@ -1,8 +1,9 @@
 // makeOctoMapWorld: the map the mapper publishes (OcTree::writeBinary bytes) as a collision world.
 //
 // Asking the octree itself costs a 16-level pointer descent per lookup (OcTree::search). After loading,
-// every occupied leaf is flattened into finest-level voxels (coarse pruned leaves expanded) and stored in
-// 8x8x8-voxel bricks: a flat open-addressing hash from brick coordinates to a 512-bit mask. A point query
+// every occupied leaf is flattened into finest-level voxels (coarse pruned leaves expanded, clipped to the
+// bounds plus a margin, at most OctoMapWorldOptions::max_bricks bricks) and stored in 8x8x8-voxel
+// bricks: a flat open-addressing hash from brick coordinates to a 512-bit mask. A point query
 // is then one hash probe and one bit test, with exactly OcTree::search's answer (same key arithmetic:
 // floor(c / resolution)).
 //
@@ -41,8 +42,9 @@ class BinaryOcTreeReader {
  public:
   explicit BinaryOcTreeReader(const std::vector<std::uint8_t>& bytes) : bytes_(bytes) {}
 
-  template <class LeafFn>
-  double read(LeafFn&& leaf) {
+  // `header(resolution)` runs once the header is read, before the first `leaf`.
+  template <class HeaderFn, class LeafFn>
+  double read(HeaderFn&& header, LeafFn&& leaf) {
     std::string id;
     double resolution = 0.0;
     long long size = -1;
@@ -65,6 +67,7 @@ class BinaryOcTreeReader {
     if (id != "OcTree") fail("tree type is '" + id + "', expected 'OcTree'");
     if (!(resolution > 0.0) || !std::isfinite(resolution)) fail("resolution must be a positive number");
     if (size < 0) fail("the header has no node count ('size')");
+    header(resolution);
     if (size > 0) {
       nodes_ = 1;
       const std::uint16_t origin[3] = {0, 0, 0};
@@ -133,7 +136,9 @@ class OctoMapWorld final : public CollisionWorld {
         bmin_(bounds_min),
         bmax_(bounds_max),
         radius_(robot_radius),
-        unknown_blocked_(options.unknown_is_occupied) {
+        unknown_blocked_(options.unknown_is_occupied),
+        outside_margin_(options.outside_bounds_margin_m),
+        max_bricks_(options.max_bricks) {
     if (dims_ == 2) bmin_.z() = bmax_.z() = 0.0;
     load(octree_binary);
   }
@@ -270,6 +275,9 @@ class OctoMapWorld final : public CollisionWorld {
     for (std::size_t s = slotOf(key);; s = (s + 1) & slot_mask_) {
       if (slot_keys_[s] == key) return bricks_[slot_bricks_[s]];
       if (slot_keys_[s] == kEmpty) {
+        if (bricks_.size() >= max_bricks_) failTooLarge();
+        // Grown by hand so the capacity never overshoots the cap (a doubling vector could reach twice it).
+        if (bricks_.size() == bricks_.capacity()) bricks_.reserve(std::min(max_bricks_, std::max<std::size_t>(1024, 2 * bricks_.size())));
         slot_keys_[s] = key;
         slot_bricks_[s] = static_cast<std::uint32_t>(bricks_.size());
         Brick& b = bricks_.emplace_back();
@@ -277,6 +285,14 @@ class OctoMapWorld final : public CollisionWorld {
         return b;
       }
     }
+  }
+  [[noreturn]] void failTooLarge() const {
+    std::ostringstream m;
+    m << "makeOctoMapWorld: the map needs more than " << max_bricks_ << " bricks of 8x8x8 voxels ("
+      << static_cast<double>(max_bricks_) * 512.0 << " voxels of " << resolution_
+      << " m) inside the planning bounds widened by " << radius_ + outside_margin_
+      << " m, the limit OctoMapWorldOptions::max_bricks; refusing it (coarse occupied leaves this large are no map of this world)";
+    throw std::runtime_error(m.str());
   }
   void rehash(std::size_t capacity) {
     slot_keys_.assign(capacity, kEmpty);
@@ -306,56 +322,90 @@ class OctoMapWorld final : public CollisionWorld {
   }
 
   // --- loading ---
+  // Every leaf becomes a box of finest voxels, clipped to where it can matter: occupied leaves to the bounds
+  // widened by the robot radius + outside_bounds_margin_m (so clearance and obstaclesNear stay exact up to
+  // that distance outside the bounds), free leaves (needed only for unknown-is-occupied) to the bounds
+  // widened by the radius + 2 voxels. A box fills whole 64-bit rows of its bricks at once, so the work is
+  // per brick, not per voxel, and the number of bricks is capped (max_bricks): a coarse leaf — one 63-byte
+  // message can hold a leaf 2^14 voxels wide — is never expanded without bound.
   void load(const std::vector<std::uint8_t>& bytes) {
     BinaryOcTreeReader reader(bytes);
-    // Leaves arrive before the resolution is needed: keep them, then flatten.
-    struct Leaf {
-      std::uint16_t corner[3];
-      std::uint8_t depth;
-      bool occupied;
+    Cell occupied_lo{}, occupied_hi{}, free_lo{}, free_hi{};
+    auto region = [&](double margin, Cell& lo, Cell& hi) {
+      lo = {cellCoord(bmin_.x() - margin), cellCoord(bmin_.y() - margin), dims_ == 2 ? 0 : cellCoord(bmin_.z() - margin)};
+      hi = {cellCoord(bmax_.x() + margin), cellCoord(bmax_.y() + margin), dims_ == 2 ? 0 : cellCoord(bmax_.z() + margin)};
     };
-    std::vector<Leaf> leaves;
-    resolution_ = reader.read([&](const std::uint16_t* c, unsigned depth, bool occupied) {
-      if (occupied || unknown_blocked_) leaves.push_back({{c[0], c[1], c[2]}, static_cast<std::uint8_t>(depth), occupied});
-    });
-    factor_ = 1.0 / resolution_;  // OctoMap's resolution_factor
-    // Free voxels matter only to the unknown-is-occupied policy and only where a robot can be.
-    const double margin = radius_ + 2.0 * resolution_;
-    const Cell free_lo = {cellCoord(bmin_.x() - margin), cellCoord(bmin_.y() - margin),
-                          dims_ == 2 ? 0 : cellCoord(bmin_.z() - margin)};
-    const Cell free_hi = {cellCoord(bmax_.x() + margin), cellCoord(bmax_.y() + margin),
-                          dims_ == 2 ? 0 : cellCoord(bmax_.z() + margin)};
-    for (const Leaf& leaf : leaves) {
-      const bool occupied = leaf.occupied;
-      const std::int64_t size = std::int64_t(1) << (16 - leaf.depth);
-      Cell lo = {std::int64_t(leaf.corner[0]) - kCellLimit, std::int64_t(leaf.corner[1]) - kCellLimit,
-                 std::int64_t(leaf.corner[2]) - kCellLimit};
+    auto header = [&](double resolution) {
+      resolution_ = resolution;
+      factor_ = 1.0 / resolution_;  // OctoMap's resolution_factor
+      region(radius_ + outside_margin_, occupied_lo, occupied_hi);
+      region(radius_ + 2.0 * resolution_, free_lo, free_hi);
+    };
+    auto leaf = [&](const std::uint16_t* corner, unsigned depth, bool occupied) {
+      if (!occupied && !unknown_blocked_) return;
+      const std::int64_t size = std::int64_t(1) << (16 - depth);
+      Cell lo = {std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit, std::int64_t(corner[2]) - kCellLimit};
       Cell hi = {lo.x + size - 1, lo.y + size - 1, lo.z + size - 1};
       if (dims_ == 2) lo.z = hi.z = 0;  // the column is what a 2-D robot meets
-      if (!occupied) {
-        lo = {std::max(lo.x, free_lo.x), std::max(lo.y, free_lo.y), std::max(lo.z, free_lo.z)};
-        hi = {std::min(hi.x, free_hi.x), std::min(hi.y, free_hi.y), std::min(hi.z, free_hi.z)};
-      }
-      for (std::int64_t z = lo.z; z <= hi.z; ++z)
-        for (std::int64_t y = lo.y; y <= hi.y; ++y)
-          for (std::int64_t x = lo.x; x <= hi.x; ++x) {
-            const Cell c{x, y, z};
-            Brick& b = brickFor(x >> 3, y >> 3, z >> 3);
-            const std::uint32_t bit = bitOf(c);
-            b.known[bit >> 6] |= 1ull << (bit & 63);
-            if (occupied) b.occupied[bit >> 6] |= 1ull << (bit & 63);
-          }
-    }
+      const Cell& clip_lo = occupied ? occupied_lo : free_lo;
+      const Cell& clip_hi = occupied ? occupied_hi : free_hi;
+      lo = {std::max(lo.x, clip_lo.x), std::max(lo.y, clip_lo.y), std::max(lo.z, clip_lo.z)};
+      hi = {std::min(hi.x, clip_hi.x), std::min(hi.y, clip_hi.y), std::min(hi.z, clip_hi.z)};
+      if (lo.x > hi.x || lo.y > hi.y || lo.z > hi.z) return;
+      // One leaf that alone needs more bricks than the cap is refused before any of it is filled.
+      const double span = double((hi.x >> 3) - (lo.x >> 3) + 1) * double((hi.y >> 3) - (lo.y >> 3) + 1) *
+                          double((hi.z >> 3) - (lo.z >> 3) + 1);
+      if (span > double(max_bricks_)) failTooLarge();
+      fillBox(lo, hi, occupied);
+    };
+    reader.read(header, leaf);
     for (std::uint32_t i = 0; i < bricks_.size(); ++i) {
       const auto& occ = bricks_[i].occupied;
       if (std::none_of(occ.begin(), occ.end(), [](std::uint64_t w) { return w != 0; })) continue;
       occupied_bricks_.push_back(i);
-      forEachBit(occ, [&](unsigned bit) {
-        const Cell c = cellOfBit(bricks_[i], bit);
-        occ_lo_ = {std::min(occ_lo_.x, c.x), std::min(occ_lo_.y, c.y), std::min(occ_lo_.z, c.z)};
-        occ_hi_ = {std::max(occ_hi_.x, c.x), std::max(occ_hi_.y, c.y), std::max(occ_hi_.z, c.z)};
-      });
+      // The brick's occupied voxels' box from its masks: word = z layer, byte = y row, bit in byte = x.
+      std::uint64_t any_z = 0;
+      int z_lo = 8, z_hi = -1;
+      for (int w = 0; w < 8; ++w)
+        if (occ[w] != 0) {
+          any_z |= occ[w];
+          z_lo = std::min(z_lo, w);
+          z_hi = w;
+        }
+      int y_lo = 8, y_hi = -1;
+      unsigned any_x = 0;
+      for (int y = 0; y < 8; ++y)
+        if (const unsigned row = (any_z >> (8 * y)) & 0xffu; row != 0) {
+          any_x |= row;
+          y_lo = std::min(y_lo, y);
+          y_hi = y;
+        }
+      const int x_lo = std::countr_zero(any_x), x_hi = 7 - std::countl_zero(static_cast<std::uint8_t>(any_x));
+      const Brick& b = bricks_[i];
+      const Cell lo{std::int64_t(b.bx) * 8 + x_lo, std::int64_t(b.by) * 8 + y_lo, std::int64_t(b.bz) * 8 + z_lo};
+      const Cell hi{std::int64_t(b.bx) * 8 + x_hi, std::int64_t(b.by) * 8 + y_hi, std::int64_t(b.bz) * 8 + z_hi};
+      occ_lo_ = {std::min(occ_lo_.x, lo.x), std::min(occ_lo_.y, lo.y), std::min(occ_lo_.z, lo.z)};
+      occ_hi_ = {std::max(occ_hi_.x, hi.x), std::max(occ_hi_.y, hi.y), std::max(occ_hi_.z, hi.z)};
     }
+  }
+
+  // Marks the voxels [lo, hi] known (and occupied), a brick at a time.
+  void fillBox(const Cell& lo, const Cell& hi, bool occupied) {
+    for (std::int64_t bz = lo.z >> 3; bz <= (hi.z >> 3); ++bz)
+      for (std::int64_t by = lo.y >> 3; by <= (hi.y >> 3); ++by)
+        for (std::int64_t bx = lo.x >> 3; bx <= (hi.x >> 3); ++bx) {
+          const int x0 = int(std::max(lo.x, bx * 8) - bx * 8), x1 = int(std::min(hi.x, bx * 8 + 7) - bx * 8);
+          const int y0 = int(std::max(lo.y, by * 8) - by * 8), y1 = int(std::min(hi.y, by * 8 + 7) - by * 8);
+          const int z0 = int(std::max(lo.z, bz * 8) - bz * 8), z1 = int(std::min(hi.z, bz * 8 + 7) - bz * 8);
+          const std::uint64_t x_bits = ((1ull << (x1 - x0 + 1)) - 1) << x0;
+          std::uint64_t layer = 0;  // the box's voxels in one z layer of the brick
+          for (int y = y0; y <= y1; ++y) layer |= x_bits << (8 * y);
+          Brick& b = brickFor(bx, by, bz);
+          for (int z = z0; z <= z1; ++z) {
+            b.known[z] |= layer;
+            if (occupied) b.occupied[z] |= layer;
+          }
+        }
   }
 
   // --- queries ---
@@ -452,6 +502,8 @@ class OctoMapWorld final : public CollisionWorld {
   Vec3 bmin_, bmax_;
   double radius_;
   bool unknown_blocked_;
+  double outside_margin_;
+  std::size_t max_bricks_;
   double resolution_ = 0.0, factor_ = 0.0;
   std::vector<std::uint64_t> slot_keys_;
   std::vector<std::uint32_t> slot_bricks_;
@@ -475,6 +527,9 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
   if (!std::isfinite(robot_radius) || robot_radius < 0.0) {
     throw std::invalid_argument("makeOctoMapWorld: robot_radius must be finite and >= 0");
   }
+  if (!std::isfinite(options.outside_bounds_margin_m) || options.outside_bounds_margin_m < 0.0)
+    throw std::invalid_argument("makeOctoMapWorld: outside_bounds_margin_m must be finite and >= 0");
+  if (options.max_bricks < 1) throw std::invalid_argument("makeOctoMapWorld: max_bricks must be at least 1");
   return std::make_unique<OctoMapWorld>(dimensions, bounds_min, bounds_max, robot_radius, octree_binary, options);
 }
 

@@ -254,5 +254,74 @@ TEST(OctoMapWorld, BadInputIsRejected) {
   EXPECT_THROW(makeOctoMapWorld(3, Vec3(-1, -1, -1), Vec3(1, 1, 1), std::nan(""), bytes), std::invalid_argument);
 }
 
+// Issue 13 row 3: 63 bytes holding one occupied leaf at depth 2 (2^14 voxels a side, 1.6 km at 0.1 m) that
+// covers the bounds' octant. Root: child 7 (the +x+y+z octant, cells 0..32767) an inner node; it: child 0 an
+// occupied leaf.
+std::vector<std::uint8_t> hostileCoarseLeaf() {
+  static const char kBytes[] = "# Octomap OcTree binary file\nid OcTree\nsize 3\nres 0.1\ndata\n\x00\xC0\x02\x00";
+  return std::vector<std::uint8_t>(kBytes, kBytes + sizeof kBytes - 1);
+}
+
+TEST(OctoMapWorld, CoarseOccupiedLeafIsClippedToTheBounds) {
+  const auto bytes = hostileCoarseLeaf();
+  ASSERT_EQ(bytes.size(), 63u);
+  // 2-D: the leaf's 16384^2 columns would be 2^22 bricks; clipped to the 40 m yard (+ margin), a few thousand.
+  const auto flat = makeOctoMapWorld(2, Vec3(0, 0, 0), Vec3(40, 40, 0), 0.4, bytes);
+  EXPECT_FALSE(flat->isFree(Vec3(20, 20, 0)));
+  EXPECT_DOUBLE_EQ(flat->clearance(Vec3(20, 20, 0)), -0.4);
+  // 3-D: 2^36 bricks unclipped; [0, 40]^3 widened by 5.4 m is 57^3 bricks.
+  const auto solid = makeOctoMapWorld(3, Vec3(0, 0, 0), Vec3(40, 40, 40), 0.4, bytes);
+  EXPECT_FALSE(solid->isFree(Vec3(20, 20, 20)));
+  EXPECT_FALSE(solid->isFree(Vec3(39.5, 39.5, 39.5)));
+  // Outside the leaf (x < 0) the world is free up to the leaf's face, and clearance measures to it exactly.
+  EXPECT_NEAR(solid->clearance(Vec3(-2.0, 20, 20)), 2.0 - 0.4, 1e-9);
+  const auto near = solid->obstaclesNear(Vec3(-0.05, 20.05, 20.05), 0.06);
+  ASSERT_EQ(near.size(), 1u);
+  EXPECT_NEAR(near[0].distance, 0.05, 1e-9);
+}
+
+TEST(OctoMapWorld, MapNeedingTooManyBricksIsRefusedNamingTheLimit) {
+  const auto bytes = hostileCoarseLeaf();
+  // [0, 200]^3 at 0.1 m: 257^3 = 17 M bricks, past the default cap (2^19); refused, not allocated.
+  try {
+    makeOctoMapWorld(3, Vec3(0, 0, 0), Vec3(200, 200, 200), 0.4, bytes);
+    ADD_FAILURE() << "a map needing 17 M bricks was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("more than 524288 bricks"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("OctoMapWorldOptions::max_bricks"), std::string::npos) << e.what();
+  }
+  OctoMapWorldOptions small;
+  small.max_bricks = 100;
+  EXPECT_THROW(makeOctoMapWorld(2, Vec3(0, 0, 0), Vec3(40, 40, 0), 0.4, bytes, small), std::runtime_error);
+  // Many small leaves in few bricks: the cap counts bricks, not leaves.
+  small.max_bricks = 5000;
+  EXPECT_NO_THROW(makeOctoMapWorld(3, Vec3(-5, -5, -5), Vec3(5, 5, 5), 0.1, toBytes(makeMap(0.1, false)), small));
+  small.max_bricks = 0;
+  EXPECT_THROW(makeOctoMapWorld(2, Vec3(0, 0, 0), Vec3(40, 40, 0), 0.4, bytes, small), std::invalid_argument);
+}
+
+// Clipping the map to the bounds + margin changes no answer inside the bounds up to the margin.
+TEST(OctoMapWorld, ClippingKeepsAnswersInsideTheBounds) {
+  const auto bytes = toBytes(makeMap(0.1, false));  // voxels within +-4 m
+  const double radius = 0.2;
+  OctoMapWorldOptions tight;
+  tight.outside_bounds_margin_m = 0.5;
+  const auto clipped = makeOctoMapWorld(3, Vec3(-1.5, -1.5, 0), Vec3(1.5, 1.5, 3), radius, bytes, tight);
+  const auto whole = makeOctoMapWorld(3, Vec3(-50, -50, -50), Vec3(50, 50, 50), radius, bytes);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.25, 1.25), uz(0.3, 2.7);
+  int compared = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vec3 p(u(rng), u(rng), uz(rng));
+    EXPECT_EQ(clipped->isFree(p), whole->isFree(p)) << p.transpose();
+    const double c = whole->clearance(p);
+    if (c + radius <= 0.5) {
+      EXPECT_DOUBLE_EQ(clipped->clearance(p), c) << p.transpose();
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 1000);
+}
+
 }  // namespace
 }  // namespace ddsnav::planner

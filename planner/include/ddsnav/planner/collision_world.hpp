@@ -7,6 +7,7 @@
 #include "ddsnav/planner/scenario.hpp"
 
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -82,8 +83,19 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
 // unknown = occupied keeps every state inside observed free space. It affects isFree (and so segment
 // checks) only: clearance and obstaclesNear always report observed occupied voxels. In 2-D a column
 // counts as occupied / known when any voxel of the octree in that (x, y) cell is.
+//
+// Work and memory are bounded: leaves are clipped to where they can matter (occupied ones to the bounds
+// widened by robot_radius + outside_bounds_margin_m — clearance and obstaclesNear are exact up to that
+// distance outside the bounds, and see nothing beyond it; free ones, used only by unknown_is_occupied, to
+// the bounds widened by the radius + 2 voxels), and a map that needs more than max_bricks 8x8x8-voxel
+// bricks there is refused (std::runtime_error naming the limit). Each brick takes ~180 bytes with its
+// hash slots, so the default cap holds the world under ~100 MB; a mapper's map of a shipped scenario
+// needs a few thousand bricks (occupied surfaces only), a coarse hostile leaf filling the bounds may not.
+inline constexpr std::size_t kOctoMapWorldMaxBricks = std::size_t(1) << 19;  // 2^28 voxels
 struct OctoMapWorldOptions {
   bool unknown_is_occupied = false;
+  double outside_bounds_margin_m = 5.0;
+  std::size_t max_bricks = kOctoMapWorldMaxBricks;
 };
 std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
                                                  double robot_radius, const std::vector<std::uint8_t>& octree_binary,
