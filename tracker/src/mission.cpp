@@ -1,5 +1,8 @@
 #include "ddsnav/tracker/mission.hpp"
 
+#include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -28,7 +31,31 @@ MissionDecision just(MissionAction action) {
 
 std::int64_t secondsToNs(double s) { return static_cast<std::int64_t>(s * 1e9); }
 
+std::string metres(double m) {
+  char text[64];
+  std::snprintf(text, sizeof text, "%.2f m", m);
+  return text;
+}
+
 }  // namespace
+
+GoalCheck checkGoal(const Vec3& goal, double radius, const std::optional<Vec3>& position) {
+  GoalCheck out;
+  if (!position || !position->allFinite()) {
+    out.distance = std::numeric_limits<double>::infinity();
+    out.why = "no vehicle position was received";
+    return out;
+  }
+  out.distance = (*position - goal).norm();
+  out.reached = out.distance <= radius;
+  if (!out.reached)
+    out.why = "the vehicle is " + metres(out.distance) + " from the goal, outside the " + metres(radius) + " goal region";
+  return out;
+}
+
+GoalCheck Mission::goalCheck(const VehicleState& state) const {
+  return checkGoal(config_.goal, config_.goal_radius, state.position);
+}
 
 Mission::Mission(const MissionConfig& config) : config_(config) {
   // The component checks its parameters with their names; this guards other callers.
@@ -54,6 +81,16 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
       std::string warning = "plan " + std::to_string(request_id_) + " failed";
       if (!answer->failure.empty()) warning += ": " + answer->failure;
       return retryLater(now_ns, "no plan after " + std::to_string(attempts_) + " attempts", std::move(warning));
+    }
+    // A "solved" path that stops short of the goal region is no way to the goal: the planner's exact flag
+    // and the path's own end must both say it gets there.
+    const GoalCheck end = checkGoal(config_.goal, config_.goal_radius, answer->path_end);
+    if (!answer->exact || !end.reached) {
+      std::string warning = "plan " + std::to_string(request_id_) + " is solved but does not reach the goal region: ";
+      if (!answer->path_end) warning += "it has no states";
+      else if (!end.reached) warning += "it ends " + metres(end.distance) + " from the goal (goal radius " + metres(config_.goal_radius) + ")";
+      else warning += "the planner marks it approximate (exact = false)";
+      return retryLater(now_ns, "no plan to the goal region after " + std::to_string(attempts_) + " attempts", std::move(warning));
     }
     MissionDecision d = just(MissionAction::SmoothPath);
     d.request_id = request_id_;
@@ -89,10 +126,23 @@ MissionDecision Mission::afterAnswer(std::int64_t now_ns, const VehicleState& st
   return just(MissionAction::Wait);
 }
 
-MissionDecision Mission::tracked(const VehicleState& state, const TrackingStatus& status, double dt) {
-  if (status.goal_reached || inGoalRegion(state, status)) {
+MissionDecision Mission::tracked(std::int64_t now_ns, const VehicleState& state, const TrackingStatus& status, double dt) {
+  const GoalCheck goal = goalCheck(state);
+  if (goal.reached && (status.goal_reached || status.progress > 0.95)) {
     finished_ = true;
     return just(MissionAction::Finished);
+  }
+  if (status.goal_reached) {
+    // The controller is at the trajectory's end, the vehicle is not in the goal region: ask again from here.
+    ++short_ends_;
+    driving_ = false;
+    const std::string why = "trajectory " + std::to_string(request_id_) + " ended but " + goal.why;
+    if (short_ends_ >= config_.max_plan_attempts)
+      return fail("goal not reached: " + std::to_string(short_ends_) + " trajectories ended outside the goal region; last: " + goal.why,
+                  why);
+    MissionDecision d = request(now_ns, state, "the last trajectory ended outside the goal region");
+    d.warning = why;
+    return d;
   }
   since_replan_check_ += dt;
   if (since_replan_check_ >= config_.replan_check_period_s) {
@@ -105,10 +155,6 @@ MissionDecision Mission::tracked(const VehicleState& state, const TrackingStatus
 MissionDecision Mission::replan(std::int64_t now_ns, const VehicleState& state, const std::string& why) {
   driving_ = false;
   return request(now_ns, state, why);
-}
-
-bool Mission::inGoalRegion(const VehicleState& state, const TrackingStatus& status) const {
-  return status.progress > 0.95 && (state.position - config_.goal).norm() <= config_.goal_radius;
 }
 
 MissionDecision Mission::request(std::int64_t now_ns, const VehicleState& from, std::string reason) {

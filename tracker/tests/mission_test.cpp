@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 
@@ -29,8 +30,18 @@ VehicleState at(double x, double y = 0.0) {
   return s;
 }
 
-std::optional<PlanAnswer> answer(std::uint32_t id, bool solved, std::string failure = "") {
-  return PlanAnswer{id, solved, std::move(failure)};
+// A solved answer is an exact path ending at the goal of config() unless `end` says otherwise.
+std::optional<PlanAnswer> answer(std::uint32_t id, bool solved, std::string failure = "", Vec3 end = {10, 0, 0},
+                                 bool exact = true) {
+  PlanAnswer a;
+  a.request_id = id;
+  a.solved = solved;
+  a.failure = std::move(failure);
+  if (solved) {
+    a.exact = exact;
+    a.path_end = end;
+  }
+  return a;
 }
 
 // Starts a mission and returns it with its first request (id 1) sent at t = 0.
@@ -179,22 +190,74 @@ TEST(Mission, GoalRegionEndsTheMission) {
   // Inside the goal region but not near the end of the trajectory, or near the end but outside: go on.
   auto before_end = midway();
   before_end.progress = 0.94;
-  EXPECT_NE(m.tracked(at(9.5), before_end, 0.05).action, MissionAction::Finished);
-  EXPECT_NE(m.tracked(at(8.5), near_end, 0.05).action, MissionAction::Finished);
+  EXPECT_NE(m.tracked(0, at(9.5), before_end, 0.05).action, MissionAction::Finished);
+  EXPECT_NE(m.tracked(0, at(8.5), near_end, 0.05).action, MissionAction::Finished);
   EXPECT_FALSE(m.finished());
-  EXPECT_EQ(m.tracked(at(9.5), near_end, 0.05).action, MissionAction::Finished);
+  EXPECT_EQ(m.tracked(0, at(9.5), near_end, 0.05).action, MissionAction::Finished);
   EXPECT_TRUE(m.finished());
   // Finished stays finished, whatever arrives.
   EXPECT_EQ(m.update(kSecond, at(9.5), true, answer(1, false)).action, MissionAction::Finished);
 }
 
-TEST(Mission, ControllersGoalEndsTheMissionOutsideTheRegion) {
+// Issue 13 row 5: the end of the trajectory is not the goal. The controller finished 5 m short of the goal
+// region: no success, a new request from where the vehicle is; after max_plan_attempts such ends, failure.
+TEST(Mission, TrajectoryEndOutsideTheGoalRegionIsNoSuccess) {
   Mission m = started();
   m.update(0, at(0), true, answer(1, true));
   m.pathSmoothed(0, at(0), true);
   auto done = midway();
   done.goal_reached = true;
-  EXPECT_EQ(m.tracked(at(5), done, 0.05).action, MissionAction::Finished);
+  done.progress = 1.0;
+  auto d = m.tracked(kSecond, at(5), done, 0.05);
+  ASSERT_EQ(d.action, MissionAction::RequestPlan);
+  EXPECT_FALSE(m.finished());
+  EXPECT_FALSE(m.driving());
+  EXPECT_EQ(d.request_id, 2u);
+  EXPECT_EQ(d.from.position, (Vec3{5, 0, 0}));
+  EXPECT_EQ(d.warning, "trajectory 1 ended but the vehicle is 5.00 m from the goal, outside the 1.00 m goal region");
+  for (std::uint32_t id = 2; id <= 3; ++id) {
+    ASSERT_EQ(m.update(2 * kSecond, at(5), true, answer(id, true)).action, MissionAction::SmoothPath);
+    ASSERT_EQ(m.pathSmoothed(2 * kSecond, at(5), true).action, MissionAction::Drive);
+    d = m.tracked(3 * kSecond, at(5), done, 0.05);
+  }
+  ASSERT_EQ(d.action, MissionAction::Failed);
+  EXPECT_EQ(d.reason, "goal not reached: 3 trajectories ended outside the goal region; last: the vehicle is 5.00 m from the goal, outside the 1.00 m goal region");
+  EXPECT_FALSE(m.finished());
+  EXPECT_EQ(m.update(4 * kSecond, at(5), true, std::nullopt).action, MissionAction::Failed);
+}
+
+// Issue 13 row 5: a "solved" path that ends short of the goal (or is marked inexact) is a failed attempt.
+TEST(Mission, SolvedPathThatStopsShortOfTheGoalIsAFailedAttempt) {
+  Mission m = started();
+  auto d = m.update(0, at(0), true, answer(1, true, "", {-28, 0, 0}));
+  EXPECT_EQ(d.action, MissionAction::Wait);
+  EXPECT_EQ(d.warning, "plan 1 is solved but does not reach the goal region: it ends 38.00 m from the goal (goal radius 1.00 m)");
+  ASSERT_EQ(m.update(kSecond, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  d = m.update(kSecond, at(0), true, answer(2, true, "", {10, 0.5, 0}, /*exact=*/false));
+  EXPECT_EQ(d.action, MissionAction::Wait);
+  EXPECT_EQ(d.warning, "plan 2 is solved but does not reach the goal region: the planner marks it approximate (exact = false)");
+  ASSERT_EQ(m.update(2 * kSecond, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  PlanAnswer empty;
+  empty.request_id = 3;
+  empty.solved = true;
+  empty.exact = true;
+  d = m.update(2 * kSecond, at(0), true, empty);
+  ASSERT_EQ(d.action, MissionAction::Failed);
+  EXPECT_EQ(d.reason, "no plan to the goal region after 3 attempts");
+  EXPECT_EQ(d.warning, "plan 3 is solved but does not reach the goal region: it has no states");
+  EXPECT_FALSE(m.driving());
+}
+
+TEST(Mission, GoalCheckUsesTheTruePosition) {
+  EXPECT_TRUE(checkGoal({10, 0, 0}, 1.0, Vec3{9.5, 0.5, 0}).reached);
+  const auto far = checkGoal({10, 0, 0}, 1.5, Vec3{-28, 0, 0});
+  EXPECT_FALSE(far.reached);
+  EXPECT_DOUBLE_EQ(far.distance, 38.0);
+  EXPECT_EQ(far.why, "the vehicle is 38.00 m from the goal, outside the 1.50 m goal region");
+  const auto none = checkGoal({10, 0, 0}, 1.5, std::nullopt);
+  EXPECT_FALSE(none.reached);
+  EXPECT_EQ(none.why, "no vehicle position was received");
+  EXPECT_FALSE(checkGoal({10, 0, 0}, 1.5, Vec3{std::nan(""), 0, 0}).reached);
 }
 
 TEST(Mission, PeriodicReplanCheckAndReplan) {
@@ -205,7 +268,7 @@ TEST(Mission, PeriodicReplanCheckAndReplan) {
   int steps = 0;
   MissionAction a = MissionAction::Drive;
   while (a == MissionAction::Drive && steps < 20) {
-    a = m.tracked(at(1), midway(), 0.1).action;
+    a = m.tracked(0, at(1), midway(), 0.1).action;
     ++steps;
   }
   EXPECT_EQ(a, MissionAction::CheckReplan);
@@ -223,7 +286,7 @@ TEST(Mission, PeriodicReplanCheckAndReplan) {
   // The counter restarted: the next check is a full period later.
   m.update(4 * kSecond, at(2, 1), true, answer(2, true));
   ASSERT_EQ(m.pathSmoothed(4 * kSecond, at(2, 1), true).action, MissionAction::Drive);
-  EXPECT_EQ(m.tracked(at(2, 1), midway(), 0.1).action, MissionAction::Drive);
+  EXPECT_EQ(m.tracked(0, at(2, 1), midway(), 0.1).action, MissionAction::Drive);
 }
 
 TEST(Mission, RejectsABadConfig) {

@@ -1,15 +1,18 @@
 // ddsnav-monitor: watches a running pipeline and writes what happened as a report a person can open:
 // out_dir/report.html (the world, the perceived ellipses, every planned path, the trajectory and the
 // driven track, with the numbers), report.svg and summary.json. Ends with status 0 when the tracker
-// reports the goal reached, 1 when timeout_s passes first.
+// reports the goal reached and the vehicle's true position (vehicle/state) is in the goal region, 1 when
+// timeout_s passes first or a component fails (summary.json's not_reached_why says which).
 
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/run_report.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
+#include <ddsnav/tracker/mission.hpp>
 
 #include <spdlog/spdlog.h>
 
+#include <cmath>
 #include <filesystem>
 #include <mutex>
 #include <optional>
@@ -21,6 +24,7 @@ namespace {
 
 struct Observations {
   std::vector<Eigen::Vector3d> track;
+  std::optional<Eigen::Vector3d> vehicle;  // the newest true position (vehicle/state, the simulator's)
   std::optional<msg::ObstacleArray> obstacles;
   std::vector<msg::Path> paths;
   std::optional<msg::Trajectory> trajectory;
@@ -32,10 +36,9 @@ struct Observations {
 };
 
 // What the report needs from the messages, as plain types.
-nodes::RunObservations toRunObservations(const std::string& scenario, bool reached, double elapsed, const Observations& seen) {
+nodes::RunObservations toRunObservations(const std::string& scenario, double elapsed, const Observations& seen) {
   nodes::RunObservations run;
   run.scenario = scenario;
-  run.goal_reached = reached;
   run.elapsed_s = elapsed;
   run.failure = seen.failure;
   run.clouds = seen.clouds;
@@ -75,9 +78,15 @@ int main(int argc, char** argv) {
     std::mutex mutex;
     Observations seen;
     auto& bus = ctx.bus();
+    // Every input is checked before it can reach the report (NaN in the SVG, null in summary.json) or the
+    // verdict: a bad sample is dropped with a warning naming topic and field, and counted.
+    nodes::DroppedSamples bad_states("vehicle/state"), bad_paths("planning/path"), bad_trajectories("control/trajectory"),
+        bad_statuses("control/tracking");
     auto s1 = bus.subscribe<msg::VehicleState>("vehicle/state", bus::Qos::sensorData(), [&](const msg::VehicleState& m) {
+      if (const auto error = nodes::checkVehicleState(m, nodes::kWorldFrame); !error.empty()) return bad_states.drop(error);
       std::lock_guard lock(mutex);
       const auto p = nodes::fromMsg(m.position());
+      seen.vehicle = p;
       if (seen.track.empty() || (seen.track.back() - p).norm() > 0.05) seen.track.push_back(p);
     });
     auto s2 = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& m) {
@@ -90,18 +99,25 @@ int main(int argc, char** argv) {
       seen.obstacles = m;
     });
     auto s3 = bus.subscribe<msg::Path>("planning/path", bus::Qos::state(), [&](const msg::Path& m) {
+      if (const auto error = nodes::checkPath(m); !error.empty()) return bad_paths.drop(error);
       std::lock_guard lock(mutex);
       seen.paths.push_back(m);
     });
     auto s4 = bus.subscribe<msg::Trajectory>("control/trajectory", bus::Qos::state(), [&](const msg::Trajectory& m) {
+      if (const auto error = nodes::checkTrajectory(m); !error.empty()) return bad_trajectories.drop(error);
       std::lock_guard lock(mutex);
       seen.trajectory = m;
     });
     auto s5 = bus.subscribe<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData(), [&](const msg::TrackingStatus& m) {
+      if (const auto error = nodes::checkTrackingStatus(m); !error.empty()) return bad_statuses.drop(error);
       std::lock_guard lock(mutex);
       seen.status = m;
     });
+    // Only the map's size and resolution are reported: those are checked (its octree is the planner's business).
+    nodes::DroppedSamples bad_maps("map/octomap", "keeping the last good map");
     auto s6 = bus.subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [&](const msg::OccupancyMap& m) {
+      if (!(m.resolution() > 0.0) || !std::isfinite(m.resolution()))
+        return bad_maps.drop(fmt::format("resolution is {}, expected a positive finite number of metres", m.resolution()));
       std::lock_guard lock(mutex);
       seen.map = m;
     });
@@ -120,12 +136,21 @@ int main(int argc, char** argv) {
     ctx.ready();
     const auto started = std::chrono::steady_clock::now();
     auto last_log = started;
-    bool reached = false;
+    bool reached = false, timed_out = false;
+    bool claim_logged = false;
     while (sleepFor(ctx, std::chrono::milliseconds(100))) {
       std::lock_guard lock(mutex);
-      reached = seen.status && seen.status->goal_reached();
+      // The tracker's claim is checked against the vehicle's true position (the end of a trajectory is not the goal).
+      const bool claimed = seen.status && seen.status->goal_reached();
+      const auto goal = tracker::checkGoal(scenario.goal, scenario.goal_radius, seen.vehicle);
+      reached = claimed && goal.reached;
+      if (claimed && !goal.reached && !claim_logged) {
+        claim_logged = true;
+        spdlog::warn("control/tracking says the goal is reached, but {}: not taken as reached", goal.why);
+      }
       const auto now = std::chrono::steady_clock::now();
-      if (reached || now - started > std::chrono::duration<double>(timeout)) break;
+      timed_out = now - started > std::chrono::duration<double>(timeout);
+      if (reached || timed_out) break;
       if (!seen.failure.empty()) {
         spdlog::error("component failed: {}", seen.failure);
         break;
@@ -141,12 +166,13 @@ int main(int argc, char** argv) {
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = bus::Subscription();
 
-    const nodes::RunObservations run = toRunObservations(scenario.name, reached, elapsed, seen);
+    nodes::RunObservations run = toRunObservations(scenario.name, elapsed, seen);
+    nodes::judgeGoal(run, scenario, seen.status && seen.status->goal_reached(), seen.vehicle,
+                     timed_out ? std::optional<double>(timeout) : std::nullopt);
     nodes::writeReport(out_dir, scenario, run);
-    spdlog::info("{}: {} after {:.1f} s; report in {}", scenario.name, reached ? "goal reached" : "goal NOT reached", elapsed,
+    spdlog::info("{}: {} after {:.1f} s; report in {}", scenario.name, run.goal_reached ? "goal reached" : "goal NOT reached", elapsed,
                  (out_dir / "report.html").string());
     std::printf("%s\n", nodes::summaryJson(run).dump().c_str());
-    if (!reached)
-      throw std::runtime_error(seen.failure.empty() ? "goal not reached within timeout_s" : "goal not reached: " + seen.failure);
+    if (!run.goal_reached) throw std::runtime_error("goal not reached: " + run.not_reached_why);
   });
 }

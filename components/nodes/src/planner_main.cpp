@@ -4,6 +4,7 @@
 // from the scenario file.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
@@ -15,14 +16,6 @@
 
 using namespace ddsnav;
 using nodes::sleepFor;
-
-namespace {
-
-bool finite(const msg::PathState& s) {
-  return std::isfinite(s.x()) && std::isfinite(s.y()) && std::isfinite(s.z()) && std::isfinite(s.heading());
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   return runtime::runComponent("planner", argc, argv, [](runtime::Context& ctx) {
@@ -46,9 +39,12 @@ int main(int argc, char** argv) {
         path.failure(why);
         paths.publish(path);
       };
-      if (!finite(request.start()) || !finite(request.goal()) || !std::isfinite(request.goal_radius()) ||
-          !(request.goal_radius() > 0) || !(request.time_budget_s() > 0) || !std::isfinite(request.time_budget_s()))
-        return fail("non-finite or non-positive numbers in the request");
+      // Every number of the request is bounded here, once: coordinates inside the scenario's bounds (a planner
+      // would otherwise walk a 1e300 m segment), a positive finite budget, capped below. An empty frame_id
+      // is taken as the map frame.
+      const std::string frame = request.header().frame_id().empty() ? "" : nodes::kWorldFrame;
+      if (const auto error = nodes::checkPlanRequest(request, scenario, frame); !error.empty())
+        return fail("refused: " + error);
       std::unique_ptr<planner::Planner> algorithm;
       try {
         algorithm = planner::makePlanner(request.planner());

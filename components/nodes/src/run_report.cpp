@@ -1,6 +1,11 @@
 #include "ddsnav/nodes/run_report.hpp"
 
 #include <ddsnav/planner/svg.hpp>
+#include <ddsnav/tracker/mission.hpp>
+
+#include <spdlog/fmt/fmt.h>
+
+#include <cmath>
 
 #include <fstream>
 #include <stdexcept>
@@ -18,10 +23,28 @@ void writeFile(const std::filesystem::path& path, const std::string& text) {
 
 }  // namespace
 
+void judgeGoal(RunObservations& run, const planner::Scenario& scenario, bool tracker_reported,
+               const std::optional<planner::Vec3>& true_position, std::optional<double> timed_out_after_s) {
+  const tracker::GoalCheck goal = tracker::checkGoal(scenario.goal, scenario.goal_radius, true_position);
+  run.goal_reached = tracker_reported && goal.reached;
+  run.goal_distance_m.reset();
+  if (true_position && std::isfinite(goal.distance)) run.goal_distance_m = goal.distance;
+  run.not_reached_why.clear();
+  if (run.goal_reached) return;
+  std::string why;
+  if (!run.failure.empty()) why = "a component failed (" + run.failure + "); ";
+  if (tracker_reported) why += "the tracker reported the goal reached, but ";
+  why += goal.reached ? std::string("the tracker did not report the goal reached") : goal.why;
+  if (timed_out_after_s) why += fmt::format("; timeout_s ({:g} s) passed", *timed_out_after_s);
+  run.not_reached_why = std::move(why);
+}
+
 nlohmann::json summaryJson(const RunObservations& run) {
   nlohmann::json summary;
   summary["scenario"] = run.scenario;
   summary["goal_reached"] = run.goal_reached;
+  if (!run.goal_reached && !run.not_reached_why.empty()) summary["not_reached_why"] = run.not_reached_why;
+  if (run.goal_distance_m) summary["goal_distance_m"] = *run.goal_distance_m;
   summary["elapsed_s"] = run.elapsed_s;
   if (!run.failure.empty()) summary["failure"] = run.failure;
   summary["clouds"] = run.clouds;

@@ -5,6 +5,7 @@
 // ask, retry, give up, when the goal is reached) are tracker::Mission's; this file carries them out.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
@@ -58,7 +59,11 @@ int main(int argc, char** argv) {
     std::mutex mutex;
     std::optional<tracker::VehicleState> vehicle;
     std::optional<msg::Path> new_path;
+    // A state with a non-finite number would reach the controller (and its commands the vehicle): drop it
+    // here, once, and keep following the last good one.
+    nodes::DroppedSamples dropped_states("vehicle/state", "keeping the last good state");
     auto state_sub = ctx.bus().subscribe<msg::VehicleState>("vehicle/state", bus::Qos::sensorData(), [&](const msg::VehicleState& s) {
+      if (const auto error = nodes::checkVehicleState(s, nodes::kWorldFrame); !error.empty()) return dropped_states.drop(error);
       std::lock_guard lock(mutex);
       vehicle = nodes::fromMsg(s);
     });
@@ -157,7 +162,19 @@ int main(int argc, char** argv) {
         path.swap(new_path);
       }
       std::optional<tracker::PlanAnswer> answer;
-      if (path) answer = tracker::PlanAnswer{path->request_id(), path->solved(), path->failure()};
+      if (path) {
+        answer.emplace();
+        answer->request_id = path->request_id();
+        answer->solved = path->solved();
+        answer->failure = path->failure();
+        answer->exact = path->exact();
+        if (!path->states().empty()) answer->path_end = nodes::fromMsg(path->states().back()).position;
+        // A malformed answer is a failed one (the mission retries), with the reason in the log.
+        if (const auto error = nodes::checkPath(*path); !error.empty()) {
+          answer->solved = false;
+          answer->failure = "planning/path: malformed answer: " + error;
+        }
+      }
       auto decision = mission.update(ctx.clock().nowNs(), state, world_source.available(), answer);
       if (decision.action == tracker::MissionAction::SmoothPath)
         decision = mission.pathSmoothed(ctx.clock().nowNs(), *state, smooth(*path, *state));
@@ -166,7 +183,7 @@ int main(int argc, char** argv) {
       const auto command = follower->update(*state, dt);
       const auto& status = follower->status();
       commands.publish(nodes::toMsg(command, ctx.clock().nowNs()));
-      const auto next = mission.tracked(*state, status, dt);
+      const auto next = mission.tracked(ctx.clock().nowNs(), *state, status, dt);
       msg::TrackingStatus out;
       out.stamp_ns(ctx.clock().nowNs());
       out.request_id(mission.requestId());
@@ -180,8 +197,14 @@ int main(int argc, char** argv) {
       last_status = out;
       if (next.action == tracker::MissionAction::Finished) {
         stop();
-        spdlog::info("goal reached: mean cross-track error {:.3f} m, max {:.3f} m", status.mean_cross_track_error,
+        spdlog::info("goal reached: the vehicle is {:.2f} m from the goal (goal radius {:.2f} m); mean cross-track error {:.3f} m, max {:.3f} m",
+                     mission.goalCheck(*state).distance, scenario.goal_radius, status.mean_cross_track_error,
                      status.max_cross_track_error);
+      } else if (next.action == tracker::MissionAction::RequestPlan || next.action == tracker::MissionAction::Failed) {
+        // The trajectory ended outside the goal region: stop, and ask again from here (or give up).
+        stop();
+        follower.reset();
+        act(next);
       } else if (next.action == tracker::MissionAction::CheckReplan) {
         const auto world = currentWorld(state->position);
         const auto replan = world ? follower->checkReplan(*world) : tracker::ReplanDecision{};

@@ -188,3 +188,37 @@ TEST(RunReport, WriteReportNamesADirectoryItCannotCreate) {
   }
   EXPECT_FALSE(std::filesystem::exists(dir));
 }
+
+// Issue 13 row 5: the tracker's word is not enough; the vehicle's true position decides, and the report says why.
+TEST(RunReport, GoalIsReachedOnlyWhenTheTrueVehicleIsInTheGoalRegion) {
+  planner::Scenario world = corridor();
+  world.goal = {9, 2.5, 0};
+  world.goal_radius = 1.0;
+  auto run = reachedRun();
+  nodes::judgeGoal(run, world, true, planner::Vec3{8.5, 2.5, 0}, std::nullopt);
+  EXPECT_TRUE(run.goal_reached);
+  EXPECT_EQ(run.not_reached_why, "");
+  ASSERT_TRUE(run.goal_distance_m);
+  EXPECT_DOUBLE_EQ(*run.goal_distance_m, 0.5);
+
+  nodes::judgeGoal(run, world, true, planner::Vec3{-29, 2.5, 0}, 120.0);
+  EXPECT_FALSE(run.goal_reached);
+  EXPECT_EQ(run.not_reached_why, "the tracker reported the goal reached, but the vehicle is 38.00 m from the goal, outside "
+                                 "the 1.00 m goal region; timeout_s (120 s) passed");
+  auto j = nodes::summaryJson(run);
+  EXPECT_EQ(j.at("goal_reached"), false);
+  EXPECT_EQ(j.at("not_reached_why"), run.not_reached_why);
+  EXPECT_DOUBLE_EQ(j.at("goal_distance_m").get<double>(), 38.0);
+
+  nodes::judgeGoal(run, world, false, planner::Vec3{8.5, 2.5, 0}, 120.0);
+  EXPECT_FALSE(run.goal_reached);
+  EXPECT_EQ(run.not_reached_why, "the tracker did not report the goal reached; timeout_s (120 s) passed");
+
+  auto failed = failedRun();
+  nodes::judgeGoal(failed, world, false, std::nullopt, std::nullopt);
+  EXPECT_FALSE(failed.goal_reached);
+  EXPECT_EQ(failed.not_reached_why, "a component failed (planner: start in collision); no vehicle position was received");
+  j = nodes::summaryJson(failed);
+  EXPECT_FALSE(j.contains("goal_distance_m"));
+  EXPECT_EQ(j.at("not_reached_why"), failed.not_reached_why);
+}

@@ -167,3 +167,121 @@ TEST(PlanarCloud, IgnoresNonFinitePoints) {
   EXPECT_FALSE(nodes::isPlanarCloud(scan));
   EXPECT_TRUE(nodes::isPlanarCloud({}));
 }
+
+namespace {
+
+msg::VehicleState goodState() {
+  msg::VehicleState s;
+  s.header().frame_id("map");
+  s.position().x(3);
+  s.position().y(3);
+  s.heading(0.7);
+  s.velocity().x(1.0);
+  s.yaw_rate(0.1);
+  return s;
+}
+
+planner::Scenario yard2d() {
+  planner::Scenario s;
+  s.dimensions = 2;
+  s.bounds_min = {0, 0, 0};
+  s.bounds_max = {40, 40, 0};
+  return s;
+}
+
+msg::PlanRequest goodRequest() {
+  msg::PlanRequest r;
+  r.header().frame_id("map");
+  r.request_id(1);
+  r.planner("rrtstar");
+  r.start().x(3);
+  r.start().y(3);
+  r.goal().x(36);
+  r.goal().y(35);
+  r.goal_radius(1.5);
+  r.time_budget_s(1.0);
+  return r;
+}
+
+}  // namespace
+
+TEST(VehicleStateCheck, NamesTheFirstNonFiniteField) {
+  EXPECT_EQ(nodes::checkVehicleState(goodState(), "map"), "");
+  auto s = goodState();
+  s.position().z(kNaN);
+  EXPECT_EQ(nodes::checkVehicleState(s, "map"), "position.z is nan");
+  s = goodState();
+  s.heading(kInf);
+  EXPECT_EQ(nodes::checkVehicleState(s, "map"), "heading is inf");
+  s = goodState();
+  s.velocity().y(-kInf);
+  EXPECT_EQ(nodes::checkVehicleState(s, "map"), "velocity.y is -inf");
+  s = goodState();
+  s.yaw_rate(kNaN);
+  EXPECT_EQ(nodes::checkVehicleState(s, "map"), "yaw_rate is nan");
+  s = goodState();
+  s.header().frame_id("odom");
+  EXPECT_NE(nodes::checkVehicleState(s, "map").find("frame 'odom'"), std::string::npos);
+  EXPECT_EQ(nodes::checkVehicleState(s, ""), "");
+}
+
+TEST(PathCheck, RefusesNonFiniteStatesAndEmptySolvedPaths) {
+  msg::Path path;
+  path.solved(true);
+  EXPECT_EQ(nodes::checkPath(path), "solved, but it has no states");
+  path.solved(false);
+  EXPECT_EQ(nodes::checkPath(path), "");  // an unsolved answer carries no states
+  path.solved(true);
+  for (int i = 0; i < 4; ++i) {
+    msg::PathState s;
+    s.x(i);
+    path.states().push_back(s);
+  }
+  EXPECT_EQ(nodes::checkPath(path), "");
+  path.states()[3].y(kInf);
+  EXPECT_EQ(nodes::checkPath(path), "state 3: y is inf");
+}
+
+TEST(PlanRequestCheck, RefusesCoordinatesOutsideTheBoundsAndBadNumbers) {
+  const auto world = yard2d();
+  EXPECT_EQ(nodes::checkPlanRequest(goodRequest(), world, "map"), "");
+  auto r = goodRequest();
+  r.goal().z(1e300);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "goal.z = 1e+300 is outside the planning bounds [0, 0] (a 2-D world)");
+  r = goodRequest();
+  r.start().x(kNaN);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "start.x = nan is outside the planning bounds [0, 40]");
+  r = goodRequest();
+  r.start().y(1e15);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "start.y = 1e+15 is outside the planning bounds [0, 40]");
+  r = goodRequest();
+  r.goal().x(-0.5);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "goal.x = -0.5 is outside the planning bounds [0, 40]");
+  r = goodRequest();
+  r.start().heading(kInf);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "start.heading is inf");
+  r = goodRequest();
+  r.goal_radius(1e300);
+  EXPECT_NE(nodes::checkPlanRequest(r, world, "map").find("goal_radius = 1e+300 m, expected (0, 56.5685]"), std::string::npos)
+      << nodes::checkPlanRequest(r, world, "map");
+  r.goal_radius(0);
+  EXPECT_NE(nodes::checkPlanRequest(r, world, "map").find("goal_radius = 0 m"), std::string::npos);
+  r = goodRequest();
+  r.time_budget_s(kInf);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "time_budget_s = inf s, expected a positive finite number of seconds");
+  r = goodRequest();
+  r.header().frame_id("odom");
+  EXPECT_NE(nodes::checkPlanRequest(r, world, "map").find("frame 'odom'"), std::string::npos);
+  // A corner of the bounds is inside them; in 3-D, z is a coordinate like the others.
+  r = goodRequest();
+  r.goal().x(40);
+  r.goal().y(40);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "");
+  auto world3d = world;
+  world3d.dimensions = 3;
+  world3d.bounds_max.z() = 10;
+  r.goal().z(5);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world3d, "map"), "");
+  r.goal().z(10.5);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world3d, "map"), "goal.z = 10.5 is outside the planning bounds [0, 10]");
+}

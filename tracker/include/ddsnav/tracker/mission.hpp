@@ -32,7 +32,19 @@ struct PlanAnswer {
   std::uint32_t request_id = 0;
   bool solved = false;
   std::string failure;  // the planner's reason when not solved (may be empty)
+  bool exact = false;   // Path.exact: the planner says its last state is within the goal radius
+  std::optional<Vec3> path_end;  // the path's last state; none when it has no states
 };
+
+// The one goal test behind every claim of success (the tracker's Finished, the monitor's goal_reached):
+// the vehicle's true position — the simulator's vehicle/state, not where a trajectory ends — within
+// `radius` of `goal`. No position (none heard yet) is not reached.
+struct GoalCheck {
+  bool reached = false;
+  double distance = 0.0;  // m from the goal; +inf without a position
+  std::string why;        // when not reached, e.g. "the vehicle is 38.00 m from the goal, outside the 1.50 m goal region"
+};
+GoalCheck checkGoal(const Vec3& goal, double radius, const std::optional<Vec3>& position);
 
 enum class MissionAction {
   Wait,         // nothing to do this control period
@@ -59,8 +71,10 @@ class Mission {
 
   // Once per control period. `state`: the latest vehicle state (none before the first one); `answer`: a
   // path received since the last call, if any. Answers to other requests than the current one are ignored
-  // (so is any answer while there is no vehicle state). Returns Wait, RequestPlan, SmoothPath, Drive,
-  // Finished or Failed.
+  // (so is any answer while there is no vehicle state). A solved answer that does not end in the goal
+  // region (not exact, or its last state farther than goal_radius from the mission's goal) is a failed
+  // attempt like an unsolved one: driving it to its end would not reach the goal. Returns Wait,
+  // RequestPlan, SmoothPath, Drive, Finished or Failed.
   MissionDecision update(std::int64_t now_ns, const std::optional<VehicleState>& state, bool world_available,
                          const std::optional<PlanAnswer>& answer);
 
@@ -70,15 +84,17 @@ class Mission {
   MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok);
 
   // After Drive, with the tracker's status after the step of `dt` seconds: Finished when the vehicle is in
-  // the goal region (see inGoalRegion), CheckReplan once every replan_check_period_s of driving, else Drive.
-  MissionDecision tracked(const VehicleState& state, const TrackingStatus& status, double dt);
+  // the goal region (checkGoal) at the trajectory's end (the controller finished, or progress > 0.95).
+  // The end of the trajectory with the vehicle outside the goal region is no success: a new request from
+  // `state` (RequestPlan, with a warning saying how far the vehicle is), and after max_plan_attempts such
+  // ends the mission fails. Otherwise CheckReplan once every replan_check_period_s of driving, else Drive.
+  MissionDecision tracked(std::int64_t now_ns, const VehicleState& state, const TrackingStatus& status, double dt);
 
   // The replan check said a new plan is needed: stop following and ask from `state`.
   MissionDecision replan(std::int64_t now_ns, const VehicleState& state, const std::string& why);
 
-  // The mission's goal is the scenario's goal region; the controller's own test (trajectory finished and the
-  // vehicle within its tolerance of the end) is stricter, and either one ends the mission.
-  bool inGoalRegion(const VehicleState& state, const TrackingStatus& status) const;
+  // checkGoal for the mission's goal region.
+  GoalCheck goalCheck(const VehicleState& state) const;
 
   const MissionConfig& config() const { return config_; }
   std::uint32_t requestId() const { return request_id_; }  // 0: nothing requested yet
@@ -101,6 +117,7 @@ class Mission {
   bool finished_ = false;
   std::optional<std::string> failure_;
   double since_replan_check_ = 0.0;  // s of driving since the last replan check
+  std::int64_t short_ends_ = 0;      // trajectories that ended with the vehicle outside the goal region
 };
 
 }  // namespace ddsnav::tracker

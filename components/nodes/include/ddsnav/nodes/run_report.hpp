@@ -41,7 +41,9 @@ struct MapSummary {
 
 struct RunObservations {
   std::string scenario;   // scenario name
-  bool goal_reached = false;
+  bool goal_reached = false;     // the tracker said so AND the vehicle's true position is in the goal region
+  std::string not_reached_why;  // when not reached: why (timeout, a failure, the vehicle's distance to the goal)
+  std::optional<double> goal_distance_m;  // the vehicle's last true position to the goal; none without one
   double elapsed_s = 0.0;
   std::string failure;    // "component: detail" of the first component that failed; empty when none did
   std::size_t clouds = 0;
@@ -54,6 +56,14 @@ struct RunObservations {
   std::optional<TrackingSummary> tracking;
   std::optional<MapSummary> map;
 };
+
+// The monitor's verdict on a run: the goal is reached only when the tracker reported it (control/tracking)
+// AND the vehicle's last true position (vehicle/state, the simulator's) is in the scenario's goal region
+// (tracker::checkGoal) — the end of a trajectory is not the goal. Otherwise `why` says what happened:
+// the first component failure, the vehicle's distance to the goal (naming the tracker's claim when it made
+// one), and whether timeout_s ran out. Fills goal_reached, not_reached_why and goal_distance_m of `run`.
+void judgeGoal(RunObservations& run, const planner::Scenario& scenario, bool tracker_reported,
+               const std::optional<planner::Vec3>& true_position, std::optional<double> timed_out_after_s);
 
 // The summary.json content (keys in the order nlohmann::json keeps them: sorted).
 nlohmann::json summaryJson(const RunObservations& run);
