@@ -36,8 +36,8 @@ std::string escape(const std::string& text) {
 
 // Channels drawn first end up underneath.
 int layer(const std::string& channel) {
-  if (channel.find("octomap") != std::string::npos) return 0;
-  if (channel.find("scenario") != std::string::npos) return 1;
+  if (channel.find("scenario") != std::string::npos) return 0;
+  if (channel.find("octomap") != std::string::npos) return 1;  // the map over the truth it found
   if (channel.find("obstacles") != std::string::npos) return 2;
   if (channel.find("trajectory") != std::string::npos) return 4;
   if (channel.find("path") != std::string::npos) return 3;
@@ -73,10 +73,17 @@ std::string SceneSvg::render(const std::string& title, double width_px) const {
   auto grow = [&](double x, double y, double r) {
     lo_x = std::min(lo_x, x - r), hi_x = std::max(hi_x, x + r), lo_y = std::min(lo_y, y - r), hi_y = std::max(hi_y, y + r);
   };
-  std::vector<std::pair<int, const json*>> order;
+  // Labels only where they stay readable: channels of a few entities (not a hundred obstacle labels).
+  constexpr std::size_t kMaxLabelled = 10;
+  struct Item {
+    int layer;
+    const json* entity;
+    bool labels;
+  };
+  std::vector<Item> order;
   for (const auto& [channel, entities] : entities_)
     for (const auto& [id, e] : entities) {
-      order.push_back({layer(channel), &e});
+      order.push_back({layer(channel), &e, entities.size() <= kMaxLabelled});
       for (const char* kind : {"cubes", "spheres", "cylinders"})
         for (const auto& p : e[kind])
           grow(p["pose"]["position"]["x"], p["pose"]["position"]["y"], std::max(p["size"]["x"].get<double>(), p["size"]["y"].get<double>()) / 2);
@@ -84,7 +91,7 @@ std::string SceneSvg::render(const std::string& title, double width_px) const {
         for (const auto& p : l["points"]) grow(p["x"], p["y"], 0);
       for (const auto& a : e["arrows"]) grow(a["pose"]["position"]["x"], a["pose"]["position"]["y"], 1);
     }
-  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::stable_sort(order.begin(), order.end(), [](const Item& a, const Item& b) { return a.layer < b.layer; });
   if (!std::isfinite(lo_x)) lo_x = lo_y = 0, hi_x = hi_y = 1;
   const double margin = 0.03 * std::max(hi_x - lo_x, hi_y - lo_y) + 0.5;
   lo_x -= margin, lo_y -= margin, hi_x += margin, hi_y += margin;
@@ -96,7 +103,7 @@ std::string SceneSvg::render(const std::string& title, double width_px) const {
   s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width_px << "\" height=\"" << f.top_px + f.height_px
     << "\" font-family=\"sans-serif\">\n<rect width=\"100%\" height=\"100%\" fill=\"#15161a\"/>\n"
     << "<text x=\"8\" y=\"19\" font-size=\"14\" fill=\"#e0e0e0\">" << escape(title) << "</text>\n";
-  for (const auto& [layer_index, e] : order) {
+  for (const auto& [layer_index, e, labels] : order) {
     const json& entity = *e;
     for (const char* kind : {"cubes", "spheres", "cylinders"}) {
       const bool box = std::string(kind) == "cubes";
@@ -124,8 +131,9 @@ std::string SceneSvg::render(const std::string& title, double width_px) const {
         << "\" stroke-width=\"3\" " << colour(a["color"], "stroke") << "/><circle cx=\"" << x << "\" cy=\"" << y << "\" r=\"5\" "
         << colour(a["color"], "fill") << "/>\n";
     }
-    for (const auto& t : entity["texts"])
-      s << "<text x=\"" << f.px(t["pose"]["position"]["x"]) + 4 << "\" y=\"" << f.py(t["pose"]["position"]["y"]) - 4
+    if (labels)
+      for (const auto& t : entity["texts"])
+        s << "<text x=\"" << f.px(t["pose"]["position"]["x"]) + 4 << "\" y=\"" << f.py(t["pose"]["position"]["y"]) - 4
         << "\" font-size=\"11\" fill=\"#f0f0f0\">" << escape(t["text"]) << "</text>\n";
   }
   s << "</svg>\n";

@@ -1,6 +1,6 @@
 // A top-down SVG of foxglove.SceneUpdate messages: the newest state of every entity, drawn the way
 // Foxglove's 3D panel shows it from above (cubes as turned rectangles, spheres and cylinders as turned
-// ellipses, lines, arrows, labels). For docs and quick looks at an export without opening Foxglove.
+// ellipses, lines, arrows; labels of channels with at most 10 entities). For docs and quick looks at an export without opening Foxglove.
 #pragma once
 
 #include <nlohmann/json.hpp>
