@@ -367,7 +367,6 @@ struct Supervisor::Impl {
       if (stop_requested || tearing_down) continue;
       // Whatever it left in its group (a shell's children) goes with it, so a restart never doubles them.
       if (groupExists(pid)) ::kill(-pid, SIGKILL);
-      if (r->spec->wait_ready && !r->watched && !r->spec->required) continue;  // still starting: startAll fails the launch
       if (!applyRestartPolicy(*r, status, why)) keep_running = false;
     }
     forgetEmptyGroups();
@@ -460,17 +459,29 @@ struct Supervisor::Impl {
         return false;
       }
       if (!r.spec->wait_ready) continue;
-      const auto deadline = Clock::now() + toDuration(r.spec->ready_timeout_s);
+      auto deadline = Clock::now() + toDuration(r.spec->ready_timeout_s);
       // Wait in short slices so that a crash of the starting process or a Ctrl-C ends the wait at once.
+      // One that fails while starting is handled by its restart policy like any other failure; each new
+      // instance gets its own ready_timeout_s.
       bool ready = false;
-      const pid_t pid = r.pid;
+      pid_t pid = r.pid;
       while (!ready && Clock::now() < deadline) {
-        ready = readiness.waitUntilReady(r.spec->name, pid, std::min(deadline, Clock::now() + std::chrono::milliseconds(100)));
-        if (!step(std::chrono::milliseconds(0))) return false;
-        if (r.ended || r.pid != pid) {
+        if (r.ended) {  // waiting out a restart's backoff
+          if (!step(std::chrono::milliseconds(50))) return false;
+        } else {
+          ready = readiness.waitUntilReady(r.spec->name, pid, std::min(deadline, Clock::now() + std::chrono::milliseconds(100)));
+          if (!step(std::chrono::milliseconds(0))) return false;
+        }
+        if (r.ended && !r.restart_due) {
           log("'" + r.spec->name + "' ended before it reported ready");
-          if (!r.spec->required) final_status = 1;  // a required process's own status is ours
+          if (!r.spec->required) final_status = final_status ? final_status : 1;  // a required process's own status is ours
           return false;
+        }
+        if (r.restart_due) deadline = std::max(deadline, *r.restart_due + toDuration(r.spec->ready_timeout_s));
+        if (!r.ended && r.pid != pid) {
+          pid = r.pid;
+          ready = false;
+          deadline = Clock::now() + toDuration(r.spec->ready_timeout_s);
         }
       }
       if (!ready) {
