@@ -232,6 +232,10 @@ Scenario readScenario(const YAML::Node& root, const std::string& source) {
 
   if (const YAML::Node obstacles = root["obstacles"]; obstacles && !obstacles.IsNull()) {
     if (!obstacles.IsSequence()) in.fail(obstacles, "obstacles", "expected a list");
+    if (obstacles.size() > kMaxScenarioObstacles)
+      in.fail(obstacles, "obstacles",
+              std::to_string(obstacles.size()) + " obstacles, more than the limit of " + std::to_string(kMaxScenarioObstacles) +
+                  " (kMaxScenarioObstacles)");
     for (std::size_t i = 0; i < obstacles.size(); ++i) {
       s.obstacles.push_back(readObstacle(in, obstacles[i], "obstacles[" + std::to_string(i) + "]", s.dimensions));
     }
@@ -241,7 +245,13 @@ Scenario readScenario(const YAML::Node& root, const std::string& source) {
 
 }  // namespace
 
+static std::string tooLarge(const std::string& source_name, std::size_t bytes) {
+  return source_name + ": key '<file>': " + std::to_string(bytes) + " bytes, larger than the limit of " +
+         std::to_string(kMaxScenarioFileBytes) + " bytes for a scenario (kMaxScenarioFileBytes)";
+}
+
 Scenario parseScenario(const std::string& yaml_text, const std::string& source_name) {
+  if (yaml_text.size() > kMaxScenarioFileBytes) throw ScenarioError(tooLarge(source_name, yaml_text.size()));
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
@@ -252,11 +262,20 @@ Scenario parseScenario(const std::string& yaml_text, const std::string& source_n
 }
 
 Scenario loadScenario(const std::string& path) {
+  // Kind and size before reading: a FIFO would block, a huge file would be parsed whole.
+  std::error_code error;
+  const auto status = std::filesystem::status(path, error);
+  if (error || !std::filesystem::exists(status)) throw ScenarioError(path + ": key '<file>': cannot open the scenario file");
+  if (!std::filesystem::is_regular_file(status)) throw ScenarioError(path + ": key '<file>': not a regular file");
+  const auto size = std::filesystem::file_size(path, error);
+  if (!error && size > kMaxScenarioFileBytes) throw ScenarioError(tooLarge(path, size));
   std::ifstream file(path);
   if (!file) throw ScenarioError(path + ": key '<file>': cannot open the scenario file");
-  std::ostringstream text;
-  text << file.rdbuf();
-  return parseScenario(text.str(), path);
+  std::string text(kMaxScenarioFileBytes + 1, '\0');
+  file.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(file.gcount()));
+  if (text.size() > kMaxScenarioFileBytes) throw ScenarioError(tooLarge(path, text.size()));
+  return parseScenario(text, path);
 }
 
 }  // namespace ddsnav::planner

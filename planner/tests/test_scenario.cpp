@@ -5,7 +5,11 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
+#include <fstream>
+#include <functional>
 #include <string>
 
 namespace ddsnav::planner {
@@ -143,6 +147,44 @@ TEST(Scenario, ShippedScenariosParseWithFreeStartAndGoal) {
     ++count;
   }
   EXPECT_GE(count, 10);
+}
+
+}  // namespace
+}  // namespace ddsnav::planner
+
+namespace ddsnav::planner {
+namespace {
+
+std::string scenarioErrorOf(const std::function<void()>& load) {
+  try {
+    load();
+  } catch (const ScenarioError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Issue 13 row 12: a 59 MB scenario took 4.5 GB and minutes to parse. It is refused before parsing,
+// naming the file, its size and the limit.
+TEST(Scenario, OversizedFilesAreRefusedBeforeParsing) {
+  const auto path = (std::filesystem::temp_directory_path() / ("ddsnav_big_scenario_" + std::to_string(::getpid()) + ".yaml")).string();
+  std::ofstream(path) << kHeader2d << "obstacles:\n";
+  std::filesystem::resize_file(path, 59u << 20);  // sparse: 59 MB without writing them
+  const std::string error = scenarioErrorOf([&] { loadScenario(path); });
+  std::filesystem::remove(path);
+  EXPECT_EQ(error, path + ": key '<file>': 61865984 bytes, larger than the limit of 4194304 bytes for a "
+                   "scenario (kMaxScenarioFileBytes)");
+  EXPECT_NE(scenarioErrorOf([] { loadScenario("/tmp"); }).find("/tmp: key '<file>': not a regular file"), std::string::npos);
+  EXPECT_NE(scenarioErrorOf([] { parseScenario(std::string(kMaxScenarioFileBytes + 1, '#'), "s.yaml"); }).find("kMaxScenarioFileBytes"),
+            std::string::npos);
+}
+
+TEST(Scenario, ObstacleCountIsCapped) {
+  std::string text = std::string(kHeader2d) + "obstacles:\n";
+  for (std::size_t i = 0; i <= kMaxScenarioObstacles; ++i) text += "- {type: sphere, center: [50, 50], radius: 1}\n";
+  ASSERT_LT(text.size(), kMaxScenarioFileBytes);
+  const std::string error = scenarioErrorOf([&] { parseScenario(text, "many.yaml"); });
+  EXPECT_EQ(error, "many.yaml:9: key 'obstacles': 50001 obstacles, more than the limit of 50000 (kMaxScenarioObstacles)");
 }
 
 }  // namespace

@@ -142,12 +142,35 @@ TEST(RuntimeComponent, CycloneComponentLifecycle) {
   componentLifecycle(bus::Vendor::CycloneDDS, bus::Vendor::FastDDS, 32);
 }
 
+// Issue 13 row 6: a component that got SIGTERM twice (the launcher's, then PR_SET_PDEATHSIG's or a
+// watchdog's) exited 3 without a clean shutdown. Repeated SIGTERMs are now one clean shutdown.
+TEST(RuntimeComponent, RepeatedSigtermIsStillOneCleanShutdown) {
+  bus::Participant observer(options(bus::Vendor::CycloneDDS, 36, "status-observer"));
+  auto status = observer.inbox<msg::ComponentStatus>("system/status", bus::Qos::state(1));
+  ChildProcess talker({DDSNAV_TALKER, "--dds", "fastdds", "--domain", std::to_string(kDomainBase + 36), "--name",
+                       "talker-twice", "--log-level", "warn"});
+  bool ready = false;
+  const auto deadline = std::chrono::steady_clock::now() + kWait;
+  while (!ready && std::chrono::steady_clock::now() < deadline) {
+    std::optional<msg::ComponentStatus> s = status.wait(kWait);
+    ASSERT_TRUE(s.has_value()) << "no status from the component";
+    ready = s->ready() && s->pid() == talker.pid();
+  }
+  ASSERT_TRUE(ready);
+  ASSERT_EQ(::kill(talker.pid(), SIGTERM), 0);
+  ASSERT_EQ(::kill(talker.pid(), SIGTERM), 0);
+  EXPECT_EQ(talker.stop(std::chrono::seconds(8)), 0) << "a third SIGTERM (from stop) too: still exit 0, not 3";
+}
+
 // Bad command lines exit with status 2 and say why on stderr (not checked here: just the status).
 TEST(RuntimeComponent, UsageErrorsExitWithTwo) {
   for (std::vector<std::string> args : {std::vector<std::string>{"--dds", "opendds"},
                                         std::vector<std::string>{"--domain", "300"},
                                         std::vector<std::string>{"--param", "rate_hz=abc"},
-                                        std::vector<std::string>{"--param", "no_such_param=1"}}) {
+                                        std::vector<std::string>{"--param", "no_such_param=1"},
+                                        // durations bounded where they enter (a 1e300 s bound overflowed)
+                                        std::vector<std::string>{"--param", "shutdown_timeout_s=1e300"},
+                                        std::vector<std::string>{"--param", "heartbeat_period_s=inf"}}) {
     args.insert(args.begin(), DDSNAV_TALKER);
     args.insert(args.end(), {"--log-level", "off", "--domain", std::to_string(kDomainBase + 33)});
     if (args[1] == "--domain") args.resize(args.size() - 2);

@@ -1,6 +1,7 @@
 // Vendor-independent part of the bus: option checks, the per-process topic/type table, discovery
 // bookkeeping. The vendor code lives in fastdds_backend.cpp and cyclone_backend.cpp.
 #include "backend.hpp"
+#include "ddsnav/bus/printable.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -93,7 +94,7 @@ struct DiscoveryState {
         // DDS silently never matches endpoints whose types differ; say so once.
         spdlog::error("bus: topic '{}' is used here with type {} but a remote {} uses type {}; they will "
                       "not communicate",
-                      info.topic, local->second, is_writer ? "publisher" : "subscriber", info.type_name);
+                      printable(info.topic), local->second, is_writer ? "publisher" : "subscriber", printable(info.type_name));
       }
       if (!is_writer || !seen.emplace(info.topic, info.type_name).second) return;
       topics.push_back(info);

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -26,13 +27,22 @@ class Reader {
     throw LaunchError(out.str());
   }
 
+  // A mapping key as text. YAML allows a sequence or a mapping as a key (`? [a, b]`); no launch-file key
+  // is one, so that is an error at the key's position rather than yaml-cpp's conversion error.
+  std::string key(const YAML::Node& key_node, const std::string& where) const {
+    if (!key_node.IsScalar())
+      fail(key_node, where.empty() ? std::string("<key>") : where + ".<key>",
+           std::string("expected a plain text key, got a ") + (key_node.IsSequence() ? "sequence" : key_node.IsMap() ? "mapping" : "null"));
+    return key_node.Scalar();
+  }
+
   // yaml-cpp keeps both entries of a repeated key and node["key"] finds the first, so a second
   // `params:` or `restart:` would be ignored without a word: refuse it, at the repeat's line.
   void uniqueKeys(const YAML::Node& map, const std::string& where) const {
     std::set<std::string> seen;
     for (const auto& entry : map) {
-      const auto key = entry.first.as<std::string>();
-      if (!seen.insert(key).second) fail(entry.first, where.empty() ? key : where + "." + key, "duplicate key");
+      const auto name = key(entry.first, where);
+      if (!seen.insert(name).second) fail(entry.first, where.empty() ? name : where + "." + name, "duplicate key");
     }
   }
 
@@ -40,18 +50,40 @@ class Reader {
     if (!map.IsMap()) fail(map, where, "expected a mapping");
     uniqueKeys(map, where);
     for (const auto& entry : map) {
-      const auto key = entry.first.as<std::string>();
-      if (!allowed.count(key)) {
+      const auto name = key(entry.first, where);
+      if (!allowed.count(name)) {
         std::string list;
         for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        fail(entry.first, key, "unknown key (expected one of: " + list + ")");
+        fail(entry.first, name, "unknown key (expected one of: " + list + ")");
       }
     }
   }
 
-  std::string scalar(const YAML::Node& node, const std::string& key) const {
+  // A text value. A NUL would silently cut an argument or environment value at exec, so it is refused
+  // everywhere; `single_line` values (names, commands, vendors) refuse every control character.
+  std::string scalar(const YAML::Node& node, const std::string& key, bool single_line = false) const {
     if (!node.IsScalar()) fail(node, key, "expected a scalar value");
-    return node.Scalar();
+    const std::string& text = node.Scalar();
+    for (size_t i = 0; i < text.size(); ++i) {
+      const auto c = static_cast<unsigned char>(text[i]);
+      if (c == 0 || ((c < 0x20 || c == 0x7f) && (single_line || (c != '\n' && c != '\t' && c != '\r'))))
+        fail(node, key, "control character (byte " + std::to_string(c) + ") at offset " + std::to_string(i) + " is not allowed");
+    }
+    return text;
+  }
+
+  double duration(const YAML::Node& node, const DurationRange& range) const {
+    double value = 0.0;
+    try {
+      value = node.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(node, range.key, "expected a number of seconds in " + format(range.min_s) + ".." + format(range.max_s) + ", got '" +
+                                (node.IsScalar() ? node.Scalar() : std::string("non-scalar")) + "'");
+    }
+    if (!(value >= range.min_s && value <= range.max_s))  // also refuses NaN and .inf
+      fail(node, range.key, "must be in " + format(range.min_s) + ".." + format(range.max_s) + " s, got " +
+                                (node.IsScalar() ? node.Scalar() : format(value)));
+    return value;
   }
 
   template <class T>
@@ -64,6 +96,12 @@ class Reader {
     }
     if (!(value >= min_value)) fail(node, key, "must be >= " + std::to_string(min_value));
     return value;
+  }
+
+  static std::string format(double value) {
+    std::ostringstream out;
+    out << value;
+    return out.str();
   }
 
   bool boolean(const YAML::Node& node, const std::string& key) const {
@@ -104,6 +142,8 @@ std::string substitute(const std::string& text, const std::map<std::string, std:
     } else {
       out += text[i];
     }
+    if (out.size() > kMaxExpandedTextBytes)
+      reader.fail(node, key, "expands to more than " + std::to_string(kMaxExpandedTextBytes) + " bytes (kMaxExpandedTextBytes)");
   }
   return out;
 }
@@ -164,6 +204,9 @@ std::string toString(RestartPolicy policy) {
 LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& source_name,
                                const std::map<std::string, std::string>& overrides) {
   const Reader reader(source_name);
+  if (yaml_text.size() > kMaxLaunchFileBytes)
+    throw LaunchError(source_name + ": " + std::to_string(yaml_text.size()) + " bytes is larger than the limit of " +
+                      std::to_string(kMaxLaunchFileBytes) + " bytes for a launch file (kMaxLaunchFileBytes)");
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
@@ -175,26 +218,25 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
 
   LaunchConfig config;
   config.source = source_name;
-  config.name = root["name"] ? reader.scalar(root["name"], "name") : source_name;
+  config.name = root["name"] ? reader.scalar(root["name"], "name", true) : source_name;
   if (root["domain"]) {
     config.domain = reader.number<int>(root["domain"], "domain", 0);
     if (*config.domain > 232) reader.fail(root["domain"], "domain", "must be in 0..232");
   }
-  if (root["dds"]) config.dds = reader.scalar(root["dds"], "dds");
-  if (root["shutdown_timeout_s"])
-    config.shutdown_timeout_s = reader.number<double>(root["shutdown_timeout_s"], "shutdown_timeout_s", 0.1);
+  if (root["dds"]) config.dds = reader.scalar(root["dds"], "dds", true);
+  if (root["shutdown_timeout_s"]) config.shutdown_timeout_s = reader.duration(root["shutdown_timeout_s"], kShutdownTimeoutRange);
   std::set<std::string> required_variables;
   if (const auto vars = root["variables"]) {
     if (!vars.IsMap()) reader.fail(vars, "variables", "expected a mapping of name: value");
     reader.uniqueKeys(vars, "variables");
     for (const auto& entry : vars) {
-      const std::string name = entry.first.as<std::string>();
+      const std::string name = reader.key(entry.first, "variables");
       // `name: ~` (or no value) declares a variable the user must give with --set.
       if (entry.second.IsNull()) {
         required_variables.insert(name);
         config.variables[name] = "";
       } else {
-        config.variables[name] = reader.scalar(entry.second, name);
+        config.variables[name] = reader.scalar(entry.second, "variables." + name);
       }
     }
   }
@@ -207,6 +249,7 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
   for (const auto& [key, value] : overrides) {
     if (!config.variables.count(key))
       throw LaunchError(source_name + ": --set " + key + ": the launch file declares no variable '" + key + "'");
+    if (value.find('\0') != std::string::npos) throw LaunchError("--set " + key + ": the value contains a NUL byte");
     config.variables[key] = value;
     required_variables.erase(key);
   }
@@ -215,51 +258,75 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
     reader.fail(root["variables"][name], "variables." + name, "required: give it with --set " + name + "=VALUE");
   }
 
-  // Variables may use each other (and launch_dir): resolve each once, depth first, rejecting cycles.
+  // Variables may use each other (and launch_dir): resolve each once, depth first, rejecting cycles,
+  // chains deeper than kMaxVariableDepth and values that grow past kMaxExpandedTextBytes (a few lines
+  // of `a: ${b}${b}`, `b: ${c}${c}`, ... would otherwise expand to gigabytes).
   {
     std::map<std::string, std::string> resolved;
+    std::map<std::string, int> level;  // length of the longest ${...} chain below each variable
     std::set<std::string> in_progress;
-    std::function<void(const std::string&)> resolve = [&](const std::string& key) {
-      if (resolved.count(key)) return;
+    std::function<int(const std::string&, int)> resolve = [&](const std::string& key, int depth) -> int {
+      if (resolved.count(key)) return level[key];
       const auto node = root["variables"] && root["variables"][key] ? root["variables"][key] : root;
-      if (!in_progress.insert(key).second) reader.fail(node, key, "variables refer to each other in a cycle");
+      const std::string where = "variables." + key;
+      const auto too_deep = [&] {
+        reader.fail(node, where, "variables refer to each other more than " + std::to_string(kMaxVariableDepth) +
+                                     " levels deep (kMaxVariableDepth)");
+      };
+      if (!in_progress.insert(key).second) reader.fail(node, where, "variables refer to each other in a cycle");
+      if (depth > kMaxVariableDepth) too_deep();  // before the recursion gets deep, not after
       const std::string& raw = config.variables.at(key);
+      int own = 0;
       for (size_t at = raw.find("${"); at != std::string::npos; at = raw.find("${", at + 2)) {
         const auto close = raw.find('}', at);
         const auto name = close == std::string::npos ? "" : raw.substr(at + 2, close - at - 2);
-        if (config.variables.count(name)) resolve(name);
+        if (config.variables.count(name)) own = std::max(own, 1 + resolve(name, depth + 1));
       }
-      resolved[key] = substitute(raw, resolved, reader, node, key);
+      if (own > kMaxVariableDepth) too_deep();
+      resolved[key] = substitute(raw, resolved, reader, node, where);
+      level[key] = own;
       in_progress.erase(key);
+      return own;
     };
-    for (const auto& entry : config.variables) resolve(entry.first);
+    for (const auto& entry : config.variables) resolve(entry.first, 0);
     config.variables = std::move(resolved);
   }
 
   const auto list = root["processes"];
   if (!list || !list.IsSequence() || list.size() == 0) reader.fail(root, "processes", "expected a non-empty list of processes");
+  if (list.size() > kMaxProcesses)
+    reader.fail(list, "processes", "more than " + std::to_string(kMaxProcesses) + " processes (kMaxProcesses)");
   std::set<std::string> names;
   std::vector<ProcessSpec> processes;
   for (const auto& node : list) {
     reader.allowOnly(node,
                      {"name", "command", "args", "dds", "params", "after", "wait_ready", "restart", "max_restarts",
-                      "ready_timeout_s", "required"},
+                      "restart_window_s", "restart_delay_s", "max_restart_delay_s", "ready_timeout_s",
+                      "liveness_timeout_s", "required"},
                      "processes");
     ProcessSpec spec;
     if (!node["name"]) reader.fail(node, "name", "every process needs a name");
-    spec.name = reader.scalar(node["name"], "name");
+    spec.name = reader.scalar(node["name"], "name", true);
+    if (spec.name.empty() || spec.name.size() > kMaxNameBytes)
+      reader.fail(node["name"], "name", "must be 1.." + std::to_string(kMaxNameBytes) + " bytes long");
     if (!names.insert(spec.name).second) reader.fail(node["name"], "name", "duplicate process name '" + spec.name + "'");
     if (!node["command"]) reader.fail(node, "command", "process '" + spec.name + "' needs a command");
-    spec.command = substitute(reader.scalar(node["command"], "command"), config.variables, reader, node["command"], "command");
+    spec.command = substitute(reader.scalar(node["command"], "command", true), config.variables, reader, node["command"], "command");
+    if (spec.command.empty()) reader.fail(node["command"], "command", "process '" + spec.name + "': the command is empty");
+    for (const char c : spec.command)  // a variable's value may bring one in
+      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+        reader.fail(node["command"], "command", "process '" + spec.name + "': control character in the expanded command");
     if (node["args"])
       for (const auto& arg : reader.stringList(node["args"], "args"))
         spec.args.push_back(substitute(arg, config.variables, reader, node["args"], "args"));
-    if (node["dds"]) spec.dds = reader.scalar(node["dds"], "dds");
+    if (node["dds"]) spec.dds = reader.scalar(node["dds"], "dds", true);
     if (const auto params = node["params"]) {
       if (!params.IsMap()) reader.fail(params, "params", "expected a mapping of parameter: value");
       reader.uniqueKeys(params, "params");
       for (const auto& entry : params) {
-        const auto key = entry.first.as<std::string>();
+        const auto key = reader.key(entry.first, "params");
+        if (key.empty() || key.find('=') != std::string::npos || key.find('\0') != std::string::npos)
+          reader.fail(entry.first, "params." + key, "a parameter name must be non-empty and contain no '=' or NUL");
         spec.params[key] = substitute(reader.scalar(entry.second, key), config.variables, reader, entry.second, key);
       }
     }
@@ -272,8 +339,24 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
         reader.fail(node["restart"], "restart", e.what());
       }
     }
-    if (node["max_restarts"]) spec.max_restarts = reader.number<int>(node["max_restarts"], "max_restarts", 0);
-    if (node["ready_timeout_s"]) spec.ready_timeout_s = reader.number<double>(node["ready_timeout_s"], "ready_timeout_s", 0.1);
+    if (node["max_restarts"]) {
+      spec.max_restarts = reader.number<int>(node["max_restarts"], "max_restarts", 0);
+      if (spec.max_restarts > kMaxRestartsLimit)
+        reader.fail(node["max_restarts"], "max_restarts", "must be in 0.." + std::to_string(kMaxRestartsLimit));
+    }
+    if (node["restart_window_s"]) spec.restart_window_s = reader.duration(node["restart_window_s"], kRestartWindowRange);
+    if (node["restart_delay_s"]) spec.restart_delay_s = reader.duration(node["restart_delay_s"], kRestartDelayRange);
+    if (node["max_restart_delay_s"]) spec.max_restart_delay_s = reader.duration(node["max_restart_delay_s"], kMaxRestartDelayRange);
+    if (spec.max_restart_delay_s < spec.restart_delay_s)
+      reader.fail(node["max_restart_delay_s"] ? node["max_restart_delay_s"] : node["restart_delay_s"], "max_restart_delay_s",
+                  "must be >= restart_delay_s (" + Reader::format(spec.restart_delay_s) + " s)");
+    if (node["ready_timeout_s"]) spec.ready_timeout_s = reader.duration(node["ready_timeout_s"], kReadyTimeoutRange);
+    if (node["liveness_timeout_s"]) {
+      spec.liveness_timeout_s = reader.duration(node["liveness_timeout_s"], kLivenessTimeoutRange);
+      if (node["wait_ready"] && !spec.wait_ready)
+        reader.fail(node["liveness_timeout_s"], "liveness_timeout_s",
+                    "needs heartbeats on system/status, which a process with wait_ready: false does not send");
+    }
     if (node["required"]) spec.required = reader.boolean(node["required"], "required");
     processes.push_back(std::move(spec));
   }
@@ -282,11 +365,23 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
 }
 
 LaunchConfig loadLaunchConfig(const std::string& path, const std::map<std::string, std::string>& overrides) {
+  // Size and kind first: a FIFO or device would block or never end, a huge file would be parsed whole.
+  std::error_code error;
+  const auto status = std::filesystem::status(path, error);
+  if (error || !std::filesystem::exists(status)) throw LaunchError(path + ": cannot open launch file");
+  if (!std::filesystem::is_regular_file(status)) throw LaunchError(path + ": not a regular file");
+  const auto size = std::filesystem::file_size(path, error);
+  if (error) throw LaunchError(path + ": cannot read launch file: " + error.message());
+  if (size > kMaxLaunchFileBytes)
+    throw LaunchError(path + ": " + std::to_string(size) + " bytes is larger than the limit of " +
+                      std::to_string(kMaxLaunchFileBytes) + " bytes for a launch file (kMaxLaunchFileBytes)");
   std::ifstream in(path);
   if (!in) throw LaunchError(path + ": cannot open launch file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parseLaunchConfig(text.str(), path, overrides);
+  std::string text(kMaxLaunchFileBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<size_t>(in.gcount()));
+  if (text.size() > kMaxLaunchFileBytes) throw LaunchError(path + ": grew past the launch file limit while being read");
+  return parseLaunchConfig(text, path, overrides);
 }
 
 }  // namespace ddsnav::launch

@@ -12,6 +12,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <climits>
 #include <map>
 
@@ -43,7 +44,13 @@ int main(int argc, char** argv) {
   app.add_option("--domain", domain, "DDS domain id for every process (default: the file's, else DDSNAV_DOMAIN, else 0)")
       ->check(CLI::Range(0, bus::kMaxDomainId));
   app.add_option("--dds", dds, "default vendor for processes that do not name one: fastdds | cyclonedds");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // Usage errors (a bad --domain, an unknown option) are exit status 2, like a bad launch file;
+    // CLI11's own codes (105 for a failed check) mean nothing to a caller. --help is 0.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
 
   try {
     std::map<std::string, std::string> overrides;
@@ -67,6 +74,24 @@ int main(int argc, char** argv) {
     options.domain = domain;
     options.dds = std::string(bus::vendorName(vendor));
     options.log = [](const std::string& line) { spdlog::info("{}", line); };
+    // The status event dependents see when an instance ends unexpectedly: a ComponentStatus under the
+    // component's own name, with the ended instance's pid and ready = false; SHUTTING_DOWN when a new
+    // instance follows (it then reports STARTING ... READY with a new pid), FAILED when it is gone for good.
+    auto events = participant.publisher<msg::ComponentStatus>("system/status", bus::Qos::state(1));
+    options.on_event = [&events](const launch::SupervisionEvent& event) {
+      msg::ComponentStatus status;
+      status.name(event.name);
+      status.pid(static_cast<std::int32_t>(event.pid));
+      status.ready(false);
+      status.state(event.restarting ? msg::LIFECYCLE_SHUTTING_DOWN : msg::LIFECYCLE_FAILED);
+      status.detail("launch: " + event.detail);
+      status.stamp_ns(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+      try {
+        events.publish(status);
+      } catch (const std::exception& e) {
+        spdlog::warn("could not publish the status event for {}: {}", event.name, e.what());
+      }
+    };
     return launch::Supervisor(std::move(config), options, readiness).run();
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());

@@ -8,6 +8,7 @@ StatusReadiness::StatusReadiness(bus::Participant& bus)
     : subscription_(bus.subscribe<msg::ComponentStatus>("system/status", bus::Qos::state(1), [this](const msg::ComponentStatus& s) {
         {
           std::lock_guard lock(mutex_);
+          heard_[{s.name(), s.pid()}] = std::chrono::steady_clock::now();
           if (s.ready())
             ready_pid_[s.name()] = s.pid();
           else if (const auto it = ready_pid_.find(s.name()); it != ready_pid_.end() && it->second == s.pid())
@@ -22,6 +23,13 @@ bool StatusReadiness::waitUntilReady(const std::string& name, pid_t pid, std::ch
     const auto it = ready_pid_.find(name);
     return it != ready_pid_.end() && it->second == pid;
   });
+}
+
+std::optional<std::chrono::steady_clock::time_point> StatusReadiness::lastHeard(const std::string& name, pid_t pid) {
+  std::lock_guard lock(mutex_);
+  const auto it = heard_.find({name, pid});
+  if (it == heard_.end()) return std::nullopt;
+  return it->second;
 }
 
 }  // namespace ddsnav::launch

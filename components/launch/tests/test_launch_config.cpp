@@ -50,8 +50,9 @@ processes:
 
 TEST(LaunchConfig, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    colour: red\n"),
-            "set.yaml:4: key 'colour': unknown key (expected one of: after, args, command, dds, max_restarts, name, "
-            "params, ready_timeout_s, required, restart, wait_ready)");
+            "set.yaml:4: key 'colour': unknown key (expected one of: after, args, command, dds, liveness_timeout_s, "
+            "max_restart_delay_s, max_restarts, name, params, ready_timeout_s, required, restart, restart_delay_s, "
+            "restart_window_s, wait_ready)");
   EXPECT_NE(errorOf("processes:\n  - name: a\n    command: x\n    restart: sometimes\n").find("set.yaml:4: key 'restart'"),
             std::string::npos);
   EXPECT_NE(errorOf("domain: 900\nprocesses: [{name: a, command: x}]\n").find("key 'domain': must be in 0..232"),
@@ -113,4 +114,112 @@ TEST(LaunchConfig, RequiredVariablesMustBeSetOnTheCommandLine) {
       << error;
   const auto config = parseLaunchConfig(yaml, "set.yaml", {{"recording", "/data/run.mcap"}});
   EXPECT_EQ(config.processes[0].args, (std::vector<std::string>{"/data/run.mcap"}));
+}
+
+// Issue 13 row 9: a duration from the launch file must be bounded where it enters, or the wait overflows.
+TEST(LaunchConfig, DurationsOutsideTheirRangeNameFileLineKeyAndRange) {
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    ready_timeout_s: 1e10\n"),
+            "set.yaml:4: key 'ready_timeout_s': must be in 0.1..3600 s, got 1e10");
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    ready_timeout_s: .inf\n"),
+            "set.yaml:4: key 'ready_timeout_s': must be in 0.1..3600 s, got .inf");
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    ready_timeout_s: .nan\n"),
+            "set.yaml:4: key 'ready_timeout_s': must be in 0.1..3600 s, got .nan");
+  EXPECT_EQ(errorOf("shutdown_timeout_s: 1e300\nprocesses: [{name: a, command: x}]\n"),
+            "set.yaml:1: key 'shutdown_timeout_s': must be in 0.1..600 s, got 1e300");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, liveness_timeout_s: 0}\n"),
+            "set.yaml:2: key 'liveness_timeout_s': must be in 0.5..3600 s, got 0");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, restart_delay_s: -1}\n"),
+            "set.yaml:2: key 'restart_delay_s': must be in 0..3600 s, got -1");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, restart_window_s: 1e999}\n"),
+            "set.yaml:2: key 'restart_window_s': expected a number of seconds in 1..86400, got '1e999'");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, restart_delay_s: 5, max_restart_delay_s: 1}\n"),
+            "set.yaml:2: key 'max_restart_delay_s': must be >= restart_delay_s (5 s)");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, max_restarts: 100000}\n"),
+            "set.yaml:2: key 'max_restarts': must be in 0..10000");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, wait_ready: false, liveness_timeout_s: 3}\n"),
+            "set.yaml:2: key 'liveness_timeout_s': needs heartbeats on system/status, which a process with "
+            "wait_ready: false does not send");
+}
+
+TEST(LaunchConfig, SupervisionFieldsAndTheirDefaults) {
+  const auto config = parseLaunchConfig(R"(
+processes:
+  - {name: a, command: x}
+  - {name: b, command: y, restart: always, max_restarts: 5, restart_window_s: 30, restart_delay_s: 0.2,
+     max_restart_delay_s: 4, liveness_timeout_s: 2.5}
+)", "set.yaml");
+  const auto& a = config.processes[0];
+  EXPECT_EQ(a.max_restarts, 3);
+  EXPECT_DOUBLE_EQ(a.restart_window_s, 60.0);
+  EXPECT_DOUBLE_EQ(a.restart_delay_s, 0.5);
+  EXPECT_DOUBLE_EQ(a.max_restart_delay_s, 30.0);
+  EXPECT_DOUBLE_EQ(a.liveness_timeout_s, 5.0);
+  const auto& b = config.processes[1];
+  EXPECT_EQ(b.max_restarts, 5);
+  EXPECT_DOUBLE_EQ(b.restart_window_s, 30.0);
+  EXPECT_DOUBLE_EQ(b.restart_delay_s, 0.2);
+  EXPECT_DOUBLE_EQ(b.max_restart_delay_s, 4.0);
+  EXPECT_DOUBLE_EQ(b.liveness_timeout_s, 2.5);
+}
+
+// Issue 13 row 12: a 1.5 KB file of variables that expand each other reached 2 GB.
+TEST(LaunchConfig, VariablesThatExpandEachOtherAreBounded) {
+  std::string yaml = "variables:\n  v0: xxxxxxxxxxxxxxxx\n";
+  for (int i = 1; i <= 30; ++i)
+    yaml += "  v" + std::to_string(i) + ": \"${v" + std::to_string(i - 1) + "}${v" + std::to_string(i - 1) + "}\"\n";
+  yaml += "processes: [{name: a, command: x, args: [\"${v30}\"]}]\n";
+  const std::string error = errorOf(yaml);
+  EXPECT_NE(error.find("set.yaml:"), std::string::npos) << error;
+  EXPECT_NE(error.find("key 'variables.v"), std::string::npos) << error;
+  EXPECT_NE(error.find("expands to more than 65536 bytes (kMaxExpandedTextBytes)"), std::string::npos) << error;
+
+  // A deep chain, each step small.
+  std::string chain = "variables:\n  c0: x\n";
+  for (int i = 1; i <= 40; ++i) chain += "  c" + std::to_string(i) + ": \"${c" + std::to_string(i - 1) + "}\"\n";
+  chain += "processes: [{name: a, command: x}]\n";
+  const std::string deep = errorOf(chain);
+  EXPECT_NE(deep.find("more than 16 levels deep (kMaxVariableDepth)"), std::string::npos) << deep;
+  EXPECT_NE(deep.find("key 'variables.c"), std::string::npos) << deep;
+
+  // One moderate variable used many times in a single argument.
+  std::string wide = "variables: {w: \"" + std::string(1000, 'w') + "\"}\nprocesses: [{name: a, command: x, args: [\"";
+  for (int i = 0; i < 100; ++i) wide += "${w}";
+  wide += "\"]}]\n";
+  EXPECT_NE(errorOf(wide).find("set.yaml:2: key 'args': expands to more than 65536 bytes"), std::string::npos) << errorOf(wide);
+}
+
+TEST(LaunchConfig, OversizedLaunchFilesAreRefusedBeforeParsing) {
+  const std::string big(kMaxLaunchFileBytes + 1, '#');
+  EXPECT_EQ(errorOf(big), "set.yaml: 1048577 bytes is larger than the limit of 1048576 bytes for a launch file (kMaxLaunchFileBytes)");
+  EXPECT_THROW(loadLaunchConfig("/dev/zero"), LaunchError);  // not a regular file: refused, not read forever
+  try {
+    loadLaunchConfig("/tmp");
+    ADD_FAILURE();
+  } catch (const LaunchError& e) {
+    EXPECT_EQ(std::string(e.what()), "/tmp: not a regular file");
+  }
+}
+
+// Issue 13 row 13: small ones.
+TEST(LaunchConfig, ComplexKeysEmptyCommandsAndControlCharactersAreRefused) {
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    ? [p, q]\n    : 1\n"),
+            "set.yaml:4: key 'processes.<key>': expected a plain text key, got a sequence");
+  EXPECT_EQ(errorOf("? {k: v}\n: 1\nprocesses: [{name: a, command: x}]\n"),
+            "set.yaml:1: key '<key>': expected a plain text key, got a mapping");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, params: {? [1] : 2}}\n"),
+            "set.yaml:2: key 'params.<key>': expected a plain text key, got a sequence");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: \"\"}\n"), "set.yaml:2: key 'command': process 'a': the command is empty");
+  EXPECT_EQ(errorOf("variables: {c: \"\"}\nprocesses:\n  - {name: a, command: \"${c}\"}\n"),
+            "set.yaml:3: key 'command': process 'a': the command is empty");
+  EXPECT_EQ(errorOf("processes:\n  - {name: \"pl\\0anner\", command: x}\n"),
+            "set.yaml:2: key 'name': control character (byte 0) at offset 2 is not allowed");
+  EXPECT_EQ(errorOf("processes:\n  - {name: \"a\\x1b[31m\", command: x}\n"),
+            "set.yaml:2: key 'name': control character (byte 27) at offset 1 is not allowed");
+  EXPECT_EQ(errorOf("processes:\n  - {name: \"\", command: x}\n"), "set.yaml:2: key 'name': must be 1..128 bytes long");
+  EXPECT_EQ(errorOf("processes:\n  - {name: a, command: x, args: [\"a\\0b\"]}\n"),
+            "set.yaml:2: key 'args': control character (byte 0) at offset 1 is not allowed");
+  // A multi-line shell script stays allowed.
+  EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: /bin/sh\n    args:\n      - -c\n      - |\n        echo a\n        echo b\n"), "");
+  EXPECT_THROW(parseLaunchConfig("processes: [{name: a, command: x}]\n", "s.yaml", {{"launch_dir", std::string("a\0b", 3)}}),
+               LaunchError);
 }

@@ -3,6 +3,7 @@
 // late-joining planner gets the current map. Writes a .bt file on shutdown when save_path is set.
 
 #include "ddsnav/nodes/convert.hpp"
+#include <ddsnav/bus/printable.hpp>
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 
@@ -49,7 +50,7 @@ int main(int argc, char** argv) {
     auto maps = ctx.bus().publisher<msg::OccupancyMap>("map/octomap", bus::Qos::state());
     auto clouds = ctx.bus().subscribe<msg::PointCloud>("sensors/points", bus::Qos::sensorData(), [&](const msg::PointCloud& cloud) {
       if (cloud.header().frame_id() != world_frame) {
-        spdlog::warn("sensors/points: skipping a cloud in frame '{}' (expected '{}')", cloud.header().frame_id(), world_frame);
+        spdlog::warn("sensors/points: skipping a cloud in frame '{}' (expected '{}')", bus::printable(cloud.header().frame_id()), world_frame);
         return;
       }
       if (cloud.xyz().size() % 3 != 0) {

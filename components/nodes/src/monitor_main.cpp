@@ -5,6 +5,7 @@
 // timeout_s passes first or a component fails (summary.json's not_reached_why says which).
 
 #include "ddsnav/nodes/convert.hpp"
+#include <ddsnav/bus/printable.hpp>
 #include "ddsnav/nodes/run_report.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
@@ -130,7 +131,7 @@ int main(int argc, char** argv) {
     auto s8 = bus.subscribe<msg::ComponentStatus>("system/status", bus::Qos::state(), [&](const msg::ComponentStatus& m) {
       std::lock_guard lock(mutex);
       if (m.state() == msg::LifecycleState::LIFECYCLE_FAILED && seen.failure.empty())
-        seen.failure = m.name() + ": " + (m.detail().empty() ? std::string("failed") : m.detail());
+        seen.failure = bus::printable(m.name()) + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
     });
 
     ctx.ready();

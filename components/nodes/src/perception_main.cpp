@@ -3,6 +3,7 @@
 // and the whole tracked set is published (transient local, so a late planner gets it).
 
 #include "ddsnav/nodes/convert.hpp"
+#include <ddsnav/bus/printable.hpp>
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 
@@ -52,7 +53,7 @@ int main(int argc, char** argv) {
     // Runs on the bus thread; one subscription's callbacks never overlap, so the detector needs no lock.
     auto clouds = ctx.bus().subscribe<msg::PointCloud>("sensors/points", bus::Qos::sensorData(), [&](const msg::PointCloud& cloud) {
       if (cloud.header().frame_id() != world_frame) {
-        spdlog::warn("sensors/points: skipping a cloud in frame '{}' (expected '{}')", cloud.header().frame_id(), world_frame);
+        spdlog::warn("sensors/points: skipping a cloud in frame '{}' (expected '{}')", bus::printable(cloud.header().frame_id()), world_frame);
         return;
       }
       if (cloud.xyz().size() % 3 != 0) {

@@ -1,5 +1,6 @@
 #include "ddsnav/nodes/validate.hpp"
 
+#include <ddsnav/bus/printable.hpp>
 #include <ddsnav/planner/collision_world.hpp>
 
 #include <spdlog/fmt/fmt.h>
@@ -15,7 +16,7 @@ namespace {
 bool finite(const msg::Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
 std::string checkFrame(const msg::Header& header, const std::string& frame) {
-  if (!frame.empty() && header.frame_id() != frame) return fmt::format("frame '{}', expected '{}'", header.frame_id(), frame);
+  if (!frame.empty() && header.frame_id() != frame) return fmt::format("frame '{}', expected '{}'", bus::printable(header.frame_id()), frame);
   return {};
 }
 

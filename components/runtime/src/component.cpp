@@ -27,6 +27,10 @@ constexpr int kExitError = 1;
 constexpr int kExitUsage = 2;       // bad command line, config or parameter
 constexpr int kExitHungShutdown = 3;  // did not finish within shutdown_timeout_s after a signal
 
+// Bounds of the runtime's own duration parameters (see docs/bus.md).
+constexpr double kHeartbeatPeriodMaxS = 60.0;
+constexpr double kShutdownTimeoutMaxS = 600.0;
+
 sigset_t shutdownSignals() {
   sigset_t set;
   sigemptyset(&set);
@@ -36,8 +40,10 @@ sigset_t shutdownSignals() {
 }
 
 // Waits for SIGINT/SIGTERM on its own thread (they are blocked everywhere else, so DDS threads never see
-// them). After the first signal the process has `bound` to finish; a second signal or the bound
-// running out ends it at once.
+// them). After the first signal the process has `bound` to finish, then exits with status 3. A second
+// SIGINT (Ctrl-C pressed again) ends it at once; a repeated SIGTERM does not: supervisors may send one
+// each (the launcher to the process group, PR_SET_PDEATHSIG when the launcher dies, a watchdog), and
+// that must still be one clean shutdown.
 class SignalWatcher {
  public:
   SignalWatcher(std::function<void()> on_signal, std::chrono::milliseconds bound)
@@ -58,9 +64,11 @@ class SignalWatcher {
         spdlog::info("received {}, shutting down", sig == SIGINT ? "SIGINT" : "SIGTERM");
         deadline = std::chrono::steady_clock::now() + bound_;
         on_signal_();
-      } else if (sig > 0) {
-        spdlog::warn("second signal, exiting immediately");
+      } else if (sig == SIGINT) {
+        spdlog::warn("second SIGINT, exiting immediately");
         std::_Exit(kExitHungShutdown);
+      } else if (sig > 0) {
+        spdlog::debug("SIGTERM again: already shutting down");
       }
       if (deadline && std::chrono::steady_clock::now() > *deadline && !finished_) {
         spdlog::error("shutdown did not finish within {} ms, exiting", bound_.count());
@@ -94,7 +102,7 @@ class ContextImpl : public Context {
       clock_ = std::make_unique<TopicClock>(*participant_);
     else
       throw ParameterError("parameter 'clock': expected 'system' or 'topic', got '" + clock + "'");
-    heartbeat_period_ = positiveSeconds("heartbeat_period_s", 1.0, "period of the system/status heartbeat, s");
+    heartbeat_period_ = boundedSeconds("heartbeat_period_s", 1.0, kHeartbeatPeriodMaxS, "period of the system/status heartbeat, s");
     heartbeat_ = std::thread([this] { heartbeatLoop(); });
     publishState(msg::LIFECYCLE_CONFIGURING);
   }
@@ -161,10 +169,13 @@ class ContextImpl : public Context {
     participant_.reset();
   }
 
-  double positiveSeconds(const std::string& key, double fallback, const std::string& description) {
+  // A duration parameter, bounded where it enters: (0, max_s], so NaN, inf and 1e300 never reach a
+  // std::chrono conversion (which would overflow).
+  double boundedSeconds(const std::string& key, double fallback, double max_s, const std::string& description) {
     double v = params_.declare<double>(key, fallback, description);
-    if (v <= 0) throw ParameterError("parameter '" + key + "': expected a positive number of seconds, got " +
-                                     std::to_string(v));
+    if (!(v > 0 && v <= max_s))
+      throw ParameterError("parameter '" + key + "': expected a number of seconds in (0, " + std::to_string(static_cast<int>(max_s)) +
+                           "], got " + std::to_string(v));
     return v;
   }
 
@@ -292,7 +303,7 @@ int runComponent(const std::string& name, int argc, char** argv, const std::func
   int rc = kExitOk;
   try {
     ctx->start(bus_options);
-    double bound_s = ctx->positiveSeconds("shutdown_timeout_s", 5.0, "time allowed for a clean shutdown, s");
+    double bound_s = ctx->boundedSeconds("shutdown_timeout_s", 5.0, kShutdownTimeoutMaxS, "time allowed for a clean shutdown, s");
     SignalWatcher watcher([&ctx] { ctx->requestShutdown(); },
                           std::chrono::milliseconds(static_cast<long>(bound_s * 1000)));
     try {

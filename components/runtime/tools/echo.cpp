@@ -3,6 +3,7 @@
 // into a one-line summary, others shown as their size.
 //
 //   ddsnav echo vehicle/state            ddsnav echo --list            ddsnav echo --count 5 system/status
+#include <ddsnav/bus/printable.hpp>
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/runtime/component.hpp>
 
@@ -72,7 +73,9 @@ std::string describe(const bus::RawSample& s) {
           const msg::TypeSupport& ts = msg::type_support<T>();
           if (ts.name != s.type_name) return;
           T sample;
-          text = ts.deserialize(s.payload.data(), s.payload.size(), &sample) ? summary(sample) : "undecodable " + text;
+          // Strings in the sample (names, details, frame ids) are wire bytes: escaped before printing.
+          text = ts.deserialize(s.payload.data(), s.payload.size(), &sample) ? bus::printable(summary(sample), 4096)
+                                                                              : "undecodable " + text;
         };
         (one(proto), ...);
       },
@@ -101,7 +104,7 @@ int main(int argc, char** argv) {
           // Discovery needs a moment to hear from everyone; report what is known after it.
           ctx.waitForShutdown(std::chrono::milliseconds(static_cast<long>(wait_s * 1000)));
           for (const bus::TopicInfo& t : ctx.bus().discoveredTopics())
-            std::printf("%-32s %s%s\n", t.topic.c_str(), t.type_name.c_str(), t.keyed ? " (keyed)" : "");
+            std::printf("%-32s %s%s\n", bus::printable(t.topic).c_str(), bus::printable(t.type_name).c_str(), t.keyed ? " (keyed)" : "");
           return;
         }
         if (topic.empty()) throw std::invalid_argument("give a topic to echo, or --list");
@@ -113,13 +116,13 @@ int main(int argc, char** argv) {
           if (ctx.shutdownRequested()) return;
           throw std::runtime_error(fmt::format("no publisher of '{}' seen within {} s", topic, wait_s));
         }
-        ctx.log().info("echoing {} ({})", info->topic, info->type_name);
+        ctx.log().info("echoing {} ({})", bus::printable(info->topic), bus::printable(info->type_name));
         std::mutex print;
         long printed = 0;
         auto sub = ctx.bus().subscribeRaw(*info, qosByName(qos_name), [&](const bus::RawSample& s) {
           std::lock_guard lock(print);
           if (count > 0 && printed >= count) return;
-          std::printf("[%.6f] %s: %s\n", s.source_timestamp_ns * 1e-9, s.topic.c_str(), describe(s).c_str());
+          std::printf("[%.6f] %s: %s\n", s.source_timestamp_ns * 1e-9, bus::printable(s.topic).c_str(), describe(s).c_str());
           std::fflush(stdout);
           if (count > 0 && ++printed >= count) ctx.requestShutdown();
         });
@@ -129,7 +132,8 @@ int main(int argc, char** argv) {
         app.add_option("topic", topic, "topic to print");
         app.add_flag("--list", list, "list the topics with publishers instead");
         app.add_option("--count", count, "exit after this many samples");
-        app.add_option("--wait", wait_s, "seconds to wait for the topic to appear (for --list: to listen)");
+        app.add_option("--wait", wait_s, "seconds to wait for the topic to appear (for --list: to listen)")
+            ->check(CLI::Range(0.0, 86400.0));
         app.add_option("--qos", qos_name, "sensor (best effort: matches every publisher) | commands | state")
             ->check(CLI::IsMember({"sensor", "commands", "state"}));
       });

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -57,6 +58,12 @@ class ScenarioError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// Limits checked before any parsing work: the largest shipped scenario is ~6 KB with 80 obstacles, so
+// these leave paper-scale worlds (thousands of obstacles) far below them while a 59 MB file is refused
+// at once instead of taking gigabytes and minutes in the YAML parser.
+inline constexpr std::size_t kMaxScenarioFileBytes = 4 << 20;
+inline constexpr std::size_t kMaxScenarioObstacles = 50000;
 
 Scenario loadScenario(const std::string& path);
 

@@ -2,6 +2,7 @@
 // A launch file: a named set of component processes, how they depend on each other's readiness, and
 // what to do when one exits. See docs/launch.md for the format.
 
+#include <cstddef>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -12,6 +13,28 @@ namespace ddsnav::launch {
 
 enum class RestartPolicy { Never, OnFailure, Always };
 
+// Limits on what a launch file may ask for; each is checked where the value enters, and an error names
+// the file, the line, the key and the limit.
+inline constexpr std::size_t kMaxLaunchFileBytes = 1 << 20;     // a launch file is a page of YAML
+inline constexpr std::size_t kMaxExpandedTextBytes = 64 << 10;  // any value after ${...} expansion
+inline constexpr int kMaxVariableDepth = 16;                    // ${a} -> ${b} -> ... chains
+inline constexpr std::size_t kMaxProcesses = 256;
+inline constexpr std::size_t kMaxNameBytes = 128;               // process names (system/status keys)
+inline constexpr int kMaxRestartsLimit = 10000;                 // bound of max_restarts itself
+
+// The valid range of every duration key, in seconds (see docs/launch.md).
+struct DurationRange {
+  const char* key;
+  double min_s;
+  double max_s;
+};
+inline constexpr DurationRange kReadyTimeoutRange{"ready_timeout_s", 0.1, 3600.0};
+inline constexpr DurationRange kShutdownTimeoutRange{"shutdown_timeout_s", 0.1, 600.0};
+inline constexpr DurationRange kLivenessTimeoutRange{"liveness_timeout_s", 0.5, 3600.0};
+inline constexpr DurationRange kRestartDelayRange{"restart_delay_s", 0.0, 3600.0};
+inline constexpr DurationRange kMaxRestartDelayRange{"max_restart_delay_s", 0.0, 3600.0};
+inline constexpr DurationRange kRestartWindowRange{"restart_window_s", 1.0, 86400.0};
+
 struct ProcessSpec {
   std::string name;                         // also the component name it reports on system/status
   std::string command;                      // "ddsnav-sim" (found beside ddsnav) or a path
@@ -21,8 +44,12 @@ struct ProcessSpec {
   std::vector<std::string> after;           // start only once these report ready
   bool wait_ready = true;                   // false: a plain program that never reports readiness
   RestartPolicy restart = RestartPolicy::Never;
-  int max_restarts = 3;
+  int max_restarts = 3;                     // restarts allowed within restart_window_s; one more fails the set
+  double restart_window_s = 60.0;
+  double restart_delay_s = 0.5;             // wait before the first restart of a window, doubled per restart...
+  double max_restart_delay_s = 30.0;        // ...up to this
   double ready_timeout_s = 20.0;
+  double liveness_timeout_s = 5.0;          // silent on system/status this long after ready: killed (5 heartbeats)
   bool required = false;                    // when it exits, the whole set is torn down
 };
 
