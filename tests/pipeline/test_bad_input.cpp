@@ -1,7 +1,7 @@
 // Bad input from outside: perception and the mapper log and skip (or clean) bad clouds on sensors/points;
 // the planner and the tracker drop malformed perception/obstacles arrays (keeping the last good one) and
 // keep answering; bad parameters end a component at startup with status 2 and the parameter named.
-// Each test's parts share one domain (215, and 214 for the issue 13 cases), so they run one after the other
+// Each test's parts share one domain (215, and 219 for the issue 13 cases), so they run one after the other
 // inside it.
 
 #include <ddsnav/msg/messages.hpp>
@@ -331,7 +331,7 @@ void badParametersEndTheComponentWithStatus2() {
 
 // --- issue 13, rows 1, 2, 3 and 5: their own domain, as they run in a test of their own ---
 
-constexpr int kIssue13Domain = 214;
+constexpr int kIssue13Domain = 219;
 
 std::int64_t nowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -594,7 +594,7 @@ TEST(BadInput, ComponentsSurviveBadMessagesAndRefuseBadParameters) {
 }
 
 // Issue 13: non-finite vehicle states, requests outside the bounds, a hostile coarse map, short paths
-// (domain 214: ctest -j runs this beside the test above).
+// (domain 219: ctest -j runs this beside the test above).
 TEST(BadInput, NonFiniteStatesOutOfBoundsRequestsCoarseMapsAndShortPaths) {
   {
     SCOPED_TRACE("non-finite vehicle/state");
