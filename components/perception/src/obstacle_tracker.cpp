@@ -366,6 +366,12 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   const float max_length = static_cast<float>(params_.max_segment_length);
   const float max_width = static_cast<float>(params_.max_segment_width);
   std::size_t refreshed = 0, added = 0;
+  // How far a voxel's mean may lie outside the association cell it is listed in: rounding only when
+  // association cells are whole multiples of voxel cells (the defaults: 0.4 = 4 x 0.1), else up to a
+  // voxel (a voxel cell then straddles association cells).
+  const double cells_per_cell = tol / params_.voxel_size;
+  const double cell_drift =
+      std::abs(cells_per_cell - std::round(cells_per_cell)) < 1e-9 ? 1e-4 : 1.0001 * params_.voxel_size;
 
   auto mustRefit = [&](std::uint32_t t) {
     auto& track = ev.tracks[t];
@@ -486,9 +492,30 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     if (!cellOf(s.position, tol, dims, c)) return false;
     ev.candidates.clear();
     std::array<std::uint32_t, 27> heads;
-    const int cells = ev.nearby.neighbourhood(c, heads);
-    for (int k = 0; k < cells; ++k)
-      for (std::uint32_t n = heads[k]; n != kNone; n = ev.nodes[n].next_nearby) {
+    ev.nearby.neighbourhood(c, heads);
+    // A neighbour cell whose box is at least the association distance away cannot hold a voxel within
+    // it (a voxel's mean stays inside the voxel cell it was added in, so inside this box up to
+    // cell_drift): its list is not walked. Only cells that could hold a candidate are visited, so the
+    // candidates are the same. About a quarter of the 27 cells of a 3-D neighbourhood are skipped.
+    const double p[3] = {s.position.x(), s.position.y(), s.position.z()};
+    const std::int32_t ci[3] = {c.x, c.y, c.z};
+    double below[3], above[3];
+    for (int a = 0; a < 3; ++a) {
+      below[a] = std::max(0.0, p[a] - static_cast<double>(ci[a]) * tol - cell_drift);
+      above[a] = std::max(0.0, static_cast<double>(ci[a] + 1) * tol - p[a] - cell_drift);
+    }
+    const int dz_lo = dims == 3 ? -1 : 0, dz_hi = dims == 3 ? 1 : 0;
+    int k = 0;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = dz_lo; dz <= dz_hi; ++dz) {
+          const std::uint32_t head = heads[k++];
+          if (head == kNone) continue;
+          const double gx = dx < 0 ? below[0] : dx > 0 ? above[0] : 0.0;
+          const double gy = dy < 0 ? below[1] : dy > 0 ? above[1] : 0.0;
+          const double gz = dz < 0 ? below[2] : dz > 0 ? above[2] : 0.0;
+          if (gx * gx + gy * gy + gz * gz >= tol * tol) continue;
+      for (std::uint32_t n = head; n != kNone; n = ev.nodes[n].next_nearby) {
         const Evidence::Node& ref = ev.nodes[n];
         const float d2 = (ref.mean - s.position).squaredNorm();
         if (d2 >= tol2) continue;
@@ -500,6 +527,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
           found->first = std::min(found->first, d2);
         }
       }
+        }
     std::sort(ev.candidates.begin(), ev.candidates.end());
     for (const auto& [d2, t] : ev.candidates) {
       if (!accepts(t, s)) continue;
