@@ -101,6 +101,8 @@ int main(int argc, char** argv) {
   double max_range = 20.0;
   int threads = 2;
   int queries = 1'000'000;
+  int seeds = 1;
+  unsigned first_seed = 7;
   std::string json_path;
   bool profile_ours = false;
   app.add_option("--patterns", pattern_names, "lidar patterns RINGSxCOLUMNS")->delimiter(',');
@@ -109,6 +111,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-range", max_range, "insertion max range, m")->check(CLI::Range(0.5, 1000.0));
   app.add_option("--threads", threads, "threads for the multi-threaded row of ours")->check(CLI::Range(1, 64));
   app.add_option("--queries", queries, "random point queries for the query benchmark")->check(CLI::Range(1000, 100'000'000));
+  app.add_option("--seed", first_seed, "city block seed (the first one with --seeds)");
+  app.add_option("--seeds", seeds, "run city blocks seed .. seed + N - 1 and report the spread")->check(CLI::Range(1, 100));
   app.add_option("--json", json_path, "also write the results as JSON to this file");
   app.add_flag("--profile-ours", profile_ours, "only run our insertion (no OctoMap runs, no checks): for profilers");
   CLI11_PARSE(app, argc, argv);
@@ -120,12 +124,21 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
 
-  const CityBlock city = makeCityBlock(7);
   nlohmann::json out = nlohmann::json::array();
+  struct Row {
+    std::string config, method;
+    double ms, speedup;
+    unsigned seed;
+  };
+  std::vector<Row> rows;
   std::vector<std::uint8_t> query_map;  // the finest map, for the query benchmark
   double query_map_resolution = 0.0;
   bool all_identical = true;
 
+  for (int seed_index = 0; seed_index < seeds; ++seed_index) {
+  const unsigned seed = first_seed + static_cast<unsigned>(seed_index);
+  const CityBlock city = makeCityBlock(seed);
+  std::printf("%s## city block seed %u\n\n", seed_index ? "\n" : "", seed);
   std::printf("| scan | res m | method | ms/scan | M cell updates/s | speed-up vs fastest OctoMap | phases ms: rays / merge+sort / tree | tree MB | working MB | identical to |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Pattern& pattern : patterns) {
@@ -137,7 +150,7 @@ int main(int argc, char** argv) {
     lidar.range_noise = 0.02;
     std::vector<Scan> scan_list;
     for (int i = 0; i < scans; ++i) {
-      Scan s = simulateScan(city, lidar, {float(i) * 1.0f, 0.3f * float(i % 2), 1.8f}, 100 + i);
+      Scan s = simulateScan(city, lidar, {float(i) * 1.0f, 0.3f * float(i % 2), 1.8f}, 100 * seed + i);
       s.max_range = max_range;
       scan_list.push_back(std::move(s));
     }
@@ -212,6 +225,29 @@ int main(int argc, char** argv) {
           if (!r.inserted) spdlog::error("scan rejected: {}", r.message);
         }
       }
+      // Pipelined (tree update of scan i during the ray keys of scan i + 1): timed as a whole sequence, not
+      // round-robin, since its background tree thread would otherwise run during the other methods' turns.
+      std::unique_ptr<OccupancyMapper> pipelined;
+      if (!profile_ours) {
+        MapperConfig c = config;
+        c.threads = threads;
+        c.pipeline = true;
+        pipelined = std::make_unique<OccupancyMapper>(c);
+        Run& run = runs.emplace_back();
+        run.method = "ours, " + std::to_string(threads) + " threads pipelined";
+        const auto t = Clock::now();
+        for (const Scan& s : scan_list) {
+          const InsertResult r = pipelined->insert(s);
+          run.cells += r.free_cells + r.occupied_cells;
+          run.rays += r.seconds_rays, run.merge += r.seconds_merge, run.tree += r.seconds_tree;
+          if (!r.inserted) spdlog::error("scan rejected: {}", r.message);
+        }
+        pipelined->finish();
+        const double total = secondsSince(t);
+        run.seconds.assign(scan_list.size(), total / double(scan_list.size()));  // throughput per scan
+        run.memory = pipelined->octree().memoryUsage();
+        run.scratch = pipelined->scratchMemoryUsage();
+      }
       for (std::size_t k = 0; k < first_ours; ++k) runs[k].memory = octomap_methods[k].tree->memoryUsage();
       for (std::size_t k = 0; k < mappers.size(); ++k) {
         runs[first_ours + k].memory = mappers[k]->octree().memoryUsage();
@@ -240,6 +276,8 @@ int main(int argc, char** argv) {
       runs[5].reference = "insertPointCloud (tree bytes)";
       runs[6].identical = fullBytes(ours_disc->octree()) == disc_bytes && queryMismatches(ours_disc->octree(), disc, 100000, 10000, 3) == 0;
       runs[6].reference = "discretize (tree bytes, 100k points, 10k rays)";
+      runs[7].identical = fullBytes(pipelined->octree()) == plain_bytes;
+      runs[7].reference = "insertPointCloud (tree bytes)";
       double fastest_octomap = 1e300;
       for (int i = 0; i < 4; ++i) fastest_octomap = std::min(fastest_octomap, runs[i].meanMs());
 
@@ -260,19 +298,21 @@ int main(int argc, char** argv) {
       for (const Run& r : runs) {
         all_identical = all_identical && r.identical;
         const double n = double(r.seconds.size());
-        const std::string phases = r.method.rfind("ours", 0) == 0
+        const std::string phases = r.method.rfind("ours", 0) == 0 && r.method.find("pipelined") == std::string::npos
                                        ? fmt::format("{:.0f} / {:.0f} / {:.0f}", 1e3 * r.rays / n, 1e3 * r.merge / n, 1e3 * r.tree / n)
                                        : "-";
         std::printf("| %s | %.2f | %s | %.1f | %.2f | %.2fx | %s | %.1f | %.1f | %s |\n", scan_name.c_str(), res,
                     r.method.c_str(), r.meanMs(), r.cellsPerSecond() / 1e6, fastest_octomap / r.meanMs(), phases.c_str(),
                     r.memory / 1e6, r.scratch / 1e6, r.reference.empty() ? "-" : (r.identical ? ("yes: " + r.reference).c_str() : "NO"));
-        out.push_back({{"scan", scan_name}, {"resolution", res}, {"method", r.method}, {"ms_per_scan", r.meanMs()},
+        rows.push_back({fmt::format("{}x{} {:.2f} m", pattern.rings, pattern.columns, res), r.method, r.meanMs(),
+                        fastest_octomap / r.meanMs(), seed});
+        out.push_back({{"seed", seed}, {"scan", scan_name}, {"resolution", res}, {"method", r.method}, {"ms_per_scan", r.meanMs()},
                        {"cell_updates_per_s", r.cellsPerSecond()}, {"speedup_vs_fastest_octomap", fastest_octomap / r.meanMs()},
                        {"tree_bytes", r.memory}, {"scratch_bytes", r.scratch}, {"identical", r.identical},
                        {"scans", scans}, {"max_range", max_range}});
       }
       std::fflush(stdout);
-      if (query_map.empty() || res < query_map_resolution || (res == query_map_resolution)) {
+      if (seed_index == 0 && (query_map.empty() || res <= query_map_resolution)) {
         const ExportedMap m = mappers[0]->exportMap();
         query_map = m.octree_binary;
         query_map_resolution = res;
@@ -280,7 +320,41 @@ int main(int argc, char** argv) {
     }
   }
 
+  }  // seeds
+
   if (profile_ours) return 0;
+  // The spread over seeds: per configuration and method, the speed-up against the fastest OctoMap mode
+  // of the same seed's run (median, p90, worst) and the slowest seed's ms per scan.
+  std::printf("\n## spread over %d seed(s) (%u..%u): speed-up vs the fastest OctoMap mode of the same run\n\n", seeds,
+              first_seed, first_seed + seeds - 1);
+  std::printf("| configuration | method | speed-up median | p10 (90 %% of seeds reach it) | worst | worst seed | ms/scan median | ms/scan worst |\n");
+  std::printf("|---|---|---|---|---|---|---|---|\n");
+  std::vector<std::pair<std::string, std::string>> keys;
+  for (const Row& r : rows)
+    if (r.method.rfind("ours", 0) == 0 &&
+        std::find(keys.begin(), keys.end(), std::make_pair(r.config, r.method)) == keys.end())
+      keys.emplace_back(r.config, r.method);
+  nlohmann::json spread = nlohmann::json::array();
+  for (const auto& [config_name, method] : keys) {
+    std::vector<double> speedups, ms;
+    const Row* worst = nullptr;
+    for (const Row& r : rows) {
+      if (r.config != config_name || r.method != method) continue;
+      speedups.push_back(r.speedup);
+      ms.push_back(r.ms);
+      if (worst == nullptr || r.speedup < worst->speedup) worst = &r;
+    }
+    std::sort(speedups.begin(), speedups.end());
+    std::sort(ms.begin(), ms.end());
+    auto at = [](const std::vector<double>& v, double q) { return v[static_cast<std::size_t>(q * (v.size() - 1) + 0.5)]; };
+    // For a speed-up the bad tail is the low side: "p90" is the value 90 % of the seeds reach.
+    std::printf("| %s | %s | %.2fx | %.2fx | %.2fx | %u | %.1f | %.1f |\n", config_name.c_str(), method.c_str(),
+                at(speedups, 0.5), at(speedups, 0.1), speedups.front(), worst->seed, at(ms, 0.5), ms.back());
+    spread.push_back({{"configuration", config_name}, {"method", method}, {"speedup_median", at(speedups, 0.5)},
+                      {"speedup_p10", at(speedups, 0.1)}, {"speedup_worst", speedups.front()}, {"worst_seed", worst->seed},
+                      {"ms_median", at(ms, 0.5)}, {"ms_worst", ms.back()}});
+  }
+  out.push_back({{"spread", spread}});
   // Query throughput on the last finest map: OcTree::search vs the planner's OctoMap world (radius 0).
   {
     octomap::OcTree tree(0.1);

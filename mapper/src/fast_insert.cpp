@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 #include <thread>
+#include <utility>
 
 namespace ddsnav::mapper::detail {
 namespace {
@@ -473,25 +474,27 @@ std::size_t BrickMap::memoryUsage() const {
          bricks_.capacity() * sizeof(Brick);
 }
 
-InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
-                                  const octomap::point3d& origin, double max_range, bool discretize, int threads) {
+InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
+                         const octomap::point3d& origin, double max_range, bool discretize, int threads,
+                         ScanKeys& keys) {
   const std::vector<octomap::point3d>* cloud = &points;
+  std::vector<std::uint64_t>& sort_buffer = keys.sorted;
   if (discretize) {
     // OccupancyOcTreeBase::computeDiscreteUpdate: one ray per distinct end voxel, to the voxel centre.
-    sort_buffer_.clear();
-    sort_buffer_.reserve(points.size());
+    sort_buffer.clear();
+    sort_buffer.reserve(points.size());
     for (const octomap::point3d& p : points) {
       const octomap::OcTreeKey k = tree.coordToKey(p);
-      sort_buffer_.push_back(std::uint64_t(k[0]) | (std::uint64_t(k[1]) << 16) | (std::uint64_t(k[2]) << 32));
+      sort_buffer.push_back(std::uint64_t(k[0]) | (std::uint64_t(k[1]) << 16) | (std::uint64_t(k[2]) << 32));
     }
-    std::sort(sort_buffer_.begin(), sort_buffer_.end());
-    sort_buffer_.erase(std::unique(sort_buffer_.begin(), sort_buffer_.end()), sort_buffer_.end());
-    discrete_points_.clear();
-    for (std::uint64_t packed : sort_buffer_) {
+    std::sort(sort_buffer.begin(), sort_buffer.end());
+    sort_buffer.erase(std::unique(sort_buffer.begin(), sort_buffer.end()), sort_buffer.end());
+    keys.discrete_points.clear();
+    for (std::uint64_t packed : sort_buffer) {
       const octomap::OcTreeKey k(packed & 0xffff, (packed >> 16) & 0xffff, (packed >> 32) & 0xffff);
-      discrete_points_.push_back(tree.keyToCoord(k));
+      keys.discrete_points.push_back(tree.keyToCoord(k));
     }
-    cloud = &discrete_points_;
+    cloud = &keys.discrete_points;
   }
 
   using Clock = std::chrono::steady_clock;
@@ -505,17 +508,18 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   // 1. Ray keys. Threads take runs of consecutive points from a shared counter (lidar points are ordered
   //    by beam, so a run is a small angular sector with coherent rays); each marks into its own map.
   const int n_threads = std::clamp<int>(threads, 1, 64);
-  if (maps_.size() < static_cast<std::size_t>(n_threads)) maps_.resize(n_threads);
-  for (BrickMap& m : maps_) m.clear();
+  std::vector<BrickMap>& maps = keys.maps;
+  if (maps.size() < static_cast<std::size_t>(n_threads)) maps.resize(n_threads);
+  for (BrickMap& m : maps) m.clear();
   const std::size_t n = cloud->size();
   if (n_threads == 1 || n < 2048) {
-    markRays(tree, cloud->data(), n, origin, max_range, maps_[0]);
+    markRays(tree, cloud->data(), n, origin, max_range, maps[0]);
   } else {
     constexpr std::size_t kRun = 512;
     std::atomic<std::size_t> next{0};
     auto work = [&](int t) {
       for (std::size_t begin = next.fetch_add(kRun); begin < n; begin = next.fetch_add(kRun)) {
-        markRays(tree, cloud->data() + begin, std::min(kRun, n - begin), origin, max_range, maps_[t]);
+        markRays(tree, cloud->data() + begin, std::min(kRun, n - begin), origin, max_range, maps[t]);
       }
     };
     std::vector<std::thread> workers;
@@ -523,12 +527,12 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
     work(0);
     for (std::thread& w : workers) w.join();
     counts.seconds_rays = lap();
-    for (int t = 1; t < n_threads; ++t) maps_[0].mergeFrom(maps_[t]);
+    for (int t = 1; t < n_threads; ++t) maps[0].mergeFrom(maps[t]);
   }
   if (counts.seconds_rays == 0.0) counts.seconds_rays = lap();
 
   // 2. Occupied wins over free; bricks in Morton order.
-  std::vector<BrickMap::Brick>& bricks = maps_[0].bricks();
+  std::vector<BrickMap::Brick>& bricks = maps[0].bricks();
   for (BrickMap::Brick& b : bricks) {
     for (int w = 0; w < 8; ++w) {
       b.free[w] &= ~b.occupied[w];
@@ -536,30 +540,106 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
       counts.occupied_cells += std::popcount(b.occupied[w]);
     }
   }
-  if (counts.free_cells + counts.occupied_cells == 0) return counts;  // OctoMap creates no root then
-  sort_buffer_.clear();
-  for (std::uint32_t i = 0; i < bricks.size(); ++i) sort_buffer_.push_back((bricks[i].morton << 24) | i);
-  std::sort(sort_buffer_.begin(), sort_buffer_.end());
+  keys.cells = counts.free_cells + counts.occupied_cells;
+  sort_buffer.clear();
+  if (keys.cells == 0) return counts;  // OctoMap creates no root then
+  for (std::uint32_t i = 0; i < bricks.size(); ++i) sort_buffer.push_back((bricks[i].morton << 24) | i);
+  std::sort(sort_buffer.begin(), sort_buffer.end());
   counts.seconds_merge = lap();
-
-  // 3. Depth-first walks over the updated voxels.
-  counts.walk_threads = applyToTree(tree, bricks, sort_buffer_, counts.free_cells + counts.occupied_cells, n_threads);
-  counts.seconds_tree = lap();
   return counts;
 }
 
-std::size_t FastInserter::memoryUsage() const {
-  std::size_t bytes = discrete_points_.capacity() * sizeof(octomap::point3d) +
-                      sort_buffer_.capacity() * sizeof(std::uint64_t);
-  for (const BrickMap& m : maps_) bytes += m.memoryUsage();
+int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads) {
+  if (keys.cells == 0) return 0;
+  return applyToTree(tree, keys.maps[0].bricks(), keys.sorted, keys.cells, std::clamp<int>(threads, 1, 64));
+}
+
+std::size_t ScanKeys::memoryUsage() const {
+  std::size_t bytes = discrete_points.capacity() * sizeof(octomap::point3d) + sorted.capacity() * sizeof(std::uint64_t);
+  for (const BrickMap& m : maps) bytes += m.memoryUsage();
   return bytes;
 }
 
+InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
+                                  const octomap::point3d& origin, double max_range, bool discretize, int threads,
+                                  bool pipelined) {
+  if (!pipelined) {
+    finish();  // a pipelined update may still be running
+    ScanKeys& keys = keys_[0];
+    InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys);
+    const auto started = std::chrono::steady_clock::now();
+    counts.walk_threads = applyKeys(tree, keys, threads);
+    counts.seconds_tree = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    return counts;
+  }
+  // The previous scan's tree update runs on the background thread while this scan's keys are computed
+  // into the other buffer (key computation never reads a node).
+  ScanKeys& keys = keys_[fill_];
+  InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys);
+  const auto waited = std::chrono::steady_clock::now();
+  finish();
+  counts.seconds_wait = std::chrono::duration<double>(std::chrono::steady_clock::now() - waited).count();
+  counts.seconds_tree = job_seconds_;
+  job_seconds_ = 0.0;
+  if (keys.cells == 0) return counts;
+  counts.walk_threads = 1;
+  if (!worker_.joinable()) worker_ = std::thread([this] { treeThread(); });
+  {
+    std::lock_guard lock(mutex_);
+    job_tree_ = &tree;
+    job_ = &keys;
+  }
+  wake_.notify_one();
+  fill_ ^= 1;
+  return counts;
+}
+
+void FastInserter::treeThread() {
+  std::unique_lock lock(mutex_);
+  while (true) {
+    wake_.wait(lock, [&] { return stop_ || job_ != nullptr; });
+    if (job_ == nullptr) return;  // stop_ and nothing pending
+    const ScanKeys* keys = job_;
+    octomap::OcTree* tree = job_tree_;
+    lock.unlock();
+    const auto started = std::chrono::steady_clock::now();
+    std::exception_ptr error;
+    try {
+      applyKeys(*tree, *keys, 1);  // one walk thread: the other core computes the next scan's keys
+    } catch (...) {
+      error = std::current_exception();
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    lock.lock();
+    job_seconds_ = seconds;
+    job_error_ = error;
+    job_ = nullptr;
+    done_.notify_all();
+  }
+}
+
+void FastInserter::finish() {
+  if (!worker_.joinable()) return;
+  std::unique_lock lock(mutex_);
+  done_.wait(lock, [&] { return job_ == nullptr; });
+  if (job_error_) std::rethrow_exception(std::exchange(job_error_, nullptr));
+}
+
+FastInserter::~FastInserter() {
+  if (!worker_.joinable()) return;
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_one();
+  worker_.join();  // a pending update is applied first (the tree outlives the inserter)
+}
+
+std::size_t FastInserter::memoryUsage() const { return keys_[0].memoryUsage() + keys_[1].memoryUsage(); }
+
 void FastInserter::releaseScratch() {
-  maps_.clear();
-  maps_.shrink_to_fit();
-  discrete_points_ = {};
-  sort_buffer_ = {};
+  finish();
+  for (ScanKeys& k : keys_) k = ScanKeys{};
 }
 
 }  // namespace ddsnav::mapper::detail

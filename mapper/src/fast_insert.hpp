@@ -21,8 +21,12 @@
 
 #include <octomap/OcTree.h>
 
+#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
+#include <exception>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 namespace ddsnav::mapper::detail {
@@ -75,23 +79,62 @@ struct InsertCounts {
   std::size_t occupied_cells = 0;
   double seconds_rays = 0.0;   // ray keys + de-duplication (parallel part)
   double seconds_merge = 0.0;  // merging the thread maps, occupied-wins, Morton sort
-  double seconds_tree = 0.0;   // the tree walk
+  double seconds_tree = 0.0;   // the tree walk (pipelined: the previous scan's, which ran meanwhile)
+  double seconds_wait = 0.0;   // pipelined: waiting for the previous scan's tree walk after our keys
   int walk_threads = 0;        // threads that walked the tree (1 when the scan was small or not splittable)
 };
 
+// The keys of one scan, ready to be applied: per-thread brick maps (maps[0] holds the union, with
+// occupied winning over free) and its bricks in Morton order.
+struct ScanKeys {
+  std::vector<BrickMap> maps;
+  std::vector<octomap::point3d> discrete_points;
+  std::vector<std::uint64_t> sorted;  // (brick Morton code << 24) | brick index, ascending
+  std::size_t cells = 0;
+  std::size_t memoryUsage() const;
+};
+
+// Stage 1 (rays, de-duplication, occupied-wins, Morton sort). Reads only the tree's key arithmetic
+// (resolution and key offset, fixed at construction), never a node, so it may run while stage 2 of
+// an earlier scan changes the tree.
+InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
+                         const octomap::point3d& origin, double max_range, bool discretize, int threads, ScanKeys& keys);
+// Stage 2: applies the keys to the tree; returns the number of threads that walked it.
+int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads);
+
 class FastInserter {
  public:
+  FastInserter() = default;
+  FastInserter(const FastInserter&) = delete;
+  FastInserter& operator=(const FastInserter&) = delete;
+  ~FastInserter();
+
   // points: already finite. max_range < 0 means unlimited (OctoMap's convention).
+  // pipelined: the tree update is handed to a background thread and runs while the caller computes the
+  // next scan's keys (two key buffers alternate); finish() waits for it. The tree after finish() is the
+  // same as without pipelining: every scan's update is the same, applied in the same order.
   InsertCounts insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
-                      const octomap::point3d& origin, double max_range, bool discretize, int threads);
+                      const octomap::point3d& origin, double max_range, bool discretize, int threads,
+                      bool pipelined = false);
+  // Waits until every handed-over tree update is applied; rethrows an exception it raised.
+  void finish();
   std::size_t memoryUsage() const;
   // Drops the scratch buffers (they are kept between scans to avoid re-allocating them).
   void releaseScratch();
 
  private:
-  std::vector<BrickMap> maps_;
-  std::vector<octomap::point3d> discrete_points_;
-  std::vector<std::uint64_t> sort_buffer_;
+  void treeThread();
+  ScanKeys keys_[2];
+  int fill_ = 0;  // the buffer the next scan's keys go to
+  // The background tree update (pipelined mode).
+  std::thread worker_;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  octomap::OcTree* job_tree_ = nullptr;
+  const ScanKeys* job_ = nullptr;  // non-null while an update is pending or running
+  bool stop_ = false;
+  double job_seconds_ = 0.0;
+  std::exception_ptr job_error_;
 };
 
 }  // namespace ddsnav::mapper::detail

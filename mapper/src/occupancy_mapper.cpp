@@ -135,15 +135,17 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   }
 
   if (config_.method == InsertMethod::kFast) {
-    const detail::InsertCounts counts =
-        impl_->inserter.insert(tree, cleaned, origin, scan.max_range, config_.discretize, config_.threads);
+    const detail::InsertCounts counts = impl_->inserter.insert(tree, cleaned, origin, scan.max_range,
+                                                               config_.discretize, config_.threads, config_.pipeline);
     result.free_cells = counts.free_cells;
     result.occupied_cells = counts.occupied_cells;
     result.seconds_rays = counts.seconds_rays;
     result.seconds_merge = counts.seconds_merge;
     result.seconds_tree = counts.seconds_tree;
+    result.seconds_wait = counts.seconds_wait;
     result.walk_threads = counts.walk_threads;
   } else {
+    finish();
     octomap::Pointcloud cloud;
     cloud.reserve(cleaned.size());
     for (const octomap::point3d& p : cleaned) cloud.push_back(p);
@@ -156,7 +158,10 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   return result;
 }
 
+void OccupancyMapper::finish() const { impl_->inserter.finish(); }
+
 ExportedMap OccupancyMapper::exportMap() {
+  finish();
   ExportedMap map;
   const octomap::OcTree& tree = impl_->tree;
   std::ostringstream bytes(std::ios::out | std::ios::binary);
@@ -178,6 +183,7 @@ ExportedMap OccupancyMapper::exportMap() {
 }
 
 void OccupancyMapper::writeBt(const std::string& path) const {
+  finish();
   std::ofstream out(path, std::ios::binary);
   if (out) writeOctreeBinary(impl_->tree, out);
   if (!out || !out.flush()) {
@@ -185,12 +191,18 @@ void OccupancyMapper::writeBt(const std::string& path) const {
   }
 }
 
-const octomap::OcTree& OccupancyMapper::octree() const { return impl_->tree; }
+const octomap::OcTree& OccupancyMapper::octree() const {
+  finish();
+  return impl_->tree;
+}
 
 std::size_t OccupancyMapper::scratchMemoryUsage() const {
   return impl_->inserter.memoryUsage() + impl_->cleaned.capacity() * sizeof(octomap::point3d);
 }
 
-std::size_t OccupancyMapper::memoryUsage() const { return impl_->tree.memoryUsage() + scratchMemoryUsage(); }
+std::size_t OccupancyMapper::memoryUsage() const {
+  finish();
+  return impl_->tree.memoryUsage() + scratchMemoryUsage();
+}
 
 }  // namespace ddsnav::mapper

@@ -123,6 +123,56 @@ TEST(MapperIdentical, ThreeDimensionalRepeatedScansPruneAndExpand) {
   expectIdentical(c, false, /*walk_threads=*/3);
 }
 
+// Pipelined insertion: the tree update of scan i runs on a background thread while the keys of scan
+// i + 1 are computed; the trees must still be OctoMap's, byte for byte.
+TEST(MapperIdentical, PipelinedRepeatedScansPruneAndExpand) {
+  Case c{"3-D repeated, pipelined", {}, lidar3d(16, 240), 8.0, {}};
+  c.config.resolution = 0.2;
+  for (int i = 0; i < 10; ++i) c.poses.push_back({0.1f * (i % 3), 0.07f * (i % 5), 1.8f});
+  c.poses.push_back({2.0f, 1.0f, 1.8f});
+  c.config.threads = 2;
+  c.config.pipeline = true;
+  expectIdentical(c, false, /*walk_threads=*/1);
+}
+
+TEST(MapperIdentical, PipelinedDenseScansAt01AndDiscretize) {
+  Case c{"3-D 0.1 m, pipelined", {}, lidar3d(16, 900), 12.0, {{0.3f, -0.2f, 1.7f}, {1.9f, 0.6f, 1.7f}, {3.5f, 0.1f, 1.8f}}};
+  c.config.threads = 2;
+  c.config.pipeline = true;
+  expectIdentical(c);
+  c.name = "3-D 0.2 m discretize, pipelined";
+  c.config.resolution = 0.2;
+  c.config.discretize = true;
+  expectIdentical(c);
+}
+
+TEST(MapperIdentical, PipelinedMapIsCompleteAtEveryRead) {
+  // Every read of the map between insertions sees all scans inserted so far, never a half-applied one.
+  const CityBlock city = makeCityBlock(4);
+  MapperConfig config;
+  config.resolution = 0.2;
+  config.threads = 2;
+  config.pipeline = true;
+  OccupancyMapper mapper(config);
+  octomap::OcTree reference(config.resolution);
+  applySensorModel(reference, config);
+  for (std::uint32_t i = 0; i < 5; ++i) {
+    Scan scan = simulateScan(city, lidar3d(16, 600), {1.5f * float(i), 0.2f * float(i % 2), 1.8f}, 10 + i);
+    scan.max_range = 15.0;
+    ASSERT_TRUE(mapper.insert(scan).inserted);
+    reference.insertPointCloud(toOctomapCloud(scan, config), toOrigin(scan, config), scan.max_range);
+    if (i % 2 == 1) {
+      EXPECT_EQ(fullBytes(mapper.octree()), fullBytes(reference)) << "after scan " << i;
+    } else {
+      std::ostringstream bytes;
+      reference.writeBinaryConst(bytes);
+      const ExportedMap map = mapper.exportMap();
+      EXPECT_EQ(std::string(map.octree_binary.begin(), map.octree_binary.end()), bytes.str()) << "after scan " << i;
+    }
+  }
+  EXPECT_EQ(mapper.memoryUsage() - mapper.scratchMemoryUsage(), reference.memoryUsage());
+}
+
 TEST(MapperIdentical, AnswersEqualLazyEvalReference) {
   Case c{"3-D vs lazy", {}, lidar3d(16, 500), 15.0, {{0, 0, 1.8f}, {1.0f, 1.0f, 1.8f}}};
   c.config.resolution = 0.2;

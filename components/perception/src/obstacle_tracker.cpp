@@ -1,11 +1,13 @@
 #include "ddsnav/perception/obstacle_tracker.hpp"
 
+#include "ddsnav/perception/chi_square.hpp"
 #include "ddsnav/perception/euclidean_clusters.hpp"
 #include "ddsnav/perception/obstacle_detector.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <string>
 #include <stdexcept>
@@ -187,7 +189,15 @@ struct ObstacleTracker::Evidence {
     std::vector<SupportPoint> voxels;
     Eigen::Matrix3f frame = Eigen::Matrix3f::Identity();  // the track's own axes, fixed at creation
     Eigen::Vector3f lo = Eigen::Vector3f::Zero(), hi = Eigen::Vector3f::Zero();  // its voxels' box in that frame
-    bool changed = false;
+    // The ellipse of the last refit, for the check of a refreshed voxel: its centre, the inverse of
+    // its covariance (x, y only in 2-D) and chi2(p, d).
+    Eigen::Vector3d fit_center = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d fit_inverse = Eigen::Matrix3d::Zero();
+    double quantile = 0.0;
+    bool fitted = false;
+    bool must_refit = false;               // grew, or a refreshed voxel left the ellipse: refit this update
+    std::uint64_t stale_since = kNever;    // update of the first refresh not yet in the ellipse
+    static constexpr std::uint64_t kNever = std::numeric_limits<std::uint64_t>::max();
   };
   // Every track voxel once more, compactly, for the lookups: its current mean (kept equal to the
   // track's voxel position), how often its cell was seen (capped), which track and voxel it is, and
@@ -201,6 +211,11 @@ struct ObstacleTracker::Evidence {
 
   std::vector<Track> tracks;
   std::vector<Node> nodes;
+  std::vector<std::uint32_t> must_refit;                      // tracks to refit at the end of this update
+  std::deque<std::pair<std::uint64_t, std::uint32_t>> stale;  // (stale_since, track), oldest first
+  std::uint64_t updates = 0;
+  double quantile_p = 0.0, quantile = 0.0;  // chi2(quantile_p, quantile_dims), the last one computed
+  int quantile_dims = 0;
   CellGrid owner;          // voxel cell -> node of the track voxel there
   CellGrid nearby;         // association cell -> first node of the voxels in it (a list)
   CellMap<bool> coarse;    // kCoarseCell cells holding any track voxel
@@ -244,6 +259,7 @@ void TrackerParams::validate() const {
           "max_segment_width", "in (0, max_segment_length]");
   require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
   require(max_voxels_per_track >= 1, "max_voxels_per_track", ">= 1");
+  require(max_deferred_refits >= 1, "max_deferred_refits", ">= 1");
 }
 
 ObstacleTracker::ObstacleTracker(const TrackerParams& params) : params_(params) {
@@ -256,24 +272,66 @@ ObstacleTracker& ObstacleTracker::operator=(ObstacleTracker&&) noexcept = defaul
 
 const std::vector<ObstacleEllipsoid>& ObstacleTracker::update(std::span<const ObstacleEllipsoid> detections) {
   last_ = {};
+  auto& ev = *evidence_;
+  ++ev.updates;
   for (const auto& detection : detections) absorb(detection);
 
-  // Refit every track whose evidence changed, with the detector's model.
-  auto& ev = *evidence_;
-  for (std::size_t t = 0; t < ev.tracks.size(); ++t) {
-    auto& track = ev.tracks[t];
-    if (!track.changed) continue;
-    track.changed = false;
-    std::vector<SupportPoint> support = std::move(tracks_[t].support);  // reuse its capacity
-    support.assign(track.voxels.begin(), track.voxels.end());
-    const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxel_size,
-                                 params_.enclose_points};
-    ObstacleEllipsoid estimate = fitEllipsoid(track.voxels, track.dims, fit);
-    estimate.id = tracks_[t].id;
-    estimate.support = std::move(support);
-    tracks_[t] = std::move(estimate);
+  // Refit the tracks whose evidence grew or left their ellipse (only those: the list, not a scan
+  // over every track), then the deferred refresh-only ones that are due, oldest first.
+  for (std::uint32_t t : ev.must_refit) refit(t);
+  ev.must_refit.clear();
+  std::size_t budget = params_.max_deferred_refits;
+  while (!ev.stale.empty()) {
+    const auto [since, t] = ev.stale.front();
+    if (ev.tracks[t].stale_since != since) {  // refitted since it was queued
+      ev.stale.pop_front();
+      continue;
+    }
+    if (ev.updates - since < params_.max_refit_delay || budget == 0) break;
+    ev.stale.pop_front();
+    refit(t);
+    ++last_.refitted_late;
+    --budget;
   }
+  for (const auto& [since, t] : ev.stale) last_.deferred += ev.tracks[t].stale_since == since;
   return tracks_;
+}
+
+const std::vector<ObstacleEllipsoid>& ObstacleTracker::refitDeferred() {
+  auto& ev = *evidence_;
+  for (const auto& [since, t] : ev.stale)
+    if (ev.tracks[t].stale_since == since) refit(t);
+  ev.stale.clear();
+  last_.deferred = 0;
+  return tracks_;
+}
+
+std::span<const SupportPoint> ObstacleTracker::evidence(std::size_t index) const {
+  return evidence_->tracks.at(index).voxels;
+}
+
+// Refits one track with the detector's model and keeps what the refresh check needs.
+void ObstacleTracker::refit(std::size_t t) {
+  auto& track = evidence_->tracks[t];
+  track.must_refit = false;
+  track.stale_since = Evidence::Track::kNever;
+  std::vector<SupportPoint> support = std::move(tracks_[t].support);  // reuse its capacity
+  support.assign(track.voxels.begin(), track.voxels.end());
+  const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxel_size,
+                               params_.enclose_points};
+  ObstacleEllipsoid estimate = fitEllipsoid(track.voxels, track.dims, fit);
+  estimate.id = tracks_[t].id;
+  estimate.support = std::move(support);
+  track.fit_center = estimate.center;
+  track.fit_inverse.setZero();
+  if (track.dims == 2) {
+    track.fit_inverse.topLeftCorner<2, 2>() = estimate.covariance.topLeftCorner<2, 2>().inverse();
+  } else {
+    track.fit_inverse = estimate.covariance.inverse();
+  }
+  track.fitted = track.fit_inverse.allFinite();
+  tracks_[t] = std::move(estimate);
+  ++last_.refitted;
 }
 
 void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
@@ -308,6 +366,38 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   const float max_length = static_cast<float>(params_.max_segment_length);
   const float max_width = static_cast<float>(params_.max_segment_width);
   std::size_t refreshed = 0, added = 0;
+  // How far a voxel's mean may lie outside the association cell it is listed in: rounding only when
+  // association cells are whole multiples of voxel cells (the defaults: 0.4 = 4 x 0.1), else up to a
+  // voxel (a voxel cell then straddles association cells).
+  const double cells_per_cell = tol / params_.voxel_size;
+  const double cell_drift =
+      std::abs(cells_per_cell - std::round(cells_per_cell)) < 1e-9 ? 1e-4 : 1.0001 * params_.voxel_size;
+
+  auto mustRefit = [&](std::uint32_t t) {
+    auto& track = ev.tracks[t];
+    if (track.must_refit) return;
+    track.must_refit = true;
+    ev.must_refit.push_back(t);
+  };
+  // A voxel was added to track t or refreshed (moved within its cell). The track keeps the ellipse
+  // of its last refit for up to max_refit_delay updates as long as the voxel, pushed outward by its
+  // position uncertainty (the fit's margin), is inside it; otherwise it is refitted in this update.
+  const bool may_defer = params_.max_refit_delay > 0 && params_.enclose_points;
+  const double margin = 3.0 * params_.range_noise_sigma + 0.5 * params_.voxel_size * std::sqrt(double(dims));
+  auto changedVoxel = [&](std::uint32_t t, const Eigen::Vector3f& position) {
+    auto& track = ev.tracks[t];
+    if (track.must_refit) return;
+    if (!may_defer || !track.fitted) return mustRefit(t);
+    Eigen::Vector3d d = position.cast<double>() - track.fit_center;
+    if (dims == 2) d.z() = 0.0;
+    const double length = d.norm();
+    if (length > 0.0) d *= (length + margin) / length;
+    if (!(d.dot(track.fit_inverse * d) <= track.quantile)) return mustRefit(t);
+    if (track.stale_since == Evidence::Track::kNever) {
+      track.stale_since = ev.updates;
+      ev.stale.emplace_back(ev.updates, t);
+    }
+  };
 
   // The last voxel the walk assigned (its track and position): along a surface, the next voxel is
   // usually within the association distance of it, which needs no hash lookup at all.
@@ -325,7 +415,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     const auto index = static_cast<std::uint32_t>(track.voxels.size());
     const auto node = static_cast<std::uint32_t>(ev.nodes.size());
     track.voxels.push_back({s.position, s.bearing});
-    track.changed = true;
+    changedVoxel(t, s.position);
     ev.nodes.push_back({s.position, 1, t, index, kNone});
     ev.owner.emplace(key, node);
     CellKey near_key;
@@ -355,7 +445,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     const Eigen::Vector3f q = track.frame.transpose() * node.mean;  // stays within its cell
     track.lo = track.lo.cwiseMin(q);
     track.hi = track.hi.cwiseMax(q);
-    track.changed = true;
+    changedVoxel(node.track, node.mean);
     return true;
   };
   // A voxel in a new cell joins the nearest track with a voxel within the association distance
@@ -402,9 +492,30 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     if (!cellOf(s.position, tol, dims, c)) return false;
     ev.candidates.clear();
     std::array<std::uint32_t, 27> heads;
-    const int cells = ev.nearby.neighbourhood(c, heads);
-    for (int k = 0; k < cells; ++k)
-      for (std::uint32_t n = heads[k]; n != kNone; n = ev.nodes[n].next_nearby) {
+    ev.nearby.neighbourhood(c, heads);
+    // A neighbour cell whose box is at least the association distance away cannot hold a voxel within
+    // it (a voxel's mean stays inside the voxel cell it was added in, so inside this box up to
+    // cell_drift): its list is not walked. Only cells that could hold a candidate are visited, so the
+    // candidates are the same. About a quarter of the 27 cells of a 3-D neighbourhood are skipped.
+    const double p[3] = {s.position.x(), s.position.y(), s.position.z()};
+    const std::int32_t ci[3] = {c.x, c.y, c.z};
+    double below[3], above[3];
+    for (int a = 0; a < 3; ++a) {
+      below[a] = std::max(0.0, p[a] - static_cast<double>(ci[a]) * tol - cell_drift);
+      above[a] = std::max(0.0, static_cast<double>(ci[a] + 1) * tol - p[a] - cell_drift);
+    }
+    const int dz_lo = dims == 3 ? -1 : 0, dz_hi = dims == 3 ? 1 : 0;
+    int k = 0;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = dz_lo; dz <= dz_hi; ++dz) {
+          const std::uint32_t head = heads[k++];
+          if (head == kNone) continue;
+          const double gx = dx < 0 ? below[0] : dx > 0 ? above[0] : 0.0;
+          const double gy = dy < 0 ? below[1] : dy > 0 ? above[1] : 0.0;
+          const double gz = dz < 0 ? below[2] : dz > 0 ? above[2] : 0.0;
+          if (gx * gx + gy * gy + gz * gz >= tol * tol) continue;
+      for (std::uint32_t n = head; n != kNone; n = ev.nodes[n].next_nearby) {
         const Evidence::Node& ref = ev.nodes[n];
         const float d2 = (ref.mean - s.position).squaredNorm();
         if (d2 >= tol2) continue;
@@ -416,6 +527,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
           found->first = std::min(found->first, d2);
         }
       }
+        }
     std::sort(ev.candidates.begin(), ev.candidates.end());
     for (const auto& [d2, t] : ev.candidates) {
       if (!accepts(t, s)) continue;
@@ -493,6 +605,12 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       Evidence::Track track;
       track.dims = dims;
       track.probability = detection.probability;
+      if (ev.quantile_p != detection.probability || ev.quantile_dims != dims) {  // one value in practice
+        ev.quantile_p = detection.probability;
+        ev.quantile_dims = dims;
+        ev.quantile = chiSquareQuantile(detection.probability, dims);
+      }
+      track.quantile = ev.quantile;
       track.frame = principalAxes(ev.leftover_points, piece, dims);
       track.lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
       track.hi = -track.lo;

@@ -2,7 +2,12 @@
 // the tracks of the straightforward reference::ReferenceObstacleTracker (the tracker before the
 // optimisation, kept verbatim in reference/reference_tracker.cpp) on recorded scan sequences:
 // same ids, same voxel sets in the same order, same ellipsoids, same per-update statistics.
+// That is the tracker refitting every changed track (max_refit_delay = 0). With deferred refits of
+// refresh-only tracks (the default) the evidence must still be the reference's bit for bit, every
+// voxel must lie inside its track's ellipse at every update, and refitDeferred() must give exactly
+// the reference's tracks.
 
+#include "ddsnav/perception/chi_square.hpp"
 #include "ddsnav/perception/obstacle_detector.hpp"
 #include "ddsnav/perception/obstacle_tracker.hpp"
 #include "ddsnav/perception/reference_tracker.hpp"
@@ -43,6 +48,45 @@ void expectSameTracks(const std::vector<ObstacleEllipsoid>& fast, const std::vec
   }
 }
 
+// The tracker refitting every change: bit for bit the reference.
+TrackerParams exact(TrackerParams p) {
+  p.max_refit_delay = 0;
+  return p;
+}
+
+// Same ids and the same evidence (voxel centroids and bearings, same order) as the reference, whose
+// support is always current.
+void expectSameEvidence(const ObstacleTracker& fast, const std::vector<ObstacleEllipsoid>& ref, int scan) {
+  ASSERT_EQ(fast.obstacles().size(), ref.size()) << "scan " << scan;
+  for (std::size_t i = 0; i < ref.size(); ++i) {
+    ASSERT_EQ(fast.obstacles()[i].id, ref[i].id) << "scan " << scan;
+    const auto voxels = fast.evidence(i);
+    ASSERT_EQ(voxels.size(), ref[i].support.size()) << "scan " << scan << " id " << ref[i].id;
+    for (std::size_t k = 0; k < voxels.size(); ++k) {
+      ASSERT_EQ(voxels[k].position, ref[i].support[k].position) << "scan " << scan << " id " << ref[i].id;
+      ASSERT_EQ(voxels[k].bearing, ref[i].support[k].bearing) << "scan " << scan << " id " << ref[i].id;
+    }
+  }
+}
+
+// Every current voxel of every track, pushed outward by its position uncertainty (3 sigma + half a
+// voxel diagonal, as the fit's enclosing step), is inside the track's reported ellipse.
+void expectEveryVoxelEnclosed(const ObstacleTracker& tracker, int scan) {
+  const auto& p = tracker.params();
+  for (std::size_t i = 0; i < tracker.obstacles().size(); ++i) {
+    const ObstacleEllipsoid& t = tracker.obstacles()[i];
+    const double margin = 3.0 * p.range_noise_sigma + 0.5 * p.voxel_size * std::sqrt(double(t.dimensions));
+    const double q = chiSquareQuantile(t.probability, t.dimensions);
+    for (const SupportPoint& v : tracker.evidence(i)) {
+      Eigen::Vector3d d = v.position.cast<double>() - t.center;
+      if (t.dimensions == 2) d.z() = 0.0;
+      const double length = d.norm();
+      if (length > 0.0) d *= (length + margin) / length;
+      ASSERT_LE(t.mahalanobis2(t.center + d), q * (1 + 1e-9)) << "scan " << scan << " id " << t.id;
+    }
+  }
+}
+
 void expectSameStats(const TrackerUpdateStats& a, const TrackerUpdateStats& b, int scan) {
   EXPECT_EQ(a.fused, b.fused) << "scan " << scan;
   EXPECT_EQ(a.created, b.created) << "scan " << scan;
@@ -63,7 +107,7 @@ TEST(TrackerEquivalence, CityLidarDriveGivesExactlyTheReferenceTracks) {
   DetectorParams params;
   params.beam_spacing = 2.0 * std::numbers::pi / 1800;
   ObstacleDetector detector(params);
-  ObstacleTracker fast(TrackerParams::matching(params));
+  ObstacleTracker fast(exact(TrackerParams::matching(params)));
   reference::ReferenceObstacleTracker ref(TrackerParams::matching(params));
   const int scans = 8;
   std::size_t total_refreshed = 0, total_added = 0;
@@ -99,7 +143,7 @@ TEST(TrackerEquivalence, Demo2dDriveGivesExactlyTheReferenceTracks) {
   DetectorParams params;
   params.beam_spacing = 2.0 * std::numbers::pi / 720;
   ObstacleDetector detector(params);
-  ObstacleTracker fast(TrackerParams::matching(params));
+  ObstacleTracker fast(exact(TrackerParams::matching(params)));
   reference::ReferenceObstacleTracker ref(TrackerParams::matching(params));
   const Eigen::Vector3d a(3, 3, 0), b(8, 30, 0);
   const int scans = 120;
@@ -129,7 +173,7 @@ TEST(TrackerEquivalence, MixedDimensionsAndBadDetections) {
   bad.support[3].position.x() = std::numeric_limits<float>::quiet_NaN();
   ObstacleEllipsoid no_support;
   ObstacleEllipsoid huge = detection({1e12f, 0, 0}, {1e12f, 1, 0}, 3);
-  ObstacleTracker fast;
+  ObstacleTracker fast(exact(TrackerParams{}));
   reference::ReferenceObstacleTracker ref;
   const std::vector<std::vector<ObstacleEllipsoid>> sequence = {
       {detection({5, 0, 0}, {5, 2.5, 0}, 2), detection({5, 0, 1}, {5, 2.5, 1}, 3), bad, no_support},
@@ -141,6 +185,80 @@ TEST(TrackerEquivalence, MixedDimensionsAndBadDetections) {
     expectSameStats(fast.lastUpdate(), ref.lastUpdate(), static_cast<int>(k));
   }
   EXPECT_GE(fast.obstacles().size(), 4u);
+}
+
+// Deferred refits (the default) on the city lidar drive: the same evidence as the reference at every
+// update, every voxel inside its ellipse, fewer refits, and after refitDeferred() the reference's
+// tracks exactly.
+TEST(TrackerEquivalence, DeferredRefitsKeepTheEvidenceAndEncloseEveryVoxel) {
+  const planner::Scenario world = sim::makeCityBlock(2);
+  auto config = sim::RangeSensorConfig::lidar3d(16, 1800, -15.0, 15.0, 60.0);
+  config.range_noise_sigma = 0.02;
+  config.invalid_fraction = 0.005;
+  config.seed = 5;
+  sim::RangeSensor sensor(world, config);
+  DetectorParams params;
+  params.beam_spacing = 2.0 * std::numbers::pi / 1800;
+  ObstacleDetector detector(params);
+  const TrackerParams deferred_params = TrackerParams::matching(params);
+  ASSERT_GT(deferred_params.max_refit_delay, 0u);  // the default defers
+  ObstacleTracker deferred(deferred_params);
+  ObstacleTracker every(exact(deferred_params));
+  reference::ReferenceObstacleTracker ref(deferred_params);
+  std::size_t refits_deferred = 0, refits_every = 0, late = 0, waiting = 0;
+  for (int k = 0; k < 10; ++k) {
+    const sim::SensorPose pose{{-20.0 + 0.5 * k, 0.8 * std::sin(0.3 * k), 1.8}, 0.15 * std::sin(0.2 * k)};
+    const auto cloud = sensor.scan(pose, k * 0.1);
+    const auto detections = detector.detect(cloud.points, cloud.origin, 3);
+    deferred.update(detections);
+    every.update(detections);
+    const auto& b = ref.update(detections);
+    expectSameEvidence(deferred, b, k);
+    expectEveryVoxelEnclosed(deferred, k);
+    expectEveryVoxelEnclosed(every, k);
+    expectSameStats(deferred.lastUpdate(), ref.lastUpdate(), k);
+    // A deferred track never waits longer than max_refit_delay updates (the budget is not hit here).
+    EXPECT_LT(deferred.lastUpdate().refitted_late, deferred_params.max_deferred_refits);
+    refits_deferred += deferred.lastUpdate().refitted;
+    refits_every += every.lastUpdate().refitted;
+    late += deferred.lastUpdate().refitted_late;
+    waiting += deferred.lastUpdate().deferred;
+  }
+  // Deferral happened and saved refits: otherwise this test would compare nothing new.
+  EXPECT_GT(waiting, 100u);
+  EXPECT_GT(late, 10u);
+  EXPECT_LT(refits_deferred, refits_every * 3 / 4);
+  expectSameTracks(deferred.refitDeferred(), ref.obstacles(), 10);
+  EXPECT_EQ(deferred.lastUpdate().deferred, 0u);
+}
+
+// The same on the 2-D demo drive, which revisits the same walls for many scans.
+TEST(TrackerEquivalence, DeferredRefitsOnTheDemo2dDrive) {
+  const planner::Scenario scenario =
+      planner::loadScenario(std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml");
+  auto config = sim::RangeSensorConfig::scanner2d(720, 30.0);
+  config.walls = false;
+  config.range_noise_sigma = 0.02;
+  config.invalid_fraction = 0.01;
+  sim::RangeSensor sensor(scenario, config);
+  DetectorParams params;
+  params.beam_spacing = 2.0 * std::numbers::pi / 720;
+  ObstacleDetector detector(params);
+  ObstacleTracker deferred(TrackerParams::matching(params));
+  reference::ReferenceObstacleTracker ref(TrackerParams::matching(params));
+  const Eigen::Vector3d a(3, 3, 0), b(8, 30, 0);
+  std::size_t waiting = 0;
+  for (int k = 0; k < 120; ++k) {
+    const Eigen::Vector3d p = a + (b - a) * (double(k) / 120);
+    const auto cloud = sensor.scan({p, std::atan2((b - a).y(), (b - a).x())});
+    const auto detections = detector.detect(cloud.points, cloud.origin);
+    deferred.update(detections);
+    expectSameEvidence(deferred, ref.update(detections), k);
+    expectEveryVoxelEnclosed(deferred, k);
+    waiting += deferred.lastUpdate().deferred;
+  }
+  EXPECT_GT(waiting, 50u);
+  expectSameTracks(deferred.refitDeferred(), ref.obstacles(), 120);
 }
 
 }  // namespace

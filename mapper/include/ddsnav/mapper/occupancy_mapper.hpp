@@ -57,6 +57,11 @@ struct MapperConfig {
   // Threads for the ray keys and the tree walk. 1 by default: on the shared 2-core machine the benchmark
   // ran on, a second thread only paid off while a core was idle (docs/benchmarks/mapper.md).
   int threads = 1;
+  // Pipelined insertion (kFast): insert() computes the scan's ray keys, hands the tree update to a
+  // background thread and returns; the update runs while the next scan's keys are computed, and every
+  // read of the map (octree(), exportMap(), writeBt(), memoryUsage()) first waits for it. The tree is
+  // the same as without pipelining. Uses one more thread than `threads` (the tree thread).
+  bool pipeline = false;
   std::size_t max_points = 4'000'000;  // larger scans are rejected, not truncated
 };
 
@@ -72,7 +77,9 @@ struct InsertResult {
   std::size_t occupied_cells = 0;  // distinct voxels updated as occupied (kFast only)
   double seconds = 0.0;
   // kFast only: where the time went (ray keys on all threads; merge + sort; tree walk).
-  double seconds_rays = 0.0, seconds_merge = 0.0, seconds_tree = 0.0;
+  // Pipelined: seconds_tree is the previous scan's tree update (it ran during this scan's ray keys) and
+  // seconds_wait the time this call waited for it to finish.
+  double seconds_rays = 0.0, seconds_merge = 0.0, seconds_tree = 0.0, seconds_wait = 0.0;
   int walk_threads = 0;  // threads that applied the updates to the tree (subtrees split between them)
 };
 
@@ -105,7 +112,10 @@ class OccupancyMapper {
   // Writes the map as a .bt file (OcTree::writeBinaryConst). Throws std::runtime_error naming the path.
   void writeBt(const std::string& path) const;
 
+  // Waits for a pipelined tree update first (as do exportMap, writeBt and memoryUsage).
   const octomap::OcTree& octree() const;
+  // Waits until every inserted scan is in the tree (a no-op without pipelining).
+  void finish() const;
   const MapperConfig& config() const { return config_; }
   // Bytes held: the octree (OcTree::memoryUsage) plus the insertion scratch buffers kept between scans.
   std::size_t memoryUsage() const;

@@ -19,6 +19,13 @@
 //      starts a new track.
 // So a track's evidence never leaves its box: a track cannot run away over neighbouring obstacles
 // or free space, however long the drive (see docs/perception.md).
+//
+// Cost follows what changed, not what exists: a track whose evidence grew is refitted in the same
+// update; a track whose voxels were only refreshed keeps its ellipse while every refreshed voxel
+// (pushed outward by its position uncertainty, as the fit does) is still inside it, and is refitted
+// at most max_refit_delay updates later (oldest first, at most max_deferred_refits per update).
+// Association never reads the ellipses, so the evidence is exactly what refitting every change
+// (max_refit_delay = 0, the reference behaviour) gives, and no seen voxel is ever outside its ellipse.
 
 #include <ddsnav/perception/obstacle.hpp>
 
@@ -42,6 +49,11 @@ struct TrackerParams {
   double range_noise_sigma = 0.02;    // m; refit: sensor range noise
   bool enclose_points = true;         // refit: see EllipsoidFitParams::enclose_points
   std::size_t max_voxels_per_track = 100000;  // a further cap on one track's evidence
+  // Updates a refresh-only change may wait for its refit (0: refit every changed track in the same
+  // update, bit for bit the reference tracker). Only with enclose_points: a refreshed voxel outside
+  // the current ellipse always refits at once.
+  unsigned max_refit_delay = 4;
+  std::size_t max_deferred_refits = 2000;  // per update, oldest first; the rest wait for the next one
 
   // The tracker parameters that match a detector's (voxel size, tolerance, segment length, noise).
   static TrackerParams matching(const DetectorParams& detector);
@@ -54,6 +66,9 @@ struct TrackerUpdateStats {
   std::size_t refreshed_voxels = 0;  // detection voxels in cells a track already owned
   std::size_t added_voxels = 0;      // detection voxels that extended a track
   std::size_t ignored = 0;       // detections without support points or with bad numbers
+  std::size_t refitted = 0;      // tracks refitted in this update (grown, or a voxel left the ellipse)
+  std::size_t refitted_late = 0; // ...of which refresh-only tracks whose refit had been deferred
+  std::size_t deferred = 0;      // refresh-only tracks still showing an older (enclosing) ellipse
 };
 
 class ObstacleTracker {
@@ -68,12 +83,17 @@ class ObstacleTracker {
   const std::vector<ObstacleEllipsoid>& update(std::span<const ObstacleEllipsoid> detections);
 
   const std::vector<ObstacleEllipsoid>& obstacles() const { return tracks_; }
+  // Refits every track whose refit is deferred, so obstacles() is exactly the reference's now.
+  const std::vector<ObstacleEllipsoid>& refitDeferred();
+  // The current evidence of obstacles()[index] (its `support` is the evidence of its last refit).
+  std::span<const SupportPoint> evidence(std::size_t index) const;
   const TrackerUpdateStats& lastUpdate() const { return last_; }
   const TrackerParams& params() const { return params_; }
 
  private:
   struct Evidence;
   void absorb(const ObstacleEllipsoid& detection);
+  void refit(std::size_t index);
 
   TrackerParams params_;
   std::vector<ObstacleEllipsoid> tracks_;
