@@ -108,6 +108,8 @@ GartForce gartObstacleForce(const Vec3& p, const CollisionWorld& world, const Fo
   const std::vector<NearbyObstacle> obstacles = distinctObstacles(p, world, range);
   force.obstacles = static_cast<int>(obstacles.size());
   const double max_push = options.max_push * region.reach;
+  if (obstacles.size() >= 2 && !options.event2) return force;
+  if (obstacles.size() == 1 && !options.event3) return force;
   if (obstacles.size() >= 2) {
     // Event 2, attraction: a_f = k1 * sum_i (O_i - a), k1 = attraction_gain / N. With gain 1 the candidate
     // moves to the centroid of the nearest margin nodes: between two walls, onto the middle of the gap.
@@ -138,7 +140,7 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
     GartCandidate c;
     c.state = projected;
     raw.push_back(c);
-  } else if (!sameState(projected.position, parent.position)) {
+  } else if (options.event1 && !sameState(projected.position, parent.position)) {
     // Event 1: turn away from the blocked direction, one candidate per side. Directions are tried from the
     // sample's towards the maximum turn; along each the candidate reaches as far as is free (J, 3J/4, J/2,
     // J/4: the paper's J(a) = max J(theta)). The first direction free at full reach J ends the search;
@@ -174,11 +176,15 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
   std::vector<GartCandidate> out;
   for (GartCandidate c : raw) {
     const Vec3 p = c.state.position;
+    if (!options.event2 && !options.event3 && !options.goal_attraction) {
+      out.push_back(c);  // nothing to redistribute with (the ablation's "no field" variant)
+      continue;
+    }
     const GartForce force = gartObstacleForce(p, world, region, options);
     c.field = force.event;
     Vec3 to_goal = flatten(goal - p, world.dimensions());
     const double goal_distance = to_goal.norm();
-    const double goal_step = std::min(goal_distance, options.goal_gain * region.reach);
+    const double goal_step = options.goal_attraction ? std::min(goal_distance, options.goal_gain * region.reach) : 0.0;
     const Vec3 goal_pull = goal_distance > 1e-9 ? Vec3(to_goal * (goal_step / goal_distance)) : Vec3::Zero();
     const Vec3 target = p + force.displacement + goal_pull;
     if (!sameState(target, p)) {

@@ -13,6 +13,8 @@
 
 #include <vector>
 
+#include "ddsnav/planner/rrtstar.hpp"
+
 namespace ddsnav::planner {
 
 struct GartOptions {
@@ -26,6 +28,17 @@ struct GartOptions {
   double goal_gain = 0.2;         // goal attraction step, as a fraction of the reach
   int event1_turn_steps = 4;      // event 1: directions tried per side between the sample and theta_m
   double rewire_gamma = 0.0;      // RRT* gamma; 0 = derived from the free volume (Karaman-Frazzoli)
+
+  // The parts of the algorithm, each of which can be switched off for the ablation benchmark
+  // (docs/benchmarks/planner.md). All on is the paper's GART.
+  bool event1 = true;           // collision redistribution: a blocked sample turns into max-turn candidates
+  bool event2 = true;           // attraction towards the margin nodes of two or more obstacles
+  bool event3 = true;           // repulsion from a single obstacle
+  bool goal_attraction = true;  // the final pull of every candidate towards the goal
+  bool forward_region = true;   // v_near among the k nearest nodes that can reach the sample (R+); off: the nearest node
+  bool effort_parent = true;    // v_near by the dynamic cost metric; off: the closest of the feasible ones
+  bool choose_parent = true;    // RRT*'s cheapest-parent choice when a state is inserted
+  bool rewire = true;           // RRT*'s rewiring around an inserted state
 };
 
 // Which branch of the bidirectional potential field produced a candidate.
@@ -67,9 +80,10 @@ GartForce gartObstacleForce(const Vec3& p, const CollisionWorld& world, const Fo
 
 class GartPlanner : public Planner {
  public:
-  explicit GartPlanner(GartOptions options = {}) : options_(options) {}
+  explicit GartPlanner(GartOptions options = {});
   std::string name() const override { return "gart"; }
   PlanResult solve(const PlanProblem& problem) override;
+  const GartOptions& gartOptions() const { return options_; }
 
  private:
   GartOptions options_;

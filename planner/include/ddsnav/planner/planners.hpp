@@ -14,6 +14,7 @@ namespace ddsnav::planner {
 
 std::unique_ptr<Planner> makeRrtPlanner();          // rrt.cpp
 std::unique_ptr<Planner> makeRrtStarPlanner();      // rrtstar.cpp
+std::unique_ptr<Planner> makeRrtControlsPlanner();  // rrt_controls.cpp (Li-RRT paper's baseline)
 std::unique_ptr<Planner> makeApgdRrtStarPlanner();  // apgd_rrtstar.cpp
 std::unique_ptr<Planner> makeRrrtPlanner();         // rrrt.cpp
 std::unique_ptr<Planner> makeDdrrtPlanner();        // ddrrt.cpp
