@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
   bool anytime = false, json = false, kinodynamic = false, tree_metrics = false, list_options = false;
   std::vector<std::string> options;
   app.add_option("--scenario", scenario_file, "scenario YAML file")->required();
-  app.add_option("--planner", planner_name, "planner: rrt, rrtstar, lirrt, gart, apgd-rrtstar, rrrt, ddrrt")->required();
+  app.add_option("--planner", planner_name, "planner: rrt, rrtstar, lirrt, gart, gart-lazy, apgd-rrtstar, rrrt, ddrrt, rrt-controls")->required();
   app.add_option("--seed", seed, "random seed (same seed, same result)");
   app.add_option("--time-limit", time_limit, "seconds, > 0");
   app.add_option("--max-iterations", max_iterations, "iteration cap, > 0");

@@ -8,10 +8,18 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 namespace ddsnav::planner {
 
-GartPlanner::GartPlanner(GartOptions options) : options_(options) {
+GartOptions gartLazyOptions() {
+  GartOptions o;
+  o.event1_min_edge = 0.1;
+  o.defer_optimisation = true;
+  return o;
+}
+
+GartPlanner::GartPlanner(GartOptions options, std::string name) : options_(options), name_(std::move(name)) {
   GartOptions& o = options_;
   addOption("k_nearest", &o.k_nearest, 1, 1000, "candidate parents examined per sample");
   addOption("goal_bias", &o.goal_bias, 0.0, 1.0, "probability of sampling the goal");
@@ -22,6 +30,7 @@ GartPlanner::GartPlanner(GartOptions options) : options_(options) {
   addOption("max_push", &o.max_push, 0.0, 10.0, "cap of an obstacle push, fraction of the reach");
   addOption("goal_gain", &o.goal_gain, 0.0, 10.0, "goal attraction step, fraction of the reach");
   addOption("event1_turn_steps", &o.event1_turn_steps, 1, 64, "event 1: directions tried per side");
+  addOption("event1_min_edge", &o.event1_min_edge, 0.0, 100.0, "event 1's shortest edge in robot radii (0: J/4)");
   addOption("rewire_gamma", &o.rewire_gamma, 0.0, 1e12, "RRT* gamma; 0 derives it from the bounds");
   addOption("event1", &o.event1, "collision redistribution (event 1)");
   addOption("event2", &o.event2, "attraction between obstacles (event 2)");
@@ -31,6 +40,7 @@ GartPlanner::GartPlanner(GartOptions options) : options_(options) {
   addOption("effort_parent", &o.effort_parent, "v_near by the dynamic cost metric");
   addOption("choose_parent", &o.choose_parent, "RRT* cheapest-parent choice at insertion");
   addOption("rewire", &o.rewire, "RRT* rewiring");
+  addOption("defer_optimisation", &o.defer_optimisation, "parent choice and rewiring only after the first solution");
 }
 
 PlanResult GartPlanner::solve(const PlanProblem& problem) {
@@ -42,6 +52,7 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
   const double edge_reach = std::hypot(region.reach, region.max_climb);
   const double gamma = options_.rewire_gamma > 0.0 ? options_.rewire_gamma : rrtStarGamma(world);
   const StarInsertion::Parts parts{options_.choose_parent, options_.rewire};
+  const StarInsertion::Parts feasibility_first{false, false};
   const std::size_t k = options_.forward_region ? static_cast<std::size_t>(options_.k_nearest) : 1;
   StarInsertion insertion;
   std::vector<int> knn;
@@ -74,7 +85,8 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
     // edge was checked by the redistribution.
     for (const GartCandidate& candidate : candidates) {
       const double radius = rrtStarRadius(gamma, run.tree.size(), world.dimensions(), edge_reach);
-      insertion.insert(run, steering, candidate.state.position, v_near, radius, parts);
+      insertion.insert(run, steering, candidate.state.position, v_near, radius,
+                       options_.defer_optimisation && !run.solved() ? feasibility_first : parts);
     }
   }
   return run.finish();
@@ -83,5 +95,7 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
 std::unique_ptr<Planner> makeGartPlanner() {
   return std::make_unique<GartPlanner>();
 }
+
+std::unique_ptr<Planner> makeGartLazyPlanner() { return std::make_unique<GartPlanner>(gartLazyOptions(), "gart-lazy"); }
 
 }  // namespace ddsnav::planner

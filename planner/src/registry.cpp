@@ -34,6 +34,9 @@ const std::vector<std::pair<std::string, Factory>>& registry() {
 #ifdef DDSNAV_HAVE_GART
       {"gart", &makeGartPlanner},
 #endif
+#ifdef DDSNAV_HAVE_GARTLAZY
+      {"gart-lazy", &makeGartLazyPlanner},
+#endif
 #ifdef DDSNAV_HAVE_APGDRRTSTAR
       {"apgd-rrtstar", &makeApgdRrtStarPlanner},
 #endif
@@ -177,6 +180,19 @@ void applyOptions(Planner& planner, const std::vector<std::string>& assignments)
     }
     planner.setOption(trimmed(a.substr(0, eq)), a.substr(eq + 1));
   }
+}
+
+std::map<std::string, std::vector<std::string>> parsePlannerOptions(const std::vector<std::string>& entries) {
+  std::map<std::string, std::vector<std::string>> out;
+  for (const std::string& e : entries) {
+    const auto eq = e.find('=');
+    const auto dot = e.find('.');
+    if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot > eq) {
+      throw std::invalid_argument("option entry '" + e + "' is not of the form planner.option=value");
+    }
+    out[trimmed(e.substr(0, dot))].push_back(e.substr(dot + 1));
+  }
+  return out;
 }
 
 std::unique_ptr<Planner> makePlannerFromSpec(const std::string& spec) {

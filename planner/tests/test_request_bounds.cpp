@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <map>
+#include <vector>
 #include <string>
 
 namespace ddsnav::planner {
@@ -192,6 +194,27 @@ TEST(PlannerOptions, SpecsAndSwitchesTakeEffect) {
   EXPECT_NE(errorOf([&] { makePlannerFromSpec("nope{a=1}"); }).find("unknown planner 'nope'"), std::string::npos);
   auto star = makePlannerFromSpec("rrtstar{rewire_factor=2}");
   EXPECT_EQ(star->options()[1].value, "2");
+}
+
+TEST(PlannerOptions, ComponentEntriesGroupByPlanner) {
+  const auto grouped = parsePlannerOptions({"gart.k_nearest=12", "gart.rewire=false", "rrtstar.rewire_factor=1.5"});
+  ASSERT_EQ(grouped.size(), 2u);
+  EXPECT_EQ(grouped.at("gart"), (std::vector<std::string>{"k_nearest=12", "rewire=false"}));
+  EXPECT_EQ(grouped.at("rrtstar"), (std::vector<std::string>{"rewire_factor=1.5"}));
+  EXPECT_NE(errorOf([] { parsePlannerOptions({"k_nearest=12"}); }).find("planner.option=value"), std::string::npos);
+  EXPECT_NE(errorOf([] { parsePlannerOptions({"gart.k_nearest"}); }).find("planner.option=value"), std::string::npos);
+}
+
+// gart-lazy is GART with two documented changes; its options say so and can be switched back.
+TEST(PlannerOptions, GartLazyIsGartWithTwoChanges) {
+  auto lazy = makePlanner("gart-lazy");
+  std::map<std::string, std::string> values;
+  for (const PlannerOption& o : lazy->options()) values[o.name] = o.value;
+  EXPECT_EQ(values["defer_optimisation"], "true");
+  EXPECT_EQ(values["event1_min_edge"], "0.1");
+  for (const PlannerOption& o : makePlanner("gart")->options()) {
+    if (o.name != "defer_optimisation" && o.name != "event1_min_edge") EXPECT_EQ(values[o.name], o.value) << o.name;
+  }
 }
 
 }  // namespace

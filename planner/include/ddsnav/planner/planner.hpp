@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -131,6 +132,11 @@ std::vector<std::string> plannerNames();
 
 // Applies "name=value" assignments with Planner::setOption (std::invalid_argument for a malformed one).
 void applyOptions(Planner& planner, const std::vector<std::string>& assignments);
+
+// Groups "planner.option=value" entries (the planner component's planner_options parameter) by planner:
+// {"gart.k_nearest=12", "gart.rewire=false"} -> {gart: {"k_nearest=12", "rewire=false"}}. Throws
+// std::invalid_argument for an entry without "planner." or "=".
+std::map<std::string, std::vector<std::string>> parsePlannerOptions(const std::vector<std::string>& entries);
 
 // A planner from a spec "name" or "name{k=v,k=v}" (the form ddsnav bench takes in --planners, so one
 // grid can hold several configurations of one planner). Throws std::invalid_argument as the above.

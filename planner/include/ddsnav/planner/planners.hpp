@@ -20,5 +20,6 @@ std::unique_ptr<Planner> makeRrrtPlanner();         // rrrt.cpp
 std::unique_ptr<Planner> makeDdrrtPlanner();        // ddrrt.cpp
 std::unique_ptr<Planner> makeLiRrtPlanner();        // lirrt*.cpp (planner-kino)
 std::unique_ptr<Planner> makeGartPlanner();         // gart*.cpp (planner-kino)
+std::unique_ptr<Planner> makeGartLazyPlanner();     // gart.cpp: GART with the changes of docs/planners.md
 
 }  // namespace ddsnav::planner
