@@ -28,6 +28,7 @@ using planner::Scenario;
 PlanProblem makeProblem(const Scenario& scenario, const CollisionWorld& world, std::uint64_t seed, double time_limit_s,
                         bool kinodynamic, bool anytime) {
   PlanProblem problem = planner::problemFromScenario(scenario, world);
+  problem.tree_metrics = true;  // the benchmark reports c(G), g(G) and FGC
   problem.kinodynamic = kinodynamic;
   problem.seed = seed;
   problem.time_limit_s = time_limit_s;
@@ -70,15 +71,59 @@ void checkPath(const planner::PlanResult& result, const Scenario& scenario, cons
   r.valid = true;
 }
 
-RunRecord runOurs(const std::string& name, const Scenario& scenario, const CollisionWorld& world,
-                  const PlanProblem& problem) {
+// A planner of the grid: a spec ("gart", "gart{rewire=false}") plus the grid-wide --option assignments.
+std::unique_ptr<planner::Planner> makeOurs(const std::string& spec, const std::vector<std::string>& options) {
+  auto p = planner::makePlannerFromSpec(spec);
+  planner::applyOptions(*p, options);
+  return p;
+}
+
+// Splits --planners at the commas outside braces: "gart{event1=false,rewire=false},rrt".
+std::vector<std::string> splitPlannerList(const std::vector<std::string>& args) {
+  std::vector<std::string> out;
+  for (const std::string& arg : args) {
+    std::string current;
+    int depth = 0;
+    for (char c : arg) {
+      if (c == '{') ++depth;
+      if (c == '}') --depth;
+      if (c == ',' && depth == 0) {
+        if (!current.empty()) out.push_back(current);
+        current.clear();
+      } else {
+        current += c;
+      }
+    }
+    if (!current.empty()) out.push_back(current);
+  }
+  return out;
+}
+
+// --ablation: GART with all parts on, then with each part off in turn (and the whole field off).
+std::vector<std::string> gartAblation() {
+  return {"gart",
+          "gart{event1=false}",
+          "gart{event2=false}",
+          "gart{event3=false}",
+          "gart{event2=false,event3=false}",
+          "gart{goal_attraction=false}",
+          "gart{event1=false,event2=false,event3=false,goal_attraction=false}",
+          "gart{forward_region=false}",
+          "gart{effort_parent=false}",
+          "gart{choose_parent=false}",
+          "gart{rewire=false}",
+          "gart{choose_parent=false,rewire=false}"};
+}
+
+RunRecord runOurs(const std::string& name, const std::vector<std::string>& options, const Scenario& scenario,
+                  const CollisionWorld& world, const PlanProblem& problem) {
   RunRecord r;
   r.planner = name;
   r.scenario = scenario.name;
   r.seed = problem.seed;
   planner::PlanResult result;
   try {
-    result = planner::makePlanner(name)->solve(problem);
+    result = makeOurs(name, options)->solve(problem);
   } catch (const std::invalid_argument& e) {
     r.invalid_reason = e.what();  // e.g. a unicycle planner on a scenario without a vehicle block
     return r;
@@ -141,13 +186,15 @@ int main(int argc, char** argv) {
   int seeds = 5;
   double time_limit = 10.0;
   std::string out_dir;
-  bool kinodynamic = false, anytime = false;
+  bool kinodynamic = false, anytime = false, ablation = false;
+  std::vector<std::string> planner_args, options;
   app.add_option("--scenarios", scenario_files, "scenario YAML files")->required()->expected(1, -1);
-  app.add_option("--planners", planner_names, "comma-separated planners: ddsnav names (rrt, rrtstar, lirrt, gart, ...) "
-                                              "and ompl:rrt, ompl:rrtconnect, ompl:rrtstar, ompl:bitstar, "
-                                              "ompl:control-rrt, ompl:sst, ompl:est, ompl:pdst")
-      ->required()
-      ->delimiter(',');
+  app.add_option("--planners", planner_args, "comma-separated planners: ddsnav names (rrt, rrtstar, lirrt, gart, ...), "
+                                             "each optionally with options as name{k=v,k=v}, "
+                                             "and ompl:rrt, ompl:rrtconnect, ompl:rrtstar, ompl:bitstar, "
+                                             "ompl:control-rrt, ompl:sst, ompl:est, ompl:pdst");
+  app.add_option("--option", options, "option name=value for every ddsnav planner of the grid (each must have it)");
+  app.add_flag("--ablation", ablation, "add GART with each of its parts switched off (docs/benchmarks/planner.md)");
   app.add_option("--seeds", seeds, "seeds 1..N per scenario and planner")->check(CLI::Range(1, 100000));
   app.add_option("--time-limit", time_limit, "seconds per run, > 0");
   app.add_option("--out", out_dir, "output directory (created)")->required();
@@ -156,6 +203,13 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
+    planner_names = bench::splitPlannerList(planner_args);
+    if (ablation) {
+      for (const std::string& spec : bench::gartAblation()) {
+        if (std::find(planner_names.begin(), planner_names.end(), spec) == planner_names.end()) planner_names.push_back(spec);
+      }
+    }
+    if (planner_names.empty()) throw std::invalid_argument("no planners: give --planners and/or --ablation");
     if (!std::isfinite(time_limit) || time_limit <= 0.0) {
       throw std::invalid_argument("--time-limit must be a positive number of seconds");
     }
@@ -163,9 +217,12 @@ int main(int argc, char** argv) {
     const auto ours = planner::plannerNames();
     const auto ompl_names = bench::omplPlannerNames();
     for (const std::string& name : planner_names) {
-      const bool is_ours = std::find(ours.begin(), ours.end(), name) != ours.end();
       const bool is_ompl = std::find(ompl_names.begin(), ompl_names.end(), name) != ompl_names.end();
-      if (is_ours || is_ompl) continue;
+      if (is_ompl) continue;
+      if (name.rfind("ompl:", 0) != 0) {
+        bench::makeOurs(name, options);  // throws for an unknown planner or a bad option
+        continue;
+      }
       if (name.rfind("ompl:", 0) == 0 && !bench::omplAvailable()) {
         throw std::invalid_argument("planner '" + name + "' needs OMPL, which was not found when ddsnav was built");
       }
@@ -203,7 +260,7 @@ int main(int argc, char** argv) {
             r = bench::runIsolated([&] { return bench::runOmpl(name, scenario, *world, problem); }, time_limit,
                                    identity);
           } else {
-            r = bench::runOurs(name, scenario, *world, problem);
+            r = bench::runOurs(name, options, scenario, *world, problem);
           }
           if (r.solved && !r.valid) {
             spdlog::warn("{} on {} seed {}: returned path failed the independent check: {}", name, scenario.name, seed,

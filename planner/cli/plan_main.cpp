@@ -14,6 +14,7 @@
 #include <iostream>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -48,9 +49,10 @@ nlohmann::json toJson(const std::string& scenario_file, const Scenario& scenario
           {"pous", st.pous},
           {"por", st.por},
           {"fdc", st.first_directive_connect},
-          {"fgc", st.first_glance_connect},
-          {"coverage", st.coverage},
-          {"growth", st.growth},
+          {"tree_metrics", st.tree_metrics},
+          {"fgc", st.tree_metrics ? nlohmann::json(st.first_glance_connect) : nlohmann::json(nullptr)},
+          {"coverage", st.tree_metrics ? nlohmann::json(st.coverage) : nlohmann::json(nullptr)},
+          {"growth", st.tree_metrics ? nlohmann::json(st.growth) : nlohmann::json(nullptr)},
           {"path", path}};
 }
 
@@ -89,9 +91,10 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   double time_limit = 10.0;
   std::uint64_t max_iterations = std::numeric_limits<std::uint64_t>::max();
-  bool anytime = false, json = false, kinodynamic = false;
+  bool anytime = false, json = false, kinodynamic = false, tree_metrics = false, list_options = false;
+  std::vector<std::string> options;
   app.add_option("--scenario", scenario_file, "scenario YAML file")->required();
-  app.add_option("--planner", planner_name, "planner: rrt, rrtstar, lirrt, gart, apgd-rrtstar, rrrt, ddrrt")->required();
+  app.add_option("--planner", planner_name, "planner: rrt, rrtstar, lirrt, gart, gart-lazy, apgd-rrtstar, rrrt, ddrrt, rrt-controls")->required();
   app.add_option("--seed", seed, "random seed (same seed, same result)");
   app.add_option("--time-limit", time_limit, "seconds, > 0");
   app.add_option("--max-iterations", max_iterations, "iteration cap, > 0");
@@ -99,6 +102,9 @@ int main(int argc, char** argv) {
   app.add_option("--svg", svg_file, "write a picture of the world, tree and path");
   app.add_flag("--json", json, "print exactly one JSON object on one line");
   app.add_flag("--kinodynamic", kinodynamic, "rrt/rrtstar: grow unicycle edges (needs the scenario's vehicle block)");
+  app.add_option("--option", options, "planner option name=value (repeatable; docs/planners.md lists them)");
+  app.add_flag("--tree-metrics", tree_metrics, "also compute c(G), g(G) and FGC (within the time limit)");
+  app.add_flag("--list-options", list_options, "print the planner's options, their ranges and defaults, and exit");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -106,7 +112,15 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--time-limit must be a positive number of seconds, got " + std::to_string(time_limit));
     }
     if (max_iterations == 0) throw std::invalid_argument("--max-iterations must be positive");
-    auto planner = makePlanner(planner_name);  // unknown names fail before the scenario is read
+    auto planner = makePlanner(planner_name);  // unknown names and bad options fail before the scenario is read
+    applyOptions(*planner, options);
+    if (list_options) {
+      for (const PlannerOption& o : planner->options()) {
+        std::printf("%s = %s  (%s) %s\n", o.name.c_str(), o.value.c_str(), o.range().c_str(), o.description.c_str());
+      }
+      if (planner->options().empty()) std::printf("planner %s has no options\n", planner->name().c_str());
+      return 0;
+    }
     const Scenario scenario = loadScenario(scenario_file);
     const auto world = makeScenarioWorld(scenario);
 
@@ -116,6 +130,7 @@ int main(int argc, char** argv) {
     problem.time_limit_s = time_limit;
     problem.max_iterations = max_iterations;
     problem.anytime = anytime;
+    problem.tree_metrics = tree_metrics;
     if (kinodynamic && !scenario.vehicle) {
       throw std::invalid_argument("--kinodynamic needs a 'vehicle' block in " + scenario_file);
     }
@@ -155,9 +170,12 @@ int main(int argc, char** argv) {
       std::printf("time %.6f s, iterations %llu, vertices %llu, validity checks %llu, rewires %llu\n", s.time_s,
                   static_cast<unsigned long long>(s.iterations), static_cast<unsigned long long>(s.vertices),
                   static_cast<unsigned long long>(s.validity_checks), static_cast<unsigned long long>(s.rewires));
-      std::printf("POUS %.3f, POR %.3f, FDC %lld, FGC %lld, c(G) %.4f, g(G) %.3g\n", s.pous, s.por,
-                  static_cast<long long>(s.first_directive_connect), static_cast<long long>(s.first_glance_connect),
-                  s.coverage, s.growth);
+      std::printf("POUS %.3f, POR %.3f, FDC %lld\n", s.pous, s.por, static_cast<long long>(s.first_directive_connect));
+      if (s.tree_metrics) {
+        std::printf("FGC %lld, c(G) %.4f, g(G) %.3g\n", static_cast<long long>(s.first_glance_connect), s.coverage, s.growth);
+      } else if (tree_metrics) {
+        std::printf("tree metrics: not finished within the time limit\n");
+      }
     }
     return 0;  // an unsolved run is a result (solved: false), not an error
   } catch (const std::exception& e) {

@@ -98,7 +98,7 @@ TEST_F(PlanCli, ThreeDimensionalStatesCarryZ) {
 }
 
 TEST_F(PlanCli, SameSeedSamePath) {
-  const std::string args = "--scenario " + kScenarios + "stunnel_0.5.yaml --planner rrt --kinodynamic --seed 9 --json";
+  const std::string args = "--scenario " + kScenarios + "stunnel_small_0.5.yaml --planner rrt --kinodynamic --seed 9 --json";
   const auto a = nlohmann::json::parse(plan(args).out), b = nlohmann::json::parse(plan(args).out);
   EXPECT_EQ(a["path"].dump(), b["path"].dump());
   EXPECT_EQ(a["iterations"], b["iterations"]);
@@ -118,6 +118,30 @@ TEST_F(PlanCli, BadInputExitsWithStatus2AndSaysWhy) {
   expectError("--scenario " + variant("robot_radius", "robot_radius: .nan") + " --planner rrt",
               "robot_radius.yaml:[0-9]+: key 'robot_radius': expected a finite number");
   expectError("--scenario " + variant("vehicle", "") + " --planner rrt --kinodynamic", "--kinodynamic needs a 'vehicle' block");
+}
+
+TEST_F(PlanCli, OptionsAreValidatedWithPlannerOptionAndRange) {
+  const std::string demo = "--scenario " + kScenarios + "demo_2d.yaml";
+  expectError(demo + " --planner gart --option k_nearest=0", "planner gart, option k_nearest: expected an integer in \\[1, 1000\\], got '0'");
+  expectError(demo + " --planner gart --option rewire=perhaps", "option rewire: expected true or false");
+  expectError(demo + " --planner gart --option rewire_factor=2", "planner gart has no option 'rewire_factor'");
+  expectError(demo + " --planner rrt --option goal_bias=0.1", "planner rrt has no option 'goal_bias' \\(it has no options\\)");
+  expectError(demo + " --planner lirrt --option turn_steps", "not of the form name=value");
+  const CliRun r = plan(demo + " --planner rrtstar --option rewire_factor=3 --option goal_bias=0.2 --json --tree-metrics");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["tree_metrics"].get<bool>());
+  EXPECT_TRUE(j["coverage"].is_number());
+  const CliRun live = plan(demo + " --planner rrtstar --json");
+  EXPECT_TRUE(nlohmann::json::parse(live.out)["coverage"].is_null());  // metrics only when asked
+}
+
+// Issue 13 rows 2 and 8: bounds of 1e15 ignored --time-limit, bounds of 1e200 crashed gart.
+TEST_F(PlanCli, HugeBoundsAreAnError) {
+  for (const char* size : {"1e15", "1e200"}) {
+    const std::string file = variant("bounds", std::string("bounds: {min: [0, 0], max: [") + size + ", " + size + "]}");
+    expectError("--scenario " + file + " --planner gart --time-limit 1 --tree-metrics", "must be within");
+  }
 }
 
 TEST_F(PlanCli, NoPathEndsAtTheLimitUnsolved) {

@@ -1,163 +1,101 @@
 // GART (GART paper, Algorithm 1): sampling, dynamically feasible parent choice, redistribution (see
-// gart_redistribute.cpp), and RRT*-style insertion and rewiring that keep every edge inside R+.
+// gart_redistribute.cpp), and RRT*'s insertion and rewiring (StarInsertion) keeping every edge inside R+.
 #include "ddsnav/planner/gart.hpp"
 
 #include "ddsnav/planner/planners.hpp"
-#include "ddsnav/planner/tree.hpp"
+#include "ddsnav/planner/run.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 namespace ddsnav::planner {
 
-namespace {
-
-// Every child of `node` stays inside R+ of `node` if node's heading becomes `heading`.
-bool childrenStayReachable(const SearchTree& tree, int node, double heading, const ForwardRegion& region) {
-  const TreeNode& n = tree.node(node);
-  for (int c : n.children) {
-    const Vec3& p = tree.node(c).state.position;
-    // A child straight above/below inherited the old heading; re-heading it is not worth the bookkeeping.
-    if (std::hypot(p.x() - n.state.position.x(), p.y() - n.state.position.y()) <= kNoDirectionLength) return false;
-    if (!inForwardRegion(State{n.state.position, heading}, p, region, 1e-9)) return false;
-  }
-  return true;
+GartOptions gartLazyOptions() {
+  GartOptions o;
+  o.event1_min_edge = 0.1;
+  o.defer_optimisation = true;
+  return o;
 }
 
-}  // namespace
+GartPlanner::GartPlanner(GartOptions options, std::string name) : options_(options), name_(std::move(name)) {
+  GartOptions& o = options_;
+  addOption("k_nearest", &o.k_nearest, 1, 1000, "candidate parents examined per sample");
+  addOption("goal_bias", &o.goal_bias, 0.0, 1.0, "probability of sampling the goal");
+  addOption("turn_weight", &o.turn_weight, 0.0, 1000.0, "lambda: weight of the turn in the control effort");
+  addOption("detection_range", &o.detection_range, 1e-3, 100.0, "J_dm as a fraction of the reach");
+  addOption("attraction_gain", &o.attraction_gain, 0.0, 10.0, "event 2's pull towards the margin nodes' centroid");
+  addOption("repulsion_gain", &o.repulsion_gain, 0.0, 10.0, "event 3's push, k2 = gain * J_dm^2");
+  addOption("max_push", &o.max_push, 0.0, 10.0, "cap of an obstacle push, fraction of the reach");
+  addOption("goal_gain", &o.goal_gain, 0.0, 10.0, "goal attraction step, fraction of the reach");
+  addOption("event1_turn_steps", &o.event1_turn_steps, 1, 64, "event 1: directions tried per side");
+  addOption("event1_min_edge", &o.event1_min_edge, 0.0, 100.0, "event 1's shortest edge in robot radii (0: J/4)");
+  addOption("rewire_gamma", &o.rewire_gamma, 0.0, 1e12, "RRT* gamma; 0 derives it from the bounds");
+  addOption("event1", &o.event1, "collision redistribution (event 1)");
+  addOption("event2", &o.event2, "attraction between obstacles (event 2)");
+  addOption("event3", &o.event3, "repulsion from one obstacle (event 3)");
+  addOption("goal_attraction", &o.goal_attraction, "final pull towards the goal");
+  addOption("forward_region", &o.forward_region, "v_near among the k nearest that can reach the sample");
+  addOption("effort_parent", &o.effort_parent, "v_near by the dynamic cost metric");
+  addOption("choose_parent", &o.choose_parent, "RRT* cheapest-parent choice at insertion");
+  addOption("rewire", &o.rewire, "RRT* rewiring");
+  addOption("defer_optimisation", &o.defer_optimisation, "parent choice and rewiring only after the first solution");
+}
 
 PlanResult GartPlanner::solve(const PlanProblem& problem) {
-  validateProblem(problem, /*needs_vehicle=*/true);
-  if (options_.k_nearest < 1 || !(options_.goal_bias >= 0.0 && options_.goal_bias <= 1.0) ||
-      !(options_.detection_range > 0.0)) {
-    throw std::invalid_argument("gart: k_nearest >= 1, goal_bias in [0, 1] and detection_range > 0 required");
-  }
-  const CollisionWorld& world = *problem.world;
-  const ForwardRegion region = forwardRegion(*problem.vehicle, world.dimensions());
+  checkOptions();
+  PlannerRun run(problem, name(), /*kinodynamic=*/true);
+  const CollisionWorld& world = run.world;
+  const ForwardRegion region = forwardRegion(*run.problem.vehicle, world.dimensions());
+  const Steering steering = Steering::unicycle(region);
   const double edge_reach = std::hypot(region.reach, region.max_climb);
   const double gamma = options_.rewire_gamma > 0.0 ? options_.rewire_gamma : rrtStarGamma(world);
+  const StarInsertion::Parts parts{options_.choose_parent, options_.rewire};
+  const StarInsertion::Parts feasibility_first{false, false};
+  const std::size_t k = options_.forward_region ? static_cast<std::size_t>(options_.k_nearest) : 1;
+  StarInsertion insertion;
+  std::vector<int> knn;
 
-  RunClock clock(problem);
-  const std::uint64_t checks_at_start = world.validityChecks();
-  Random random(problem.seed);
-  PlanResult result;
-  result.planner = name();
-  result.kinodynamic = true;
-
-  SearchTree tree(world.dimensions());
-  std::vector<std::int64_t> node_iteration;
-  std::vector<int> goal_nodes;
-  std::vector<int> knn, near;
-  std::vector<std::pair<double, int>> parent_order;
-
-  tree.add(problem.start, -1, 0.0);
-  node_iteration.push_back(0);
-  if ((problem.start.position - problem.goal).norm() <= problem.goal_radius) goal_nodes.push_back(0);
-
-  auto bestGoal = [&]() {
-    int best = -1;
-    for (int g : goal_nodes) {
-      if (best < 0 || tree.node(g).cost < tree.node(best).cost) best = g;
-    }
-    return best;
-  };
-
-  std::uint64_t iteration = 0;
-  while (goal_nodes.empty() || problem.anytime) {
-    if (iteration >= problem.max_iterations || clock.expired()) break;
-    ++iteration;
-    if (problem.on_progress && iteration % 256 == 0) problem.on_progress(iteration);
-
+  while (run.nextIteration()) {
     // Line 3: sample.
-    const Vec3 sample = random.uniform() < options_.goal_bias ? problem.goal : random.position(world);
+    const Vec3 sample = run.sample(options_.goal_bias);
 
-    // Line 4: among the k nearest, the dynamically feasible parent of least control effort; when none is
-    // feasible (the sample is behind every near node) the nearest one steers at its maximum turn.
-    tree.kNearest(sample, static_cast<std::size_t>(options_.k_nearest), knn);
+    // Line 4: among the k nearest, the dynamically feasible parent of least control effort (or, with
+    // effort_parent off, the closest feasible one); when none is feasible (the sample is behind every
+    // near node) the nearest one steers at its maximum turn.
+    run.tree.kNearest(sample, k, knn);
+    if (knn.empty()) continue;  // no node at a finite distance (cannot happen inside validated bounds)
     int v_near = knn.front();
-    double best_effort = std::numeric_limits<double>::infinity();
+    double best = std::numeric_limits<double>::infinity();
     for (int n : knn) {
-      const double effort = gartControlEffort(tree.node(n).state, sample, region, options_.turn_weight);
-      if (effort < best_effort) {
-        best_effort = effort;
+      const double effort = gartControlEffort(run.tree.node(n).state, sample, region, options_.turn_weight);
+      const double score = options_.effort_parent || !std::isfinite(effort) ? effort : (run.tree.node(n).state.position - sample).norm();
+      if (score < best) {
+        best = score;
         v_near = n;
       }
     }
 
     // Lines 5-13: redistribute into one or two collision-free states inside R+(v_near).
     const std::vector<GartCandidate> candidates =
-        gartRedistribute(tree.node(v_near).state, sample, problem.goal, world, region, options_);
+        gartRedistribute(run.tree.node(v_near).state, sample, run.problem.goal, world, region, options_);
 
-    // Lines 14-16: add each state with the cheapest R+-feasible parent, then rewire around it.
+    // Lines 14-16: add each state with the cheapest R+-feasible parent, then rewire around it. v_near's
+    // edge was checked by the redistribution.
     for (const GartCandidate& candidate : candidates) {
-      const Vec3 p = candidate.state.position;
-      const double radius = rrtStarRadius(gamma, tree.size(), world.dimensions(), edge_reach);
-      tree.withinRadius(p, radius, near);
-
-      // v_near's edge is known free, so it is always a valid parent: only cheaper neighbours (in the
-      // order (cost, id) the sort below uses) can win, and only they need the R+ test.
-      parent_order.clear();
-      const std::pair<double, int> through_v_near{
-          tree.node(v_near).cost + (p - tree.node(v_near).state.position).norm(), v_near};
-      parent_order.push_back(through_v_near);
-      for (int u : near) {
-        if (u == v_near) continue;
-        const std::pair<double, int> through_u{tree.node(u).cost + (p - tree.node(u).state.position).norm(), u};
-        if (!(through_u < through_v_near) || !inForwardRegion(tree.node(u).state, p, region, 1e-9)) continue;
-        parent_order.push_back(through_u);
-      }
-      std::sort(parent_order.begin(), parent_order.end());
-      int parent = -1;
-      double cost = 0.0;
-      for (const auto& [c, u] : parent_order) {
-        // v_near's edge was checked by the redistribution.
-        if (u == v_near || world.isSegmentFree(tree.node(u).state.position, p)) {
-          parent = u;
-          cost = c;
-          break;
-        }
-      }
-      const State& from = tree.node(parent).state;
-      const State state{p, edgeHeading(from.position, p, from.heading)};
-      const int id = tree.add(state, parent, cost);
-      node_iteration.push_back(static_cast<std::int64_t>(iteration));
-
-      for (int x : near) {
-        if (x == parent) continue;
-        const TreeNode& xn = tree.node(x);
-        if (xn.parent < 0) continue;  // never re-parent the root
-        const double new_cost = cost + (xn.state.position - p).norm();
-        if (new_cost >= xn.cost - 1e-9) continue;
-        // SearchTree::reparent re-heads x along the new edge, which needs a horizontal direction.
-        if (std::hypot(xn.state.position.x() - p.x(), xn.state.position.y() - p.y()) <= kNoDirectionLength) continue;
-        if (!inForwardRegion(state, xn.state.position, region, 1e-9)) continue;
-        const double new_heading = edgeHeading(p, xn.state.position, state.heading);
-        if (!childrenStayReachable(tree, x, new_heading, region)) continue;
-        if (!world.isSegmentFree(p, xn.state.position)) continue;
-        tree.reparent(x, id, new_cost);
-        ++result.stats.rewires;
-      }
-
-      if ((p - problem.goal).norm() <= problem.goal_radius) {
-        if (goal_nodes.empty()) {
-          result.stats.time_to_first_solution_s = clock.elapsed();
-          result.stats.iterations_to_first_solution = static_cast<std::int64_t>(iteration);
-          result.stats.first_directive_connect = static_cast<std::int64_t>(iteration);
-        }
-        goal_nodes.push_back(id);
-      }
+      const double radius = rrtStarRadius(gamma, run.tree.size(), world.dimensions(), edge_reach);
+      insertion.insert(run, steering, candidate.state.position, v_near, radius,
+                       options_.defer_optimisation && !run.solved() ? feasibility_first : parts);
     }
   }
-
-  result.stats.iterations = iteration;
-  finishResult(result, bestGoal(), tree, problem, node_iteration, checks_at_start, clock);
-  return result;
+  return run.finish();
 }
 
 std::unique_ptr<Planner> makeGartPlanner() {
   return std::make_unique<GartPlanner>();
 }
+
+std::unique_ptr<Planner> makeGartLazyPlanner() { return std::make_unique<GartPlanner>(gartLazyOptions(), "gart-lazy"); }
 
 }  // namespace ddsnav::planner

@@ -55,16 +55,16 @@ double wrapSmallAngle(double a) {
   return a;
 }
 
-// Event 1's reach search along one direction: the longest of the edge lengths J, 3J/4, J/2, J/4 (as
-// fractions of J, only those above `at_least`) whose edge from `parent` is free; 0 when none is.
-// The edges along one direction are prefixes of each other, so when the longest is blocked the shortest
-// is checked next: blocked means every longer one is too, which saves the checks in between (a node
-// pinned against a wall costs two checks per direction instead of four). The answer is the one the
-// plain longest-first scan gives. The direction's sine and cosine are computed once; positions are
-// built exactly as driveUnicycle builds them.
+// Event 1's reach search along one direction: the longest of the edge lengths `fractions` (of J, longest
+// first; only those above `at_least`) whose edge from `parent` is free; 0 when none is. The paper's
+// J(a) = max J(theta) over J, 3J/4, J/2, J/4 (the default list); event1_min_edge extends the list by
+// halving. The edges along one direction are prefixes of each other, so "free" is monotone in the length:
+// after the longest (most often the answer), the shortest is checked (blocked: every longer one is too),
+// then a bisection finds the longest free one, the answer a longest-first scan gives with fewer checks.
+// The direction's sine and cosine are computed once; positions are built exactly as driveUnicycle builds them.
 double longestFreeFraction(const State& parent, double turn, double climb, double at_least,
-                           const CollisionWorld& world, const ForwardRegion& region) {
-  static constexpr double kFractions[] = {1.0, 0.75, 0.5, 0.25};
+                           const std::vector<double>& fractions, const CollisionWorld& world,
+                           const ForwardRegion& region) {
   turn = std::clamp(turn, -region.max_turn, region.max_turn);
   const double heading = wrapAngle(parent.heading + turn);
   const double c = std::cos(heading), s = std::sin(heading);
@@ -74,15 +74,26 @@ double longestFreeFraction(const State& parent, double turn, double climb, doubl
     return Vec3(parent.position + Vec3(length * c, length * s, z));
   };
   auto isFreeAt = [&](double fraction) { return world.isSegmentFree(parent.position, endAt(fraction)); };
-  int count = 0;  // fractions above at_least: kFractions[0 .. count-1], longest first
-  while (count < 4 && kFractions[count] > at_least) ++count;
+  int count = 0;  // fractions above at_least: fractions[0 .. count-1], longest first
+  while (count < static_cast<int>(fractions.size()) && fractions[count] > at_least) ++count;
   if (count == 0) return 0.0;
-  if (isFreeAt(kFractions[0])) return kFractions[0];
-  if (count == 1 || !isFreeAt(kFractions[count - 1])) return 0.0;
-  for (int i = 1; i + 1 < count; ++i) {
-    if (isFreeAt(kFractions[i])) return kFractions[i];
+  if (isFreeAt(fractions[0])) return fractions[0];
+  if (count == 1 || !isFreeAt(fractions[count - 1])) return 0.0;
+  int blocked = 0, free = count - 1;  // invariant: fractions[blocked] blocked, fractions[free] free
+  while (free - blocked > 1) {
+    const int mid = (blocked + free) / 2;
+    if (isFreeAt(fractions[mid])) free = mid;
+    else blocked = mid;
   }
-  return kFractions[count - 1];
+  return fractions[free];
+}
+
+// The reach fractions of event 1: J, 3J/4, J/2, J/4, then halving while the edge stays at least
+// `min_edge` metres long.
+std::vector<double> reachFractions(const ForwardRegion& region, double min_edge) {
+  std::vector<double> f = {1.0, 0.75, 0.5, 0.25};
+  while (f.back() * 0.5 * region.reach >= min_edge && f.size() < 40) f.push_back(f.back() * 0.5);
+  return f;
 }
 
 }  // namespace
@@ -108,6 +119,8 @@ GartForce gartObstacleForce(const Vec3& p, const CollisionWorld& world, const Fo
   const std::vector<NearbyObstacle> obstacles = distinctObstacles(p, world, range);
   force.obstacles = static_cast<int>(obstacles.size());
   const double max_push = options.max_push * region.reach;
+  if (obstacles.size() >= 2 && !options.event2) return force;
+  if (obstacles.size() == 1 && !options.event3) return force;
   if (obstacles.size() >= 2) {
     // Event 2, attraction: a_f = k1 * sum_i (O_i - a), k1 = attraction_gain / N. With gain 1 the candidate
     // moves to the centroid of the nearest margin nodes: between two walls, onto the middle of the gap.
@@ -138,7 +151,7 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
     GartCandidate c;
     c.state = projected;
     raw.push_back(c);
-  } else if (!sameState(projected.position, parent.position)) {
+  } else if (options.event1 && !sameState(projected.position, parent.position)) {
     // Event 1: turn away from the blocked direction, one candidate per side. Directions are tried from the
     // sample's towards the maximum turn; along each the candidate reaches as far as is free (J, 3J/4, J/2,
     // J/4: the paper's J(a) = max J(theta)). The first direction free at full reach J ends the search;
@@ -146,13 +159,15 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
     const double blocked_turn = turnTowards(parent, projected.position);
     const double climb = projected.position.z() - parent.position.z();
     const int steps = std::max(1, options.event1_turn_steps);
+    const double min_edge = options.event1_min_edge > 0.0 ? options.event1_min_edge * world.robotRadius() : region.reach;
+    const std::vector<double> fractions = reachFractions(region, min_edge);
     for (int side : {-1, +1}) {
       const double limit = side * region.max_turn;
       double found_turn = 0.0;
       double found_fraction = 0.0;
       for (int k = 1; k <= steps && found_fraction < 1.0; ++k) {
         const double turn = blocked_turn + (limit - blocked_turn) * k / steps;
-        const double fraction = longestFreeFraction(parent, turn, climb, found_fraction, world, region);
+        const double fraction = longestFreeFraction(parent, turn, climb, found_fraction, fractions, world, region);
         if (fraction > found_fraction) {
           found_turn = turn;
           found_fraction = fraction;
@@ -174,11 +189,15 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
   std::vector<GartCandidate> out;
   for (GartCandidate c : raw) {
     const Vec3 p = c.state.position;
+    if (!options.event2 && !options.event3 && !options.goal_attraction) {
+      out.push_back(c);  // nothing to redistribute with (the ablation's "no field" variant)
+      continue;
+    }
     const GartForce force = gartObstacleForce(p, world, region, options);
     c.field = force.event;
     Vec3 to_goal = flatten(goal - p, world.dimensions());
     const double goal_distance = to_goal.norm();
-    const double goal_step = std::min(goal_distance, options.goal_gain * region.reach);
+    const double goal_step = options.goal_attraction ? std::min(goal_distance, options.goal_gain * region.reach) : 0.0;
     const Vec3 goal_pull = goal_distance > 1e-9 ? Vec3(to_goal * (goal_step / goal_distance)) : Vec3::Zero();
     const Vec3 target = p + force.displacement + goal_pull;
     if (!sameState(target, p)) {

@@ -2,8 +2,10 @@
 #include "ddsnav/planner/lirrt.hpp"
 
 #include "ddsnav/planner/planners.hpp"
+#include "ddsnav/planner/run.hpp"
 #include "ddsnav/planner/tree.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -49,64 +51,52 @@ int nthSetBit(std::uint64_t mask, int n) {
 
 }  // namespace
 
+LirrtPlanner::LirrtPlanner(LirrtOptions options) : options_(options) {
+  LirrtOptions& o = options_;
+  addOption("drive_probability", &o.drive_probability, 0.0, 1.0, "B: drive the most alive node");
+  addOption("goal_bias", &o.goal_bias, 0.0, 1.0, "W: probability of sampling the goal");
+  addOption("neighbour_radius", &o.neighbour_radius, 1e-3, 100.0, "H as a fraction of the reach");
+  addOption("turn_steps", &o.turn_steps, 1, 15, "control set: turns over [-max turn, max turn]");
+  addOption("speed_steps", &o.speed_steps, 1, 4, "control set: lengths reach / 2^k");
+  addOption("climb_steps", &o.climb_steps, 1, 3, "control set (3-D): climbs over [-max climb, max climb]");
+}
+
 PlanResult LirrtPlanner::solve(const PlanProblem& problem) {
-  validateProblem(problem, /*needs_vehicle=*/true);
-  if (!(options_.drive_probability >= 0.0 && options_.drive_probability <= 1.0) ||
-      !(options_.goal_bias >= 0.0 && options_.goal_bias <= 1.0) || !(options_.neighbour_radius > 0.0)) {
-    throw std::invalid_argument("lirrt: B and W must be probabilities and H positive");
-  }
-  const CollisionWorld& world = *problem.world;
-  const ForwardRegion region = forwardRegion(*problem.vehicle, world.dimensions());
+  checkOptions();
+  PlannerRun run(problem, name(), /*kinodynamic=*/true);
+  const CollisionWorld& world = run.world;
+  const ForwardRegion region = forwardRegion(*run.problem.vehicle, world.dimensions());
   const std::vector<UnicycleControl> controls = lirrtControlSet(region, options_);
   const double near_radius = options_.neighbour_radius * region.reach;  // H
+  SearchTree& tree = run.tree;
 
-  RunClock clock(problem);
-  const std::uint64_t checks_at_start = world.validityChecks();
-  Random random(problem.seed);
-  PlanResult result;
-  result.planner = name();
-  result.kinodynamic = true;
-
-  SearchTree tree(world.dimensions());
   LivenessBook book;
   std::vector<std::uint64_t> free_controls;  // per node: which controls of U are collision free
-  std::vector<std::int64_t> node_iteration;
   std::vector<int> near;
 
-  auto addNode = [&](const State& s, int parent, double cost, const ControlSurvey& survey, std::int64_t iteration) {
-    tree.withinRadius(s.position, near_radius, near);  // V3ch, before the node itself is indexed
-    const int id = tree.add(s, parent, cost);
+  // The liveness bookkeeping of a node PlannerRun has just added.
+  auto track = [&](int id, int parent, const ControlSurvey& survey) {
+    tree.withinRadius(tree.node(id).state.position, near_radius, near);  // V3ch: the others within H
+    near.erase(std::remove(near.begin(), near.end(), id), near.end());
     const int book_id = book.add(parent, survey.se, near);
     if (book_id != id) throw std::logic_error("lirrt: tree and liveness ids diverged");
     free_controls.push_back(survey.free_mask);
-    node_iteration.push_back(iteration);
-    return id;
   };
+  track(0, -1, surveyControls(tree.node(0).state, controls, region, world));
 
-  const ControlSurvey root_survey = surveyControls(problem.start, controls, region, world);
-  addNode(problem.start, -1, 0.0, root_survey, 0);
-
-  int best_goal = -1;
-  if ((problem.start.position - problem.goal).norm() <= problem.goal_radius) best_goal = 0;
-
-  std::uint64_t iteration = 0;
-  while (best_goal < 0 || problem.anytime) {
-    if (iteration >= problem.max_iterations || clock.expired()) break;
-    ++iteration;
-    if (problem.on_progress && iteration % 256 == 0) problem.on_progress(iteration);
-
+  while (run.nextIteration()) {
     // Lines 3-19: choose x_rand and the node to drive from.
     const int most_alive = book.mostAlive();
     Vec3 x_rand;
     int x_nearest = -1;
     int driven_control = -1;  // the control of U used from most_alive, when x_nearest stays most_alive
-    if (most_alive >= 0 && random.uniform() < options_.drive_probability) {
+    if (most_alive >= 0 && run.rng.uniform() < options_.drive_probability) {
       // Lines 5-11: a random control of the most alive node (among its free ones: Se already found
       // which controls collide, re-trying those would only waste the iteration), then the closest
       // node within H of x_rand that can reach it inside its own R+.
       const std::uint64_t mask = free_controls[static_cast<std::size_t>(most_alive)];
       const int free_count = std::popcount(mask);
-      driven_control = nthSetBit(mask, static_cast<int>(random.below(static_cast<std::uint64_t>(free_count))));
+      driven_control = nthSetBit(mask, static_cast<int>(run.rng.below(static_cast<std::uint64_t>(free_count))));
       const UnicycleControl& u = controls[static_cast<std::size_t>(driven_control)];
       const TreeNode& from = tree.node(most_alive);
       x_rand = driveUnicycle(from.state, u.turn, u.length, u.climb, region).position;
@@ -122,7 +112,7 @@ PlanResult LirrtPlanner::solve(const PlanProblem& problem) {
       }
     } else {
       // Lines 13-17: goal with probability W, else a uniform sample; the nearest node drives towards it.
-      x_rand = random.uniform() < options_.goal_bias ? problem.goal : random.position(world);
+      x_rand = run.sample(options_.goal_bias);
       x_nearest = tree.nearest(x_rand);
     }
 
@@ -131,7 +121,7 @@ PlanResult LirrtPlanner::solve(const PlanProblem& problem) {
     const State x_new = steerUnicycle(parent.state, x_rand, region);
     if ((x_new.position - parent.state.position).norm() < 1e-9) continue;
     if (!world.isSegmentFree(parent.state.position, x_new.position)) continue;
-    const bool in_goal = (x_new.position - problem.goal).norm() <= problem.goal_radius;
+    const bool in_goal = run.inGoal(x_new.position);
     const ControlSurvey survey = surveyControls(x_new, controls, region, world);
     // A dead node (Se = 0) is removed from the tree (Section 3.3.1), unless it is the goal itself. When it
     // was reached by a control of U from the most alive node, that control is dead too: without this the
@@ -144,23 +134,12 @@ PlanResult LirrtPlanner::solve(const PlanProblem& problem) {
       }
       continue;
     }
+    // Lines 24-26: PlannerRun records goal nodes; the result is the cheapest of them.
     const double cost = parent.cost + (x_new.position - parent.state.position).norm();
-    const int id = addNode(x_new, x_nearest, cost, survey, static_cast<std::int64_t>(iteration));
-
-    // Lines 24-26.
-    if (in_goal && (best_goal < 0 || cost < tree.node(best_goal).cost)) {
-      if (best_goal < 0) {
-        result.stats.time_to_first_solution_s = clock.elapsed();
-        result.stats.iterations_to_first_solution = static_cast<std::int64_t>(iteration);
-        result.stats.first_directive_connect = static_cast<std::int64_t>(iteration);
-      }
-      best_goal = id;
-    }
+    const int id = run.addNode(x_new, x_nearest, cost);
+    track(id, x_nearest, survey);
   }
-
-  result.stats.iterations = iteration;
-  finishResult(result, best_goal, tree, problem, node_iteration, checks_at_start, clock);
-  return result;
+  return run.finish();
 }
 
 std::unique_ptr<Planner> makeLiRrtPlanner() {

@@ -5,9 +5,16 @@
 namespace ddsnav::planner {
 namespace {
 
-const PlanProblem& validated(const PlanProblem& problem, bool kinodynamic) {
+// The problem as a run uses it: validated, and flat in a 2-D world (a z from outside, however large,
+// never reaches a distance or a segment check).
+PlanProblem validated(const PlanProblem& problem, bool kinodynamic) {
   validateProblem(problem, kinodynamic);
-  return problem;
+  PlanProblem flat = problem;
+  if (problem.world->dimensions() == 2) {
+    flat.start.position.z() = 0.0;
+    flat.goal.z() = 0.0;
+  }
+  return flat;
 }
 
 }  // namespace
@@ -25,16 +32,14 @@ Steering steeringFor(const PlanProblem& problem) {
 
 PlannerRun::PlannerRun(const PlanProblem& p, std::string planner_name, bool kinodynamic)
     : problem(validated(p, kinodynamic)),
-      world(*p.world),
+      world(*problem.world),
       tree(p.world->dimensions()),
       rng(p.seed),
-      clock_(p) {
+      clock_(problem) {
   result.planner = std::move(planner_name);
   result.kinodynamic = kinodynamic;
   checks_at_start_ = world.validityChecks();
-  State root = problem.start;
-  if (world.dimensions() == 2) root.position.z() = 0.0;
-  addNode(root, -1, 0.0);
+  addNode(problem.start, -1, 0.0);
 }
 
 Vec3 PlannerRun::sample(double goal_bias) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <optional>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -116,6 +117,10 @@ void validateProblem(const PlanProblem& problem, bool needs_vehicle) {
     if (!std::isfinite(w.boundsMin()[i]) || !std::isfinite(w.boundsMax()[i]) || !(w.boundsMax()[i] > w.boundsMin()[i])) {
       throw std::invalid_argument("degenerate bounds: max must be greater than min on every axis");
     }
+    if (std::abs(w.boundsMin()[i]) > kMaxCoordinate || std::abs(w.boundsMax()[i]) > kMaxCoordinate) {
+      throw std::invalid_argument("bounds " + describe(w.boundsMin(), dims) + " - " + describe(w.boundsMax(), dims) +
+                                  ": every coordinate must be within +-" + std::to_string(kMaxCoordinate) + " m");
+    }
   }
   if (!problem.start.position.allFinite() || !std::isfinite(problem.start.heading)) throw std::invalid_argument("start has non-finite numbers");
   if (!problem.goal.allFinite()) throw std::invalid_argument("goal has non-finite numbers");
@@ -162,7 +167,8 @@ double pathLength(const std::vector<State>& path) {
   return length;
 }
 
-double treeCoverage(const SearchTree& tree, const CollisionWorld& world, std::size_t node_count) {
+double treeCoverage(const SearchTree& tree, const CollisionWorld& world, std::size_t node_count,
+                    const RunClock* clock) {
   node_count = std::min(node_count, tree.size());
   if (node_count == 0) return 1.0;
   const int dims = world.dimensions();
@@ -170,7 +176,15 @@ double treeCoverage(const SearchTree& tree, const CollisionWorld& world, std::si
   const Vec3 extent = hi - lo;
   const double volume = dims == 3 ? extent.x() * extent.y() * extent.z() : extent.x() * extent.y();
   const double target = dims == 3 ? 13824.0 : 4096.0;
-  const double delta = std::pow(volume / target, 1.0 / dims);
+  double delta = std::pow(volume / target, 1.0 / dims);
+  // Long thin bounds: the +1 per axis would multiply the count (a 1e9 x 10 m strip gives 10^6 points per
+  // row), so the spacing grows until the grid is within twice the target.
+  auto points = [&](double d) {
+    double n = 1.0;
+    for (int i = 0; i < dims; ++i) n *= std::floor(extent[i] / d) + 1.0;
+    return n;
+  };
+  while (points(delta) > 2.0 * target) delta *= 1.25;
   // An index over the first node_count nodes only (insertion order = growth order); the tree's own
   // index when that is all of them.
   std::optional<NearestIndex> partial;
@@ -186,6 +200,7 @@ double treeCoverage(const SearchTree& tree, const CollisionWorld& world, std::si
   for (int k = 0; k < nz; ++k) {
     for (int j = 0; j < ny; ++j) {
       for (int i = 0; i < nx; ++i) {
+        if (clock && (i & 255) == 0 && clock->expired()) return -1.0;
         const Vec3 g(lo.x() + i * delta, lo.y() + j * delta, dims == 3 ? lo.z() + k * delta : 0.0);
         const double d = (index.point(index.nearest(g)) - g).norm();
         sum += std::min(d, delta);
@@ -195,15 +210,19 @@ double treeCoverage(const SearchTree& tree, const CollisionWorld& world, std::si
   return sum / (delta * static_cast<double>(nx) * ny * nz);
 }
 
-double treeGrowth(const SearchTree& tree, const CollisionWorld& world) {
+double treeGrowth(const SearchTree& tree, const CollisionWorld& world, const RunClock* clock) {
   const std::size_t n = tree.size();
   if (n < 2) return 0.0;
   const std::size_t half = n / 2;
-  return -(treeCoverage(tree, world, n) - treeCoverage(tree, world, half)) / static_cast<double>(n - half);
+  const double full = treeCoverage(tree, world, n, clock);
+  const double earlier = full < 0.0 ? -1.0 : treeCoverage(tree, world, half, clock);
+  if (full < 0.0 || earlier < 0.0) return std::numeric_limits<double>::quiet_NaN();
+  return -(full - earlier) / static_cast<double>(n - half);
 }
 
 std::int64_t firstGlanceConnect(const SearchTree& tree, const PlanProblem& problem,
-                                const std::vector<std::int64_t>& node_iteration, std::int64_t up_to_iteration) {
+                                const std::vector<std::int64_t>& node_iteration, std::int64_t up_to_iteration,
+                                const RunClock* clock) {
   // Nodes are stored in insertion order, so the first one that sees the goal gives the answer. A solved
   // run only needs the nodes added up to its first solution; an unsolved one scans at most kMaxScan nodes
   // so the metric never costs much more than the search.
@@ -211,6 +230,7 @@ std::int64_t firstGlanceConnect(const SearchTree& tree, const PlanProblem& probl
   for (std::size_t i = 0; i < tree.size() && i < kMaxScan; ++i) {
     const std::int64_t iteration = i < node_iteration.size() ? node_iteration[i] : 0;
     if (up_to_iteration >= 0 && iteration > up_to_iteration) break;
+    if (clock && (i & 63) == 0 && clock->expired()) return -1;
     if (problem.world->isSegmentFree(tree.node(static_cast<int>(i)).state.position, problem.goal)) return iteration;
   }
   return -1;
@@ -222,17 +242,22 @@ void finishResult(PlanResult& result, int goal_node, const SearchTree& tree, con
   result.solved = goal_node >= 0;
   if (result.solved) result.path = tree.pathTo(goal_node);
   PlanStats& s = result.stats;
-  s.time_s = clock.elapsed();
+  s.time_s = clock.elapsed();  // the search's time: the metrics below are not part of it
   s.validity_checks = problem.world->validityChecks() - checks_at_start;
   s.vertices = tree.size();
   // Vertices added by sampling (the root is given, not added).
   const double added = tree.size() > 0 ? static_cast<double>(tree.size() - 1) : 0.0;
   s.pous = s.iterations > 0 ? added / static_cast<double>(s.iterations) : 0.0;
   s.por = added > 0.0 ? static_cast<double>(s.rewires) / added : 0.0;
-  s.coverage = treeCoverage(tree, *problem.world, tree.size());
-  s.growth = treeGrowth(tree, *problem.world);
-  s.first_glance_connect = firstGlanceConnect(tree, problem, node_iteration, s.iterations_to_first_solution);
   s.first_directive_connect = s.iterations_to_first_solution;
+  if (problem.tree_metrics) {
+    // Benchmark work: bounded by what is left of the run's time limit, like everything a request causes.
+    s.coverage = treeCoverage(tree, *problem.world, tree.size(), &clock);
+    s.growth = s.coverage < 0.0 ? 0.0 : treeGrowth(tree, *problem.world, &clock);
+    s.first_glance_connect = firstGlanceConnect(tree, problem, node_iteration, s.iterations_to_first_solution, &clock);
+    s.tree_metrics = s.coverage >= 0.0 && !std::isnan(s.growth) && !clock.expired();
+    if (std::isnan(s.growth)) s.growth = 0.0;
+  }
   result.tree = tree.edges();
   if (!result.path.empty()) {
     result.cost = pathLength(result.path);

@@ -64,6 +64,7 @@ TEST_P(PlannerSolves, PathIsValidAndStatsAreFilled) {
   const auto world = makeScenarioWorld(s);
   PlanProblem problem = problemFor(s, *world, 7);
   problem.kinodynamic = c.kinodynamic;
+  problem.tree_metrics = true;
   const PlanResult r = makePlanner(c.planner)->solve(problem);
   EXPECT_EQ(r.planner, c.planner);
   EXPECT_EQ(r.kinodynamic, c.kinodynamic);
@@ -89,13 +90,13 @@ TEST_P(PlannerSolves, PathIsValidAndStatsAreFilled) {
 
 INSTANTIATE_TEST_SUITE_P(
     Planners, PlannerSolves,
-    ::testing::Values(Case{"rrt", "demo_2d", false}, Case{"rrt", "stunnel_0.5", false}, Case{"rrt", "demo_2d", true},
-                      Case{"rrt", "stunnel_0.5", true}, Case{"rrtstar", "demo_2d", false},
-                      Case{"rrtstar", "bugtrap_1.0", false}, Case{"rrtstar", "gart_terrain_3d", false},
-                      Case{"rrtstar", "demo_2d", true}, Case{"rrtstar", "stunnel_1.0", true},
-                      Case{"apgd-rrtstar", "demo_2d", false}, Case{"apgd-rrtstar", "stunnel_1.0", false},
-                      Case{"rrrt", "demo_2d", false}, Case{"rrrt", "stunnel_0.5", false}, Case{"rrrt", "gart_terrain_3d", false},
-                      Case{"ddrrt", "demo_2d", false}, Case{"ddrrt", "bugtrap_1.0", false}),
+    ::testing::Values(Case{"rrt", "demo_2d", false}, Case{"rrt", "stunnel_small_0.5", false}, Case{"rrt", "demo_2d", true},
+                      Case{"rrt", "stunnel_small_0.5", true}, Case{"rrtstar", "demo_2d", false},
+                      Case{"rrtstar", "bugtrap_small_1.0", false}, Case{"rrtstar", "gart_terrain_3d", false},
+                      Case{"rrtstar", "demo_2d", true}, Case{"rrtstar", "stunnel_small_1.0", true},
+                      Case{"apgd-rrtstar", "demo_2d", false}, Case{"apgd-rrtstar", "stunnel_small_1.0", false},
+                      Case{"rrrt", "demo_2d", false}, Case{"rrrt", "stunnel_small_0.5", false}, Case{"rrrt", "gart_terrain_3d", false},
+                      Case{"ddrrt", "demo_2d", false}, Case{"ddrrt", "bugtrap_small_1.0", false}),
     [](const auto& info) {
       std::string n = info.param.planner + "_" + info.param.scenario + (info.param.kinodynamic ? "_unicycle" : "");
       for (char& ch : n) ch = std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_';
@@ -104,7 +105,7 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(Planners, PathsStayValidOverManySeeds) {
   // Contact-driven growth (RRRT) and rewiring (RRT*) are where a wrong edge would slip in: sweep seeds.
-  for (const std::string scenario : {"demo_2d", "stunnel_0.3", "bugtrap_1.0"}) {
+  for (const std::string scenario : {"demo_2d", "stunnel_small_0.3", "bugtrap_small_1.0"}) {
     const Scenario s = shipped(scenario);
     const auto world = makeScenarioWorld(s);
     for (const std::string name : {"rrt", "rrtstar", "apgd-rrtstar", "rrrt", "ddrrt"}) {
@@ -121,14 +122,14 @@ TEST(Planners, RegistryListsEveryPlannerOfTheIssue) {
   // The registry is filled by a configure-time scan for factory definitions: a planner whose factory
   // stops matching the scan would silently disappear, so pin the full list here.
   const auto names = plannerNames();
-  for (const std::string name : {"rrt", "rrtstar", "lirrt", "gart", "apgd-rrtstar", "rrrt", "ddrrt"}) {
+  for (const std::string name : {"rrt", "rrtstar", "lirrt", "gart", "apgd-rrtstar", "rrrt", "ddrrt", "rrt-controls"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
     EXPECT_EQ(makePlanner(name)->name(), name);
   }
 }
 
 TEST(Planners, SameSeedSameResultBitForBit) {
-  const Scenario s = shipped("stunnel_0.5");
+  const Scenario s = shipped("stunnel_small_0.5");
   const auto world = makeScenarioWorld(s);
   for (const std::string name : {"rrt", "rrtstar", "apgd-rrtstar", "rrrt", "ddrrt"}) {
     SCOPED_TRACE(name);

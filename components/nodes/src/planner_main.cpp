@@ -26,6 +26,16 @@ int main(int argc, char** argv) {
     if (!(max_budget > 0) || !std::isfinite(max_budget))
       throw runtime::ParameterError(fmt::format("parameter max_time_budget_s: expected a positive finite number of seconds, got {}", max_budget));
     if (kinodynamic && !scenario.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
+    // "planner.option=value" entries (docs/planners.md, "Options"), checked once here against each planner.
+    const auto planner_options = planner::parsePlannerOptions(
+        ctx.params().declare<std::vector<std::string>>("planner_options", {}, "planner.option=value entries"));
+    for (const auto& [name, assignments] : planner_options) {
+      try {
+        planner::applyOptions(*planner::makePlanner(name), assignments);
+      } catch (const std::exception& e) {
+        throw runtime::ParameterError(std::string("parameter planner_options: ") + e.what());
+      }
+    }
 
     nodes::WorldSource world_source(ctx.bus(), kind, scenario);
     auto paths = ctx.bus().publisher<msg::Path>("planning/path", bus::Qos::state());
@@ -48,6 +58,9 @@ int main(int argc, char** argv) {
       std::unique_ptr<planner::Planner> algorithm;
       try {
         algorithm = planner::makePlanner(request.planner());
+        if (auto it = planner_options.find(request.planner()); it != planner_options.end()) {
+          planner::applyOptions(*algorithm, it->second);
+        }
       } catch (const std::exception& e) {
         return fail(e.what());
       }

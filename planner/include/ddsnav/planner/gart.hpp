@@ -13,6 +13,8 @@
 
 #include <vector>
 
+#include "ddsnav/planner/rrtstar.hpp"
+
 namespace ddsnav::planner {
 
 struct GartOptions {
@@ -25,8 +27,28 @@ struct GartOptions {
   double max_push = 0.5;          // cap of any obstacle push, as a fraction of the reach
   double goal_gain = 0.2;         // goal attraction step, as a fraction of the reach
   int event1_turn_steps = 4;      // event 1: directions tried per side between the sample and theta_m
-  double rewire_gamma = 0.0;      // RRT* gamma; 0 = derived from the free volume (Karaman-Frazzoli)
+  double rewire_gamma = 0.0;      // RRT* gamma; 0 = derived from the bounds' volume (Karaman-Frazzoli)
+  // Event 1's shortest edge, in robot radii: 0 keeps the paper's J/4; e.g. 0.5 halves J/4 until the edge
+  // would be shorter than half the robot's radius (turning in a corridor barely wider than the robot).
+  double event1_min_edge = 0.0;
+
+  // The parts of the algorithm, each of which can be switched off for the ablation benchmark
+  // (docs/benchmarks/planner.md). All on is the paper's GART.
+  bool event1 = true;           // collision redistribution: a blocked sample turns into max-turn candidates
+  bool event2 = true;           // attraction towards the margin nodes of two or more obstacles
+  bool event3 = true;           // repulsion from a single obstacle
+  bool goal_attraction = true;  // the final pull of every candidate towards the goal
+  bool forward_region = true;   // v_near among the k nearest nodes that can reach the sample (R+); off: the nearest node
+  bool effort_parent = true;    // v_near by the dynamic cost metric; off: the closest of the feasible ones
+  bool choose_parent = true;    // RRT*'s cheapest-parent choice when a state is inserted
+  bool rewire = true;           // RRT*'s rewiring around an inserted state
+  // Feasibility first: choose_parent and rewire only start once a first solution exists (gart-lazy).
+  bool defer_optimisation = false;
 };
+
+// gart-lazy's defaults: the paper's GART with event 1's reach search refined down to a tenth of the robot's
+// radius and RRT*'s parent choice and rewiring deferred until the first solution (docs/planners.md).
+GartOptions gartLazyOptions();
 
 // Which branch of the bidirectional potential field produced a candidate.
 enum class GartEvent {
@@ -67,12 +89,14 @@ GartForce gartObstacleForce(const Vec3& p, const CollisionWorld& world, const Fo
 
 class GartPlanner : public Planner {
  public:
-  explicit GartPlanner(GartOptions options = {}) : options_(options) {}
-  std::string name() const override { return "gart"; }
+  explicit GartPlanner(GartOptions options = {}, std::string name = "gart");
+  std::string name() const override { return name_; }
   PlanResult solve(const PlanProblem& problem) override;
+  const GartOptions& gartOptions() const { return options_; }
 
  private:
   GartOptions options_;
+  std::string name_;
 };
 
 }  // namespace ddsnav::planner

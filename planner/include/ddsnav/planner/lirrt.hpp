@@ -99,7 +99,7 @@ std::vector<UnicycleControl> lirrtControlSet(const ForwardRegion& region, const 
 
 class LirrtPlanner : public Planner {
  public:
-  explicit LirrtPlanner(LirrtOptions options = {}) : options_(options) {}
+  explicit LirrtPlanner(LirrtOptions options = {});
   std::string name() const override { return "lirrt"; }
   PlanResult solve(const PlanProblem& problem) override;
 

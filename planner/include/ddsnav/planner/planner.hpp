@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -30,6 +31,10 @@ struct PlanProblem {
   double time_limit_s = 10.0;
   std::uint64_t max_iterations = std::numeric_limits<std::uint64_t>::max();
   bool anytime = false;                  // keep improving until a limit instead of stopping at the first solution
+  // Compute the tree metrics (coverage, growth, first-glance-connect) after the search: benchmark work,
+  // off on the live planner. They share the run's time limit: whatever is left of it when the search ends
+  // (a metric not finished in time is reported as unknown: -1).
+  bool tree_metrics = false;
   std::function<void(std::uint64_t iterations)> on_progress;  // called now and then, may be empty
 };
 
@@ -52,8 +57,9 @@ struct PlanStats {
   std::int64_t first_glance_connect = -1;
   double pous = 0.0;      // vertices added / iterations
   double por = 0.0;       // rewires / vertices added
-  double coverage = 0.0;  // Li-RRT paper eq. 1
-  double growth = 0.0;    // Li-RRT paper eq. 2
+  double coverage = -1.0;  // Li-RRT paper eq. 1; -1 when not computed (problem.tree_metrics off, or no time left)
+  double growth = 0.0;     // Li-RRT paper eq. 2; 0 when not computed
+  bool tree_metrics = false;  // coverage, growth and first_glance_connect were computed
 };
 
 struct PlanResult {
@@ -71,18 +77,69 @@ struct PlanResult {
 // Seed, limits and modes keep their defaults.
 PlanProblem problemFromScenario(const Scenario& scenario, const CollisionWorld& world);
 
+// A tuning option of a planner, set by name from text (`--option name=value` of ddsnav plan and bench,
+// the planner component's `planner_options` parameter).
+struct PlannerOption {
+  enum class Type { kInteger, kReal, kBoolean };
+  std::string name;
+  std::string description;
+  Type type = Type::kReal;
+  double min = 0.0, max = 0.0;  // inclusive valid range (integers and reals)
+  std::string value;            // the current value, as text
+  std::string range() const;    // "an integer in [1, 64]", "a number in [0, 1]", "true or false"
+};
+
 class Planner {
  public:
+  Planner() = default;
+  Planner(const Planner&) = delete;  // options are bound to the members of this object
+  Planner& operator=(const Planner&) = delete;
   virtual ~Planner() = default;
   virtual std::string name() const = 0;
   // Throws std::invalid_argument for a problem it cannot start (start in collision, no vehicle when one
   // is needed, non-finite numbers, ...).
   virtual PlanResult solve(const PlanProblem& problem) = 0;
+
+  // The options this planner has, with their current values (empty for a planner without options).
+  std::vector<PlannerOption> options() const;
+  // Sets one option from text. Throws std::invalid_argument naming the planner and the option: for a name
+  // it does not have (listing the ones it has), for text of the wrong type and for a value out of range.
+  void setOption(const std::string& name, const std::string& value);
+
+ protected:
+  // Binds an option to a member of the derived planner (called from its constructor).
+  void addOption(const std::string& name, int* target, int min, int max, const std::string& description);
+  void addOption(const std::string& name, double* target, double min, double max, const std::string& description);
+  void addOption(const std::string& name, bool* target, const std::string& description);
+  // Throws std::invalid_argument (as setOption) when a bound member holds a value out of its range: options
+  // set in code rather than through setOption are checked when solve() starts.
+  void checkOptions() const;
+
+ private:
+  struct Binding {
+    PlannerOption option;
+    int* integer = nullptr;
+    double* real = nullptr;
+    bool* boolean = nullptr;
+  };
+  std::vector<Binding> bindings_;
 };
 
-// Names: rrt, rrtstar, lirrt, gart, apgd-rrtstar, rrrt, ddrrt. Throws std::invalid_argument for others,
-// listing the known names.
+// Names: rrt, rrtstar, lirrt, gart, apgd-rrtstar, rrrt, ddrrt (and the variants listed in docs/planners.md).
+// Throws std::invalid_argument for others, listing the known names.
 std::unique_ptr<Planner> makePlanner(const std::string& name);
 std::vector<std::string> plannerNames();
+
+// Applies "name=value" assignments with Planner::setOption (std::invalid_argument for a malformed one).
+void applyOptions(Planner& planner, const std::vector<std::string>& assignments);
+
+// Groups "planner.option=value" entries (the planner component's planner_options parameter) by planner:
+// {"gart.k_nearest=12", "gart.rewire=false"} -> {gart: {"k_nearest=12", "rewire=false"}}. Throws
+// std::invalid_argument for an entry without "planner." or "=".
+std::map<std::string, std::vector<std::string>> parsePlannerOptions(const std::vector<std::string>& entries);
+
+// A planner from a spec "name" or "name{k=v,k=v}" (the form ddsnav bench takes in --planners, so one
+// grid can hold several configurations of one planner). Throws std::invalid_argument as the above.
+std::unique_ptr<Planner> makePlannerFromSpec(const std::string& spec);
 
 }  // namespace ddsnav::planner

@@ -66,7 +66,7 @@ class PlannerRun {
   // Validates the problem (throws std::invalid_argument) and plants the root at the start.
   PlannerRun(const PlanProblem& problem, std::string planner_name, bool kinodynamic);
 
-  const PlanProblem& problem;
+  const PlanProblem problem;  // a copy; in a 2-D world the z of start and goal is set to 0 (ignored)
   const CollisionWorld& world;
   SearchTree tree;
   Random rng;

@@ -95,26 +95,36 @@ double rrtStarGamma(const CollisionWorld& world);
 // The RRT* neighbourhood radius with n nodes (n counted as at least 2): min(cap, gamma (log n / n)^(1/d)).
 double rrtStarRadius(double gamma, std::size_t n, int dimensions, double cap);
 
+// Coordinates (bounds, start, goal) beyond this magnitude are rejected by validateProblem: there a
+// double's spacing passes a tenth of a millimetre, and squared distances of the nearest-neighbour search
+// would head for overflow. 1e9 m is 25 times the Earth's circumference.
+inline constexpr double kMaxCoordinate = 1e9;
+
 // c(G) of the Li-RRT paper (eq. 1): overlay a grid of n_g points with spacing delta on the bounds;
 // c = (1/delta) * sum_j min(d_j, delta) / n_g, d_j the distance from grid point j to its nearest node.
 // Only the first `node_count` nodes are used (the tree as it was when it had that many nodes).
-// The grid has about 4096 points in 2-D and 13824 in 3-D; delta follows from the bounds.
-double treeCoverage(const SearchTree& tree, const CollisionWorld& world, std::size_t node_count);
+// The grid has about 4096 points in 2-D and 13824 in 3-D (never more than twice that, whatever the
+// bounds' aspect ratio); delta follows from the bounds. With a `clock`, returns -1 once it has expired.
+double treeCoverage(const SearchTree& tree, const CollisionWorld& world, std::size_t node_count,
+                    const RunClock* clock = nullptr);
 
 // g(G) (eq. 2), in difference form: -(c(G_n) - c(G_{n/2})) / (n - n/2), n the final node count.
-double treeGrowth(const SearchTree& tree, const CollisionWorld& world);
+// NaN when the clock expired first.
+double treeGrowth(const SearchTree& tree, const CollisionWorld& world, const RunClock* clock = nullptr);
 
 // First-glance-connect: the iteration at which the first node was added from which the goal is visible
 // (the straight segment node-goal is free). `node_iteration[i]` is the iteration that added node i.
 // Only nodes added up to `up_to_iteration` are scanned (the first solution's iteration; -1: all, but at
-// most the first 100000 nodes). -1 when no scanned node sees the goal. Runs after the search; its checks
-// are not counted in the stats.
+// most the first 100000 nodes). -1 when no scanned node sees the goal, or when `clock` expired first.
+// Its checks are not counted in the stats.
 std::int64_t firstGlanceConnect(const SearchTree& tree, const PlanProblem& problem,
-                                const std::vector<std::int64_t>& node_iteration, std::int64_t up_to_iteration = -1);
+                                const std::vector<std::int64_t>& node_iteration, std::int64_t up_to_iteration = -1,
+                                const RunClock* clock = nullptr);
 
 // Fills the result of a finished run: the path to `goal_node` (-1: not solved) with its cost and
-// exactness, and the derived statistics (vertices, POUS, POR, c(G), g(G), FGC, validity checks, time,
-// tree edges) from the tree and the counters already in `result.stats`.
+// exactness, and the derived statistics (vertices, POUS, POR, validity checks, time, tree edges) from the
+// tree and the counters already in `result.stats`; with problem.tree_metrics also c(G), g(G) and FGC,
+// within what is left of the run's time limit.
 // `checks_at_start` is world.validityChecks() when the run began.
 void finishResult(PlanResult& result, int goal_node, const SearchTree& tree, const PlanProblem& problem,
                   const std::vector<std::int64_t>& node_iteration, std::uint64_t checks_at_start,
