@@ -90,7 +90,13 @@ int runPublisher(const std::string& dds, int domain, const std::string& kind, in
       }
     }
     if (refused > 0) std::fprintf(stderr, "publisher: %d of %d samples refused by the writer\n", refused, count);
-    std::this_thread::sleep_for(std::chrono::seconds(2));  // reliable resends before the writer goes
+    // The writer stays until the sink has stopped making progress (it sends SIGTERM): a reliable writer
+    // that left earlier would take its unacknowledged samples with it, neither delivered nor reported lost.
+    sigset_t term;
+    sigemptyset(&term);
+    sigaddset(&term, SIGTERM);
+    const timespec limit{120, 0};
+    ::sigtimedwait(&term, nullptr, &limit);
     return 0;
   };
   // Reliable volatile, deep enough that the writer does not overwrite what the reader has not acked.
@@ -136,7 +142,8 @@ double cpuSeconds() {
 
 struct RunSpec {
   std::string dds, pub_dds, kind, qos;
-  int domain = 199, count = 0, compression_threads = -1;
+  int domain = 199, count = 0, compression_threads = -1, writer_nice = 10;
+  std::size_t queue_mb = 256;
   double rate = 0;
   std::size_t chunk_kb = 1024;
   int zstd_level = 1;
@@ -153,6 +160,12 @@ Result runSink(const std::string& self, const RunSpec& spec, const std::string& 
   std::atomic<std::int64_t> first_ns{0}, last_ns{0};
   auto stamp = [] { return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count(); };
 
+  // Blocked before the fork: the child waits for it with sigtimedwait (its mask survives exec).
+  sigset_t term;
+  sigemptyset(&term);
+  sigaddset(&term, SIGTERM);
+  sigset_t old_mask;
+  ::pthread_sigmask(SIG_BLOCK, &term, &old_mask);
   const pid_t child = ::fork();
   if (child == 0) {
     const std::string c = std::to_string(count), d = std::to_string(domain), r = std::to_string(spec.rate);
@@ -182,18 +195,43 @@ Result runSink(const std::string& self, const RunSpec& spec, const std::string& 
     o.mcap.chunk_size = spec.chunk_kb * 1024;
     o.mcap.zstd_level = spec.zstd_level;
     o.compression_threads = spec.compression_threads;
+    o.writer_nice = spec.writer_nice;
+    o.queue_bytes = spec.queue_mb << 20;
     recorder = std::make_unique<record::Recorder>(p, o);
   }
   // Until the child is done (it lingers 2 s after its last write).
   int status = 0;
   std::uint64_t last_written = 0;
+  ::pthread_sigmask(SIG_SETMASK, &old_mask, nullptr);
+  std::uint64_t last_received = 0;
+  // Ends the publisher once received + lost has not moved for 3 s (or nothing came in 60 s).
+  std::uint64_t progress = 0;
+  auto last_progress = Clock::now();
+  bool told_to_stop = false;
   while (::waitpid(child, &status, WNOHANG) == 0) {
+    const std::uint64_t now_progress =
+        recorder ? [&] {
+          const auto c = recorder->counts();
+          return c.empty() ? std::uint64_t{0} : c[0].received + c[0].lost;
+        }()
+                 : received.load() + discard.lostSamples();
+    if (now_progress != progress) {
+      progress = now_progress;
+      last_progress = Clock::now();
+    }
+    const auto quiet = Clock::now() - last_progress;
+    if (!told_to_stop && ((progress > 0 && quiet > std::chrono::seconds(3)) || quiet > std::chrono::seconds(60))) {
+      ::kill(child, SIGTERM);
+      told_to_stop = true;
+    }
     if (recorder) {
       recorder->poll();
       const auto c = recorder->counts();
+      // The recorder's time: from its first sample received to its last written (or, below, to the end
+      // of stop(), which drains the queue), sampled here every 5 ms.
+      if (!c.empty() && c[0].received != 0 && last_received == 0) first_ns = stamp();
+      if (!c.empty()) last_received = c[0].received;
       if (!c.empty() && c[0].written != last_written) {
-        // The recorder's own view of time: when its writer thread wrote, sampled here every 5 ms.
-        if (last_written == 0) first_ns = stamp();
         last_ns = stamp();
         last_written = c[0].written;
       }
@@ -205,8 +243,10 @@ Result runSink(const std::string& self, const RunSpec& spec, const std::string& 
   r.sent = count;
   if (recorder) {
     const auto t0 = Clock::now();
+    const std::uint64_t written_before_stop = recorder->counts().empty() ? 0 : recorder->counts()[0].written;
     recorder->stop();
     r.close_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    if (!recorder->counts().empty() && recorder->counts()[0].written != written_before_stop) last_ns = stamp();
     const auto counts = recorder->counts();
     if (counts.empty()) throw std::runtime_error("the recorder never subscribed to " + topic);
     const auto& c = counts.at(0);
@@ -307,6 +347,8 @@ int main(int argc, char** argv) {
   app.add_option("--zstd-level", spec.zstd_level, "recorder zstd level")->check(CLI::Range(1, 19));
   app.add_option("--compression-threads", spec.compression_threads, "recorder compression workers (-1: one per core)")
       ->check(CLI::Range(-1, 64));
+  app.add_option("--writer-nice", spec.writer_nice, "recorder writer/worker nice increment")->check(CLI::Range(0, 19));
+  app.add_option("--queue-mb", spec.queue_mb, "recorder queue limit")->check(CLI::Range(1, 1 << 16));
   app.add_option("--disk-count", disk_count, "messages for the disk-only runs (default: 1000 clouds, 1000000 small)")
       ->check(CLI::PositiveNumber);
   app.add_option("--disk-levels", levels, "zstd levels for the disk-only runs")->delimiter(',');

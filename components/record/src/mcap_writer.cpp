@@ -1,8 +1,12 @@
 #include "mcap_format.hpp"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 #include <zlib.h>
 #include <zstd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <condition_variable>
 #include <cstring>
@@ -15,6 +19,14 @@
 namespace ddsnav::record {
 
 std::string_view compressionName(Compression c) { return c == Compression::Zstd ? "zstd" : ""; }
+
+void lowerThreadPriority(int increment) {
+  // Linux keeps a nice value per thread: PRIO_PROCESS with the thread id changes only this thread.
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  errno = 0;
+  const int current = ::getpriority(PRIO_PROCESS, tid);
+  if (errno == 0) ::setpriority(PRIO_PROCESS, tid, std::min(19, current + increment));
+}
 
 namespace format {
 
@@ -92,9 +104,10 @@ struct McapWriter::PendingChunk {
 // Worker threads that encode closed chunks, each with its own zstd context.
 class McapWriter::Pool {
  public:
-  Pool(unsigned threads, Compression compression, int level) : compression_(compression) {
+  Pool(unsigned threads, Compression compression, int level, int nice) : compression_(compression) {
     for (unsigned i = 0; i < threads; ++i)
-      workers_.emplace_back([this, level] {
+      workers_.emplace_back([this, level, nice] {
+        if (nice != 0) lowerThreadPriority(nice);
         void* zstd = compression_ == Compression::Zstd ? newCompressor(level) : nullptr;
         run(zstd);
         if (zstd) ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd));
@@ -157,7 +170,7 @@ McapWriter::McapWriter(const std::string& path, McapWriterOptions options) : pat
   file_ = std::fopen(path.c_str(), "wb");
   if (!file_) throw McapError(path_ + ": cannot create file: " + std::strerror(errno));
   if (options_.compression_threads > 0)
-    pool_ = std::make_unique<Pool>(options_.compression_threads, options_.compression, options_.zstd_level);
+    pool_ = std::make_unique<Pool>(options_.compression_threads, options_.compression, options_.zstd_level, options_.worker_nice);
   else if (options_.compression == Compression::Zstd)
     zstd_ = newCompressor(options_.zstd_level);
   writeBytes(kMagic, sizeof kMagic);

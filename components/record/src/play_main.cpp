@@ -24,7 +24,9 @@ void onSignal(int) { g_stop.store(true); }
 class KeyboardControl {
  public:
   explicit KeyboardControl(record::PlaybackControl& control) : control_(control) {
-    if (!::isatty(STDIN_FILENO) || ::tcgetattr(STDIN_FILENO, &saved_) != 0) return;
+    // Only in the terminal's foreground: a background job (or a child of `ddsnav launch` in its own
+    // process group) changing the terminal would be stopped by SIGTTOU.
+    if (!::isatty(STDIN_FILENO) || ::tcgetpgrp(STDIN_FILENO) != ::getpgrp() || ::tcgetattr(STDIN_FILENO, &saved_) != 0) return;
     termios raw = saved_;
     raw.c_lflag &= ~static_cast<tcflag_t>(ICANON | ECHO);
     raw.c_cc[VMIN] = 0;

@@ -203,7 +203,12 @@ int main(int argc, char** argv) {
       }
     }
     snapshot_trigger = bus::Subscription();
-    recorder.stop();
+    try {
+      recorder.stop();
+    } catch (const std::exception& e) {
+      // The counts below still say what reached the disk; failed() makes the exit status 1.
+      spdlog::error("closing the recording: {}", e.what());
+    }
     progress(true);
     for (const auto& c : recorder.counts())
       spdlog::info("{}: received {} lost {} dropped {} written {}", c.topic, c.received, c.lost, c.dropped, c.written);

@@ -52,6 +52,7 @@ Recorder::Recorder(bus::Participant& bus, RecorderOptions options) : bus_(bus), 
   if (options_.compression_threads < 0)
     options_.compression_threads = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
   options_.mcap.compression_threads = static_cast<unsigned>(options_.compression_threads);
+  options_.mcap.worker_nice = options_.writer_nice;
   // Snapshot mode opens a file per snapshot; otherwise the first file now, so a bad path fails here.
   if (!options_.snapshot) openFile();
   writer_thread_ = std::thread([this] { writerLoop(); });
@@ -243,11 +244,20 @@ void Recorder::onSample(Topic& topic, const bus::RawSample& sample) {
 }
 
 void Recorder::recycle(std::vector<std::uint8_t>&& buffer) {
-  // Keep buffers for reuse up to a quarter of the queue's byte limit: enough for a steady stream.
-  std::lock_guard lock(queue_mutex_);
-  if (spare_bytes_ + buffer.capacity() > options_.queue_bytes / 4 || spare_.size() >= 1024) return;
-  spare_bytes_ += buffer.capacity();
-  spare_.push_back(std::move(buffer));
+  // Writer thread only. Collected here and handed back in one go when the next batch is taken (under the
+  // queue lock the writer takes anyway): the DDS threads never wait for a low-priority writer holding
+  // the lock once per message.
+  if (buffer.capacity() > 0) freed_.push_back(std::move(buffer));
+}
+
+void Recorder::returnFreedBuffers() {
+  // Called with queue_mutex_ held. Keep up to a quarter of the queue's byte limit: enough for a steady stream.
+  for (auto& buffer : freed_) {
+    if (spare_bytes_ + buffer.capacity() > options_.queue_bytes / 4 || spare_.size() >= 1024) break;
+    spare_bytes_ += buffer.capacity();
+    spare_.push_back(std::move(buffer));
+  }
+  freed_.clear();
 }
 
 void Recorder::rotateIfDue() {
@@ -299,6 +309,7 @@ void Recorder::writeSnapshot() {
 void Recorder::requestSnapshot() { snapshot_requested_.store(true); queue_changed_.notify_one(); }
 
 void Recorder::writerLoop() {
+  if (options_.writer_nice != 0) lowerThreadPriority(options_.writer_nice);
   std::deque<Item> batch;
   for (;;) {
     bool finishing = false;
@@ -309,6 +320,7 @@ void Recorder::writerLoop() {
       batch.swap(queue_);
       queued_bytes_ = 0;
       finishing = stopping_;
+      returnFreedBuffers();
     }
     std::lock_guard lock(writer_mutex_);
     for (Item& item : batch) {
@@ -412,7 +424,12 @@ void Recorder::stop() {
   queue_changed_.notify_all();
   if (writer_thread_.joinable()) writer_thread_.join();
   std::lock_guard lock(writer_mutex_);
-  closeFile();
+  try {
+    closeFile();
+  } catch (const std::exception& e) {
+    setError(e.what());
+    throw;
+  }
 }
 
 std::vector<TopicCounts> Recorder::counts() const {

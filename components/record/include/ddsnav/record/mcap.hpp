@@ -39,6 +39,8 @@ class McapError : public std::runtime_error {
 
 enum class Compression { None, Zstd };
 std::string_view compressionName(Compression c);  // "" | "zstd" (the spec's names)
+// Raises the calling thread's nice value by `increment` (lower priority; Linux per-thread nice).
+void lowerThreadPriority(int increment);
 
 using StringMap = std::map<std::string, std::string>;
 
@@ -104,6 +106,8 @@ struct McapWriterOptions {
   unsigned compression_threads = 0;
   // Closed chunks waiting for a worker or for their turn to be written; closing one more waits.
   std::size_t max_pending_chunks = 4;
+  // Added to the workers' nice value: a recorder's workers yield the CPU to the threads receiving data.
+  int worker_nice = 0;
 };
 
 class McapWriter {

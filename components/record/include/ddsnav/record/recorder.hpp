@@ -40,6 +40,10 @@ struct RecorderOptions {
   std::vector<std::string> topics;    // empty: every topic discovered
   McapWriterOptions mcap;
   int compression_threads = -1;       // chunk CRC/compression workers; -1: one per core (at most 4)
+  // Nice increment of the writer thread and the workers: on a busy machine the DDS receive threads get
+  // the CPU first (a late ack makes a reliable writer give samples up), the bounded queue absorbs the
+  // difference, and the disk side catches up when reception idles.
+  int writer_nice = 10;
   std::size_t queue_bytes = 256u << 20;   // samples waiting for the writer, in payload bytes
   std::size_t queue_messages = 100000;    // ... and in samples
   std::uint64_t max_messages = 0;         // stop once this many are written (0: no limit)
@@ -139,6 +143,7 @@ class Recorder {
   void writeSnapshot();
   void remember(Item&& item);
   void recycle(std::vector<std::uint8_t>&& buffer);
+  void returnFreedBuffers();
   std::string filePath(std::size_t index) const;
   void setError(const std::string& what);
   bool wanted(const std::string& topic) const;
@@ -166,6 +171,7 @@ class Recorder {
   std::deque<Item> queue_;
   std::size_t queued_bytes_ = 0;
   std::vector<std::vector<std::uint8_t>> spare_;  // payload buffers to reuse (guarded by queue_mutex_)
+  std::vector<std::vector<std::uint8_t>> freed_;  // written, not yet back in spare_ (writer thread only)
   std::size_t spare_bytes_ = 0;
   std::uint64_t last_log_time_ = 0;
   bool stopping_ = false;
