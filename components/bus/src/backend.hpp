@@ -22,6 +22,7 @@ class ReaderImpl {
  public:
   virtual ~ReaderImpl() = default;
   virtual std::size_t matched() const = 0;
+  virtual std::uint64_t lost() const = 0;  // sample lost + sample rejected totals
 };
 
 // One endpoint to create. `type` is null only for raw endpoints of a type unknown to this build.

@@ -50,6 +50,7 @@ namespace detail {
 void write(WriterImpl& writer, const void* sample) { writer.writeSample(sample); }
 std::size_t matchedReaders(const WriterImpl& writer) { return writer.matched(); }
 std::size_t matchedWriters(const ReaderImpl& reader) { return reader.matched(); }
+std::uint64_t lostSamples(const ReaderImpl& reader) { return reader.lost(); }
 
 bool waitMatched(const std::function<std::size_t()>& matched, std::size_t count,
                  std::chrono::milliseconds timeout) {

@@ -131,6 +131,15 @@ class CycloneReader : public ReaderImpl {
     return status.current_count;
   }
 
+  std::uint64_t lost() const override {
+    dds_sample_lost_status_t lost{};
+    dds_sample_rejected_status_t rejected{};
+    std::uint64_t n = 0;
+    if (dds_get_sample_lost_status(reader_, &lost) == DDS_RETCODE_OK) n += lost.total_count;
+    if (dds_get_sample_rejected_status(reader_, &rejected) == DDS_RETCODE_OK) n += rejected.total_count;
+    return n;
+  }
+
   static void onDataAvailable(dds_entity_t reader, void* arg) { static_cast<CycloneReader*>(arg)->drain(reader); }
 
  private:

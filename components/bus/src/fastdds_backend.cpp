@@ -246,6 +246,15 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
     return static_cast<std::size_t>(status.current_count);
   }
 
+  std::uint64_t lost() const override {
+    dds::SampleLostStatus lost;
+    dds::SampleRejectedStatus rejected;
+    std::uint64_t n = 0;
+    if (reader_->get_sample_lost_status(lost) == ReturnCode_t::RETCODE_OK) n += static_cast<std::uint64_t>(std::max(0, lost.total_count));
+    if (reader_->get_sample_rejected_status(rejected) == ReturnCode_t::RETCODE_OK) n += rejected.total_count;
+    return n;
+  }
+
   void on_data_available(dds::DataReader* reader) override {
     dds::SampleInfo info;
     // Fast DDS calls this once per reader at a time, so the one carrier (and its grown buffers) is reused.
@@ -255,7 +264,7 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
       if (typed_) {
         invokeSafely(spec_.topic, [&] { typed_(carrier_.typed, si); });
       } else {
-        RawSample s{spec_.topic, spec_.type_name, carrier_.raw_out, si.source_timestamp_ns};
+        RawSample s{spec_.topic, spec_.type_name, carrier_.raw_out, si.source_timestamp_ns, &carrier_.raw_out};
         invokeSafely(spec_.topic, [&] { raw_(s); });
       }
     }

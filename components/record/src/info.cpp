@@ -6,8 +6,9 @@
 
 namespace ddsnav::record {
 
-nlohmann::json describeRecording(const McapReader& file) {
+nlohmann::json describeRecording(McapReader& file, bool verify_chunks) {
   using nlohmann::json;
+  if (verify_chunks) file.verifyChunks();
   const McapSummary& s = file.summary();
   json info;
   info["file"] = file.path();
@@ -19,6 +20,10 @@ nlohmann::json describeRecording(const McapReader& file) {
     info["truncation_reason"] = file.truncationReason();
   }
   info["indexed"] = file.hasSummary();
+  info["chunks_verified"] = verify_chunks;
+  json damaged = json::array();
+  for (const DamagedChunk& d : file.damagedChunks()) damaged.push_back({{"offset", d.offset}, {"reason", d.reason}});
+  info["damaged_chunks"] = std::move(damaged);
   info["message_count"] = s.message_count;
   const double duration = s.message_count ? static_cast<double>(s.message_end_time - s.message_start_time) * 1e-9 : 0.0;
   info["start_time_ns"] = s.message_start_time;
@@ -60,7 +65,7 @@ nlohmann::json describeRecording(const McapReader& file) {
     t["message_count"] = count;
     t["rate_hz"] = duration > 0 ? static_cast<double>(count) / duration : 0.0;
     if (counts) {
-      for (const char* key : {"received", "written", "dropped"}) {
+      for (const char* key : {"received", "written", "dropped", "lost"}) {
         const auto v = counts->find(channel.topic + ":" + key);
         if (v != counts->end()) t[key] = std::stoull(v->second);
       }
@@ -77,8 +82,15 @@ std::string formatRecordingInfo(const nlohmann::json& info) {
   if (info["truncated"].get<bool>())
     out += fmt::format("state:       TRUNCATED at byte {} ({}); readable up to its last complete chunk\n",
                        info["truncated_at_byte"].get<std::uint64_t>(), info["truncation_reason"].get<std::string>());
-  else
-    out += fmt::format("state:       complete ({})\n", info["indexed"].get<bool>() ? "indexed summary" : "no summary, scanned");
+  else if (info["damaged_chunks"].empty())
+    out += fmt::format("state:       complete ({}{})\n", info["indexed"].get<bool>() ? "indexed summary" : "no summary, scanned",
+                       info["chunks_verified"].get<bool>() ? ", every chunk verified" : "");
+  if (!info["damaged_chunks"].empty()) {
+    out += fmt::format("state:       DAMAGED: {} chunk(s) unreadable, their messages are skipped by play\n",
+                       info["damaged_chunks"].size());
+    for (const auto& d : info["damaged_chunks"])
+      out += fmt::format("             chunk at byte {}: {}\n", d["offset"].get<std::uint64_t>(), d["reason"].get<std::string>());
+  }
   out += fmt::format("messages:    {}\n", info["message_count"].get<std::uint64_t>());
   out += fmt::format("duration:    {:.3f} s (log time {} .. {} ns)\n", info["duration_s"].get<double>(),
                      info["start_time_ns"].get<std::uint64_t>(), info["end_time_ns"].get<std::uint64_t>());
@@ -91,16 +103,21 @@ std::string formatRecordingInfo(const nlohmann::json& info) {
   out += fmt::format("chunks:      {} ({}), {:.1f} MB -> {:.1f} MB, ratio {:.2f}\n", c["count"].get<std::size_t>(),
                      comp.empty() ? "-" : comp, c["uncompressed_bytes"].get<double>() / 1e6,
                      c["compressed_bytes"].get<double>() / 1e6, c["ratio"].get<double>());
-  out += fmt::format("{:<28} {:<34} {:>9} {:>9} {:>9} {:>9}\n", "topic", "type", "messages", "rate Hz", "received", "dropped");
+  out += fmt::format("{:<28} {:<34} {:>9} {:>9} {:>9} {:>9} {:>9}\n", "topic", "type", "messages", "rate Hz", "received",
+                     "lost", "dropped");
+  auto count = [](const nlohmann::json& t, const char* key) {
+    return t.contains(key) ? std::to_string(t[key].get<std::uint64_t>()) : std::string("-");
+  };
   for (const auto& t : info["topics"]) {
-    const std::string received = t.contains("received") ? std::to_string(t["received"].get<std::uint64_t>()) : "-";
-    const std::string dropped = t.contains("dropped") ? std::to_string(t["dropped"].get<std::uint64_t>()) : "-";
-    out += fmt::format("{:<28} {:<34} {:>9} {:>9.2f} {:>9} {:>9}\n", t["topic"].get<std::string>(), t["type"].get<std::string>(),
-                       t["message_count"].get<std::uint64_t>(), t["rate_hz"].get<double>(), received, dropped);
+    out += fmt::format("{:<28} {:<34} {:>9} {:>9.2f} {:>9} {:>9} {:>9}\n", t["topic"].get<std::string>(), t["type"].get<std::string>(),
+                       t["message_count"].get<std::uint64_t>(), t["rate_hz"].get<double>(), count(t, "received"),
+                       count(t, "lost"), count(t, "dropped"));
   }
+  out += "(received: delivered by DDS; lost: never delivered, per the DDS sample-lost/rejected status; dropped: received but\n"
+         " not written, because the recorder's queue was full or the file failed)\n";
   if (!info["topic_counts_recorded"].get<bool>())
-    out += info["truncated"].get<bool>() ? "(no per-topic received/dropped counts: the recorder did not close the file)\n"
-                                         : "(no per-topic received/dropped counts in this file)\n";
+    out += info["truncated"].get<bool>() ? "(no per-topic received/lost/dropped counts: the recorder did not close the file)\n"
+                                         : "(no per-topic received/lost/dropped counts in this file)\n";
   return out;
 }
 

@@ -2,9 +2,14 @@
 
 #include <zstd.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <memory>
 
 namespace ddsnav::record {
 
@@ -23,8 +28,18 @@ std::string hex(const std::uint8_t* p, std::size_t n) {
   return s;
 }
 
-// A chunk's uncompressed size comes from the file; refuse absurd ones before allocating.
-constexpr std::uint64_t kMaxChunkBytes = 1ull << 32;
+const char* fileKind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  return "not a regular file";
+}
+
+// zstd output grows in steps of at most this much beyond what was really decompressed, so memory
+// follows the bytes the compressed data produces, not the size the chunk header claims.
+constexpr std::size_t kDecompressStep = 16u << 20;
 
 Schema parseSchema(In& in) {
   Schema s;
@@ -71,8 +86,22 @@ ChunkInfo parseChunkHeader(In& in, std::uint64_t offset, std::uint64_t record_le
 }  // namespace
 
 McapReader::McapReader(const std::string& path, bool force_scan) : path_(path) {
-  file_ = std::fopen(path.c_str(), "rb");
-  if (!file_) throw McapError(path + ": cannot open: " + std::strerror(errno));
+  // Non-blocking open, then a type check: opening a FIFO for reading would otherwise wait for a writer.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) throw McapError(path + ": cannot open: " + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    const int err = errno;
+    ::close(fd);
+    if (!S_ISREG(st.st_mode) && st.st_mode != 0)
+      throw McapError(path + ": " + fileKind(st.st_mode) + ", not a recording: expected a regular .mcap file");
+    throw McapError(path + ": cannot stat: " + std::strerror(err));
+  }
+  file_ = ::fdopen(fd, "rb");
+  if (!file_) {
+    ::close(fd);
+    throw McapError(path + ": cannot open: " + std::strerror(errno));
+  }
   try {
     if (fseeko(file_, 0, SEEK_END) != 0) throw McapError(path + ": cannot seek: " + std::strerror(errno));
     file_size_ = static_cast<std::uint64_t>(ftello(file_));
@@ -331,32 +360,42 @@ void McapReader::scan() {
           break;
         }
         case kChunk: {
-          const auto content = readAt(content_at, length);
-          In r(content.data(), content.size(), content_at, path_);
-          std::uint32_t crc = 0;
-          std::uint64_t records_size = 0;
-          ChunkInfo c = parseChunkHeader(r, offset, kRecordPrefix + length, crc, records_size);
-          // Decoding validates it (size, CRC) and counts its messages.
-          const auto records = chunkRecords(c);
-          In m(records.data(), records.size(), 0, path_ + ": chunk at byte " + std::to_string(offset));
-          while (!m.done()) {
-            const std::uint8_t op = m.u8();
-            const std::uint64_t len = m.u64();
-            const std::uint8_t* body = m.take(len, "record in chunk");
-            In b(body, len, 0, path_);
-            if (op == kMessage) {
-              const std::uint16_t channel = b.u16();
-              b.u32();
-              count(channel, b.u64());
-            } else if (op == kSchema) {
-              Schema s = parseSchema(b);
-              schemas_[s.id] = std::move(s);
-            } else if (op == kChannel) {
-              Channel ch = parseChannel(b);
-              channels_[ch.id] = std::move(ch);
+          // The record's length is sound (checked above), so a chunk that does not decode is skipped,
+          // not the end of the file: the chunks after it are as good as the ones before.
+          try {
+            const auto content = readAt(content_at, length);
+            In r(content.data(), content.size(), content_at, path_);
+            std::uint32_t crc = 0;
+            std::uint64_t records_size = 0;
+            ChunkInfo c = parseChunkHeader(r, offset, kRecordPrefix + length, crc, records_size);
+            // Decoding validates it (size, CRC) and counts its messages; counted only once it all parsed.
+            const auto records = chunkRecords(c);
+            In m(records.data(), records.size(), 0, path_ + ": chunk at byte " + std::to_string(offset));
+            std::vector<std::pair<std::uint16_t, std::uint64_t>> messages;
+            std::vector<Schema> schemas;
+            std::vector<Channel> channels;
+            while (!m.done()) {
+              const std::uint8_t op = m.u8();
+              const std::uint64_t len = m.u64();
+              const std::uint8_t* body = m.take(len, "record in chunk");
+              In b(body, len, 0, path_ + ": chunk at byte " + std::to_string(offset));
+              if (op == kMessage) {
+                const std::uint16_t channel = b.u16();
+                b.u32();
+                messages.emplace_back(channel, b.u64());
+              } else if (op == kSchema) {
+                schemas.push_back(parseSchema(b));
+              } else if (op == kChannel) {
+                channels.push_back(parseChannel(b));
+              }
             }
+            for (const auto& [channel, log_time] : messages) count(channel, log_time);
+            for (Schema& s : schemas) schemas_[s.id] = std::move(s);
+            for (Channel& ch : channels) channels_[ch.id] = std::move(ch);
+            chunks_.push_back(std::move(c));
+          } catch (const McapError& e) {
+            damaged_.push_back({offset, e.what()});
           }
-          chunks_.push_back(std::move(c));
           break;
         }
         case kMessageIndex: {
@@ -393,8 +432,11 @@ std::vector<std::uint8_t> McapReader::chunkRecords(const ChunkInfo& chunk) const
   std::uint64_t size = 0;
   const ChunkInfo c = parseChunkHeader(r, chunk.offset, chunk.record_length, crc, size);
   const std::uint8_t* data = r.take(size, "chunk records");
-  if (c.uncompressed_size > kMaxChunkBytes)
-    fail(chunk.offset, "chunk claims " + std::to_string(c.uncompressed_size) + " uncompressed bytes (limit 4 GiB)");
+  // The claimed size comes from the file: checked against a named cap before any allocation, and for
+  // zstd the output grows only as far as the compressed bytes really expand.
+  if (c.uncompressed_size > kMaxChunkUncompressedBytes)
+    fail(chunk.offset, "chunk claims " + std::to_string(c.uncompressed_size) + " uncompressed bytes (limit " +
+                           std::to_string(kMaxChunkUncompressedBytes) + ", kMaxChunkUncompressedBytes)");
   std::vector<std::uint8_t> out;
   if (c.compression.empty()) {
     if (size != c.uncompressed_size)
@@ -402,11 +444,26 @@ std::vector<std::uint8_t> McapReader::chunkRecords(const ChunkInfo& chunk) const
                              std::to_string(c.uncompressed_size));
     out.assign(data, data + size);
   } else if (c.compression == "zstd") {
-    out.resize(c.uncompressed_size);
-    const std::size_t n = ZSTD_decompress(out.data(), out.size(), data, size);
-    if (ZSTD_isError(n)) fail(chunk.offset, std::string("zstd chunk does not decompress: ") + ZSTD_getErrorName(n));
-    if (n != c.uncompressed_size)
-      fail(chunk.offset, "zstd chunk decompressed to " + std::to_string(n) + " bytes, expected " +
+    std::unique_ptr<ZSTD_DCtx, decltype(&ZSTD_freeDCtx)> dctx(ZSTD_createDCtx(), &ZSTD_freeDCtx);
+    ZSTD_inBuffer in{data, size, 0};
+    std::size_t produced = 0;
+    for (;;) {
+      // Room for the next step, never past the claimed size (+1 byte to notice output beyond it).
+      const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(c.uncompressed_size + 1, produced + kDecompressStep));
+      out.resize(want);
+      ZSTD_outBuffer o{out.data(), out.size(), produced};
+      const std::size_t rc = ZSTD_decompressStream(dctx.get(), &o, &in);
+      if (ZSTD_isError(rc)) fail(chunk.offset, std::string("zstd chunk does not decompress: ") + ZSTD_getErrorName(rc));
+      produced = o.pos;
+      if (produced > c.uncompressed_size)
+        fail(chunk.offset, "zstd chunk decompresses to more than the " + std::to_string(c.uncompressed_size) +
+                               " bytes it claims");
+      if (rc == 0 && in.pos == in.size) break;                    // frame complete, input used up
+      if (in.pos == in.size && o.pos < o.size) break;             // input used up mid-frame: short
+    }
+    out.resize(produced);
+    if (produced != c.uncompressed_size)
+      fail(chunk.offset, "zstd chunk decompressed to " + std::to_string(produced) + " bytes, expected " +
                              std::to_string(c.uncompressed_size));
   } else {
     fail(chunk.offset, "chunk compression '" + c.compression + "' is not supported (only zstd or none)");
@@ -415,7 +472,8 @@ std::vector<std::uint8_t> McapReader::chunkRecords(const ChunkInfo& chunk) const
   return out;
 }
 
-void McapReader::forEachMessage(const std::function<bool(const MessageView&)>& callback) const {
+void McapReader::forEachMessage(const std::function<bool(const MessageView&)>& callback,
+                                const DamagedChunkHandler& on_damaged) const {
   auto deliver = [&](In& b, std::uint64_t where) {
     MessageView m;
     const std::uint16_t channel = b.u16();
@@ -427,6 +485,17 @@ void McapReader::forEachMessage(const std::function<bool(const MessageView&)>& c
     m.publish_time = b.u64();
     m.data = std::span<const std::uint8_t>(b.take(b.remaining(), "message data"), b.remaining());
     return callback(m);
+  };
+  // Damaged chunks found while scanning were left out of chunks_: report them in file order too.
+  std::size_t damaged = 0;
+  auto reportDamagedBefore = [&](std::uint64_t limit) {
+    for (; damaged < damaged_.size() && damaged_[damaged].offset < limit; ++damaged) {
+      const std::uint64_t at = damaged_[damaged].offset;
+      const bool listed = std::any_of(chunks_.begin(), chunks_.end(), [&](const ChunkInfo& c) { return c.offset == at; });
+      if (listed) continue;  // reported when its turn comes below
+      if (!on_damaged) throw McapError(damaged_[damaged].reason);
+      on_damaged(damaged_[damaged]);
+    }
   };
   // Loose messages and chunks, in file order.
   std::size_t loose = 0;
@@ -441,8 +510,16 @@ void McapReader::forEachMessage(const std::function<bool(const MessageView&)>& c
       In b(content.data(), content.size(), at + kRecordPrefix, path_);
       if (!deliver(b, at)) return;
     }
+    reportDamagedBefore(limit);
     if (ci == chunks_.size()) break;
-    const auto records = chunkRecords(chunks_[ci]);
+    std::vector<std::uint8_t> records;
+    try {
+      records = chunkRecords(chunks_[ci]);
+    } catch (const McapError& e) {
+      if (!on_damaged) throw;
+      on_damaged({chunks_[ci].offset, e.what()});
+      continue;
+    }
     In m(records.data(), records.size(), 0, path_ + ": chunk at byte " + std::to_string(chunks_[ci].offset));
     while (!m.done()) {
       const std::uint8_t op = m.u8();
@@ -453,6 +530,25 @@ void McapReader::forEachMessage(const std::function<bool(const MessageView&)>& c
       if (!deliver(b, chunks_[ci].offset)) return;
     }
   }
+  reportDamagedBefore(~0ull);
+}
+
+const std::vector<DamagedChunk>& McapReader::verifyChunks() {
+  for (const ChunkInfo& c : chunks_) {
+    try {
+      const auto records = chunkRecords(c);
+      In m(records.data(), records.size(), 0, path_ + ": chunk at byte " + std::to_string(c.offset));
+      while (!m.done()) {
+        m.u8();
+        m.take(m.u64(), "record in chunk");
+      }
+    } catch (const McapError& e) {
+      const bool known = std::any_of(damaged_.begin(), damaged_.end(), [&](const DamagedChunk& d) { return d.offset == c.offset; });
+      if (!known) damaged_.push_back({c.offset, e.what()});
+    }
+  }
+  std::sort(damaged_.begin(), damaged_.end(), [](const DamagedChunk& a, const DamagedChunk& b) { return a.offset < b.offset; });
+  return damaged_;
 }
 
 }  // namespace ddsnav::record

@@ -1,17 +1,32 @@
 #include "mcap_format.hpp"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 #include <zlib.h>
 #include <zstd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <condition_variable>
 #include <cstring>
 #include <functional>
 #include <iostream>
+#include <mutex>
+#include <thread>
 #include <tuple>
 
 namespace ddsnav::record {
 
 std::string_view compressionName(Compression c) { return c == Compression::Zstd ? "zstd" : ""; }
+
+void lowerThreadPriority(int increment) {
+  // Linux keeps a nice value per thread: PRIO_PROCESS with the thread id changes only this thread.
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  errno = 0;
+  const int current = ::getpriority(PRIO_PROCESS, tid);
+  if (errno == 0) ::setpriority(PRIO_PROCESS, tid, std::min(19, current + increment));
+}
 
 namespace format {
 
@@ -52,14 +67,112 @@ std::string opcodeName(std::uint8_t opcode) {
 
 using namespace format;
 
+namespace {
+void* newCompressor(int level) {
+  ZSTD_CCtx* c = ZSTD_createCCtx();
+  ZSTD_CCtx_setParameter(c, ZSTD_c_compressionLevel, level);
+  return c;
+}
+}  // namespace
+
+// A closed chunk on its way to the file: records and index from the writer, CRC and compressed bytes from
+// a worker (or the calling thread).
+struct McapWriter::PendingChunk {
+  std::vector<std::uint8_t> records;
+  std::map<std::uint16_t, std::vector<std::pair<std::uint64_t, std::uint64_t>>> index;
+  std::uint64_t start = 0, end = 0;
+  std::vector<std::uint8_t> compressed;  // empty for Compression::None
+  std::uint32_t crc = 0;
+  std::string error;
+  bool done = false;  // guarded by the pool's mutex
+
+  void encode(Compression compression, void* zstd) {
+    crc = crc32(records.data(), records.size());
+    if (compression != Compression::Zstd) return;
+    compressed.resize(ZSTD_compressBound(records.size()));
+    const std::size_t n = ZSTD_compress2(static_cast<ZSTD_CCtx*>(zstd), compressed.data(), compressed.size(),
+                                         records.data(), records.size());
+    if (ZSTD_isError(n)) {
+      error = std::string("zstd compression failed: ") + ZSTD_getErrorName(n);
+      compressed.clear();
+      return;
+    }
+    compressed.resize(n);
+  }
+};
+
+// Worker threads that encode closed chunks, each with its own zstd context.
+class McapWriter::Pool {
+ public:
+  Pool(unsigned threads, Compression compression, int level, int nice) : compression_(compression) {
+    for (unsigned i = 0; i < threads; ++i)
+      workers_.emplace_back([this, level, nice] {
+        if (nice != 0) lowerThreadPriority(nice);
+        void* zstd = compression_ == Compression::Zstd ? newCompressor(level) : nullptr;
+        run(zstd);
+        if (zstd) ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd));
+      });
+  }
+  ~Pool() {
+    {
+      std::lock_guard lock(mutex_);
+      stopping_ = true;
+    }
+    work_.notify_all();
+    for (auto& t : workers_) t.join();
+  }
+  void submit(std::shared_ptr<PendingChunk> chunk) {
+    {
+      std::lock_guard lock(mutex_);
+      queue_.push_back(std::move(chunk));
+    }
+    work_.notify_one();
+  }
+  bool done(const PendingChunk& chunk) {
+    std::lock_guard lock(mutex_);
+    return chunk.done;
+  }
+  void wait(const PendingChunk& chunk) {
+    std::unique_lock lock(mutex_);
+    finished_.wait(lock, [&] { return chunk.done; });
+  }
+
+ private:
+  void run(void* zstd) {
+    for (;;) {
+      std::shared_ptr<PendingChunk> chunk;
+      {
+        std::unique_lock lock(mutex_);
+        work_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+        if (queue_.empty()) return;
+        chunk = std::move(queue_.front());
+        queue_.pop_front();
+      }
+      chunk->encode(compression_, zstd);
+      {
+        std::lock_guard lock(mutex_);
+        chunk->done = true;
+      }
+      finished_.notify_all();
+    }
+  }
+  Compression compression_;
+  std::mutex mutex_;
+  std::condition_variable work_, finished_;
+  std::deque<std::shared_ptr<PendingChunk>> queue_;
+  bool stopping_ = false;
+  std::vector<std::thread> workers_;
+};
+
 McapWriter::McapWriter(const std::string& path, McapWriterOptions options) : path_(path), options_(std::move(options)) {
   if (options_.chunk_size == 0) throw McapError(path_ + ": chunk size must be positive");
+  if (options_.max_pending_chunks == 0) throw McapError(path_ + ": max_pending_chunks must be positive");
   file_ = std::fopen(path.c_str(), "wb");
   if (!file_) throw McapError(path_ + ": cannot create file: " + std::strerror(errno));
-  if (options_.compression == Compression::Zstd) {
-    zstd_ = ZSTD_createCCtx();
-    ZSTD_CCtx_setParameter(static_cast<ZSTD_CCtx*>(zstd_), ZSTD_c_compressionLevel, options_.zstd_level);
-  }
+  if (options_.compression_threads > 0)
+    pool_ = std::make_unique<Pool>(options_.compression_threads, options_.compression, options_.zstd_level, options_.worker_nice);
+  else if (options_.compression == Compression::Zstd)
+    zstd_ = newCompressor(options_.zstd_level);
   writeBytes(kMagic, sizeof kMagic);
   std::vector<std::uint8_t> header;
   Out out(header);
@@ -75,6 +188,7 @@ McapWriter::~McapWriter() {
   } catch (const std::exception& e) {
     std::cerr << e.what() << '\n';
   }
+  pool_.reset();  // joins the workers
   if (zstd_) ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd_));
 }
 
@@ -174,39 +288,89 @@ void McapWriter::write(std::uint16_t channel_id, std::uint64_t log_time, std::ui
 
 void McapWriter::closeChunk() {
   if (chunk_records_.empty()) return;
+  auto chunk = std::make_shared<PendingChunk>();
+  chunk->records.swap(chunk_records_);
+  chunk->index.swap(chunk_index_);
+  chunk->start = chunk_start_;
+  chunk->end = chunk_end_;
+  // The next chunk fills a buffer that already has its capacity: no page faults per chunk.
+  if (!spare_buffers_.empty()) {
+    chunk_records_.swap(spare_buffers_.back());
+    spare_buffers_.pop_back();
+  }
+  chunk_records_.clear();
+  if (!pool_) {
+    chunk->encode(options_.compression, zstd_);
+    chunk->done = true;
+    pending_.push_back(std::move(chunk));
+    writePending(true);
+    return;
+  }
+  pool_->submit(chunk);
+  pending_.push_back(std::move(chunk));
+  writePending(false);
+}
+
+std::map<std::uint16_t, std::uint64_t> McapWriter::unwrittenMessages() const {
+  std::map<std::uint16_t, std::uint64_t> out;
+  for (const auto& [channel, entries] : chunk_index_) out[channel] += entries.size();
+  for (const auto& chunk : pending_)
+    for (const auto& [channel, entries] : chunk->index) out[channel] += entries.size();
+  return out;
+}
+
+std::uint64_t McapWriter::bytesBuffered() const {
+  std::uint64_t n = chunk_records_.size();
+  for (const auto& chunk : pending_) n += chunk->records.size();
+  return n;
+}
+
+void McapWriter::writeFinishedChunks() {
+  if (file_) writePending(false);
+}
+
+void McapWriter::writePending(bool wait_all) {
+  // In file order: the oldest pending chunk first, waiting for it only when the backlog is full.
+  // A chunk leaves pending_ only once it is in the file: after a failure, unwrittenMessages() still
+  // counts it.
+  while (!pending_.empty()) {
+    PendingChunk& front = *pending_.front();
+    if (pool_ && !pool_->done(front)) {
+      if (!wait_all && pending_.size() <= options_.max_pending_chunks) return;
+      pool_->wait(front);
+    }
+    writeChunk(front);
+    pending_.pop_front();
+  }
+}
+
+void McapWriter::writeChunk(PendingChunk& chunk) {
+  if (!chunk.error.empty()) throw McapError(path_ + ": " + chunk.error);
   ChunkInfo info;
   info.offset = position_;
-  info.message_start_time = chunk_start_;
-  info.message_end_time = chunk_end_;
-  info.uncompressed_size = chunk_records_.size();
+  info.message_start_time = chunk.start;
+  info.message_end_time = chunk.end;
+  info.uncompressed_size = chunk.records.size();
   info.compression = std::string(compressionName(options_.compression));
+  const std::vector<std::uint8_t>& payload = options_.compression == Compression::Zstd ? chunk.compressed : chunk.records;
+  info.compressed_size = payload.size();
 
-  std::vector<std::uint8_t> compressed;
-  const std::vector<std::uint8_t>* payload = &chunk_records_;
-  if (options_.compression == Compression::Zstd) {
-    compressed.resize(ZSTD_compressBound(chunk_records_.size()));
-    const std::size_t n = ZSTD_compress2(static_cast<ZSTD_CCtx*>(zstd_), compressed.data(), compressed.size(),
-                                         chunk_records_.data(), chunk_records_.size());
-    if (ZSTD_isError(n)) throw McapError(path_ + ": zstd compression failed: " + ZSTD_getErrorName(n));
-    compressed.resize(n);
-    payload = &compressed;
-  }
-  info.compressed_size = payload->size();
-
-  std::vector<std::uint8_t> content;
-  content.reserve(payload->size() + 64);
-  Out out(content);
-  out.u64(chunk_start_);
-  out.u64(chunk_end_);
-  out.u64(chunk_records_.size());
-  out.u32(crc32(chunk_records_.data(), chunk_records_.size()));
+  // Record prefix and the chunk's fixed fields, then the payload straight from its buffer (no copy).
+  std::vector<std::uint8_t> head;
+  Out out(head);
+  out.u8(kChunk);
+  out.u64(8 + 8 + 8 + 4 + 4 + info.compression.size() + 8 + payload.size());
+  out.u64(chunk.start);
+  out.u64(chunk.end);
+  out.u64(chunk.records.size());
+  out.u32(chunk.crc);
   out.str(info.compression);
-  out.u64(payload->size());
-  out.raw(payload->data(), payload->size());
-  writeRecord(kChunk, content);
+  out.u64(payload.size());
+  writeBytes(head.data(), head.size());
+  writeBytes(payload.data(), payload.size());
   info.record_length = position_ - info.offset;
 
-  for (const auto& [channel, entries] : chunk_index_) {
+  for (const auto& [channel, entries] : chunk.index) {
     info.message_index_offsets[channel] = position_;
     std::vector<std::uint8_t> index;
     Out ix(index);
@@ -220,23 +384,25 @@ void McapWriter::closeChunk() {
   }
   info.message_index_length = position_ - (info.offset + info.record_length);
   chunks_.push_back(std::move(info));
-  chunk_records_.clear();
-  chunk_index_.clear();
+  if (spare_buffers_.size() < options_.max_pending_chunks + 1) spare_buffers_.push_back(std::move(chunk.records));
   // The chunk is complete in the OS's hands: a killed recorder keeps it.
   flushFile();
 }
 
 void McapWriter::flushAged() {
   if (!chunk_records_.empty() && std::chrono::steady_clock::now() - chunk_opened_ >= options_.chunk_age) closeChunk();
+  writeFinishedChunks();
 }
 
 void McapWriter::flush() {
   closeChunk();
+  writePending(true);
   if (file_) flushFile();
 }
 
 void McapWriter::addMetadata(const std::string& name, const StringMap& values) {
   closeChunk();  // Metadata lives in the data section between chunks.
+  writePending(true);
   std::vector<std::uint8_t> content;
   Out out(content);
   out.str(name);
@@ -260,6 +426,7 @@ void appendRecord(std::vector<std::uint8_t>& out, std::uint8_t opcode, const std
 void McapWriter::close() {
   if (!file_) return;
   closeChunk();
+  writePending(true);
   std::vector<std::uint8_t> c;
   Out(c).u32(0);  // data section CRC: 0 = not computed (every chunk carries its own CRC)
   writeRecord(kDataEnd, c);

@@ -109,6 +109,9 @@ struct RawSample {
   std::string type_name;
   std::span<const std::uint8_t> payload;  // encapsulation (4 bytes) + XCDR1 body; valid during the callback
   std::int64_t source_timestamp_ns = 0;
+  // When not null, the vector that holds `payload` (Fast DDS): the callback may take the bytes without a
+  // copy by swapping in another vector (best with capacity for the next sample); `payload` is then stale.
+  std::vector<std::uint8_t>* owned_payload = nullptr;
 };
 
 // A topic seen on the bus (from discovery of publishers, local ones included).
@@ -128,6 +131,7 @@ using RawCallback = std::function<void(const RawSample& sample)>;
 void write(WriterImpl& writer, const void* sample);
 std::size_t matchedReaders(const WriterImpl& writer);
 std::size_t matchedWriters(const ReaderImpl& reader);
+std::uint64_t lostSamples(const ReaderImpl& reader);
 // Polls the matched count every few ms until it is >= count; false on timeout.
 bool waitMatched(const std::function<std::size_t()>& matched, std::size_t count,
                  std::chrono::milliseconds timeout);
@@ -139,6 +143,10 @@ class Subscription {
   Subscription() = default;
   explicit Subscription(std::shared_ptr<detail::ReaderImpl> impl) : impl_(std::move(impl)) {}
   std::size_t matchedPublishers() const { return impl_ ? detail::matchedWriters(*impl_) : 0; }
+  // Samples this reader will never deliver, as the vendor counts them: the DDS SAMPLE_LOST status (gaps in
+  // a writer's sequence numbers: dropped on the way for best effort, given up by the writer for reliable)
+  // plus SAMPLE_REJECTED (no room in the reader's history). Cumulative since the subscription began.
+  std::uint64_t lostSamples() const { return impl_ ? detail::lostSamples(*impl_) : 0; }
   bool waitForPublishers(std::size_t count, std::chrono::milliseconds timeout) const {
     return detail::waitMatched([this] { return matchedPublishers(); }, count, timeout);
   }

@@ -9,8 +9,10 @@
 
 namespace ddsnav::record {
 
-// Topics (type, count, rate, recorded drops), time range, chunks and compression, truncation.
-nlohmann::json describeRecording(const McapReader& file);
+// Topics (type, count, rate, recorded losses and drops), time range, chunks and compression, truncation,
+// damaged chunks. verify_chunks: decompress and CRC-check every chunk first (McapReader::verifyChunks), so
+// a file whose summary is intact but whose data is not is not called complete.
+nlohmann::json describeRecording(McapReader& file, bool verify_chunks = true);
 std::string formatRecordingInfo(const nlohmann::json& info);
 
 }  // namespace ddsnav::record

@@ -19,6 +19,8 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <deque>
+#include <memory>
 #include <functional>
 #include <map>
 #include <optional>
@@ -37,6 +39,8 @@ class McapError : public std::runtime_error {
 
 enum class Compression { None, Zstd };
 std::string_view compressionName(Compression c);  // "" | "zstd" (the spec's names)
+// Raises the calling thread's nice value by `increment` (lower priority; Linux per-thread nice).
+void lowerThreadPriority(int increment);
 
 using StringMap = std::map<std::string, std::string>;
 
@@ -80,6 +84,16 @@ struct ChunkInfo {
   std::uint64_t message_index_length = 0;  // bytes of the MessageIndex records after the chunk
 };
 
+// A chunk whose records cannot be used (CRC mismatch, does not decompress, impossible sizes).
+struct DamagedChunk {
+  std::uint64_t offset = 0;  // of the Chunk record
+  std::string reason;        // the reader's error, naming file and offset
+};
+
+// Largest uncompressed chunk the reader accepts. The size is read from the file, so it is checked before
+// anything is allocated; ddsnav writes chunks of --chunk-kb (at most 1 GiB) plus one message.
+inline constexpr std::uint64_t kMaxChunkUncompressedBytes = 1ull << 30;
+
 struct McapWriterOptions {
   Compression compression = Compression::Zstd;
   int zstd_level = 1;                      // fast: recording must keep up with the sensors
@@ -87,9 +101,19 @@ struct McapWriterOptions {
   std::chrono::milliseconds chunk_age{1000};  // ... or once its first message is this old (flushAged)
   std::string profile;                     // MCAP profile; "" (ddsnav's schemas are OMG IDL, not ROS)
   std::string library = "ddsnav-record";
+  // Closed chunks are CRC'd and compressed by this many worker threads while the caller fills the next
+  // one (0: on the calling thread). Chunks still reach the file in order.
+  unsigned compression_threads = 0;
+  // Closed chunks waiting for a worker or for their turn to be written; closing one more waits.
+  std::size_t max_pending_chunks = 4;
+  // Added to the workers' nice value: a recorder's workers yield the CPU to the threads receiving data.
+  int worker_nice = 0;
 };
 
 class McapWriter {
+  struct PendingChunk;
+  class Pool;
+
  public:
   // Creates (truncates) the file and writes magic + Header. Throws McapError when it cannot.
   McapWriter(const std::string& path, McapWriterOptions options = {});
@@ -108,11 +132,18 @@ class McapWriter {
   void flushAged();
   // Closes the open chunk and hands the bytes to the OS: a crash after this loses nothing written before.
   void flush();
+  // Writes the chunks the workers have finished (in order), without waiting for the others.
+  void writeFinishedChunks();
   void close();
   bool isOpen() const { return file_ != nullptr; }
 
   std::uint64_t messageCount() const { return message_count_; }
   std::uint64_t bytesWritten() const { return position_; }
+  // Bytes of message records not yet in the file: the open chunk and closed chunks waiting for a worker.
+  std::uint64_t bytesBuffered() const;
+  // Messages per channel written with write() but not (yet) in the file. After a write error, these are
+  // the ones the failure lost.
+  std::map<std::uint16_t, std::uint64_t> unwrittenMessages() const;
   std::size_t chunkCount() const { return chunks_.size(); }
 
  private:
@@ -120,6 +151,8 @@ class McapWriter {
   void writeBytes(const void* data, std::size_t size);
   void flushFile();
   void closeChunk();
+  void writePending(bool wait_all);
+  void writeChunk(PendingChunk& chunk);
 
   std::string path_;
   McapWriterOptions options_;
@@ -139,7 +172,10 @@ class McapWriter {
   std::vector<ChunkInfo> chunks_;
   std::vector<std::pair<std::uint64_t, std::uint64_t>> metadata_offsets_;  // offset, length
   std::vector<std::string> metadata_names_;
-  void* zstd_ = nullptr;  // ZSTD_CCtx*
+  std::unique_ptr<Pool> pool_;                              // compression workers, or none
+  std::deque<std::shared_ptr<PendingChunk>> pending_;      // closed, not yet written, in file order
+  std::vector<std::vector<std::uint8_t>> spare_buffers_;    // chunk buffers to reuse
+  void* zstd_ = nullptr;  // ZSTD_CCtx* of the calling thread (compression_threads == 0)
 };
 
 struct McapSummary {
@@ -152,7 +188,9 @@ struct McapSummary {
 class McapReader {
  public:
   // Reads the summary when the file has a valid one; otherwise (a crashed recording) scans the records
-  // from the start and keeps everything up to the first incomplete or damaged record.
+  // from the start and keeps everything up to the first incomplete record. A damaged chunk whose record
+  // length is sound is remembered (damagedChunks()) and skipped; the scan goes on after it.
+  // Refuses anything but a regular file (a FIFO would block, a directory has no bytes) with McapError.
   // force_scan: ignore the summary (tests compare both paths).
   explicit McapReader(const std::string& path, bool force_scan = false);
   ~McapReader();
@@ -176,9 +214,18 @@ class McapReader {
   // From the Statistics record, or counted while scanning.
   const McapSummary& summary() const { return summary_; }
 
+  // Damaged chunks found so far: while scanning, or by verifyChunks().
+  const std::vector<DamagedChunk>& damagedChunks() const { return damaged_; }
+  // Decompresses and CRC-checks every chunk (a summary does not say whether the data behind it is
+  // intact); returns damagedChunks().
+  const std::vector<DamagedChunk>& verifyChunks();
+
+  using DamagedChunkHandler = std::function<void(const DamagedChunk&)>;
   // Every message in file order (for ddsnav recordings: log-time order). The view's data is valid during
-  // the callback. Return false from the callback to stop. Throws McapError on a damaged chunk.
-  void forEachMessage(const std::function<bool(const MessageView&)>& callback) const;
+  // the callback. Return false from the callback to stop. A damaged chunk throws McapError, or, when
+  // on_damaged is given, is reported to it and skipped: reading goes on with the next chunk.
+  void forEachMessage(const std::function<bool(const MessageView&)>& callback,
+                      const DamagedChunkHandler& on_damaged = {}) const;
 
  private:
   void readSummary(std::uint64_t summary_start, std::uint64_t summary_offset_start);
@@ -202,6 +249,7 @@ class McapReader {
   std::vector<ChunkInfo> chunks_;
   std::vector<std::uint64_t> loose_messages_;  // offsets of Message records outside chunks
   std::vector<Metadata> metadata_;
+  std::vector<DamagedChunk> damaged_;
   McapSummary summary_;
 };
 
