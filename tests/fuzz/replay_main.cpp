@@ -2,9 +2,10 @@
 // libFuzzer: the normal build replays the checked-in corpus of each fuzz target as an ordinary ctest test,
 // so every input that once crashed stays fixed, with gcc and without a fuzzing toolchain.
 //
-// The address space is capped like the fuzzers' -rss_limit_mb, so an input that makes the code allocate
-// without bound fails here too (std::bad_alloc escapes the target and ends the process). Not under a
-// sanitizer: ASan reserves terabytes of shadow memory and enforces its own allocation limits.
+// The fuzzers' limits hold here too, so an input that once allocated without bound or ran for ever fails the
+// plain build as well: the address space is capped at 2 GB (std::bad_alloc escapes the target and ends the
+// process; not under a sanitizer, whose shadow memory needs terabytes of address space) and each input gets
+// a few seconds (alarm): every corpus input runs in milliseconds once its bug is fixed.
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -14,7 +15,11 @@
 #include <string>
 #include <vector>
 
+#include <csignal>
+#include <cstring>
+
 #include <sys/resource.h>
+#include <unistd.h>
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size);
 
@@ -32,8 +37,18 @@ constexpr bool kSanitized = false;
 constexpr bool kSanitized = false;
 #endif
 
-// scripts/fuzz allows 2 GB of RSS; the address space also holds code, stacks and mappings never touched.
-constexpr rlim_t kAddressSpaceLimit = rlim_t(4) << 30;
+constexpr rlim_t kAddressSpaceLimit = rlim_t(2) << 30;   // scripts/fuzz: -rss_limit_mb=2048
+constexpr unsigned kSecondsPerInput = kSanitized ? 15 : 3;  // scripts/fuzz: -timeout=10 under ASan
+
+char current_input[4096];
+
+void onAlarm(int) {
+  const char* what = "fuzz replay: input takes too long (a hang): ";
+  (void)!write(2, what, std::strlen(what));
+  (void)!write(2, current_input, std::strlen(current_input));
+  (void)!write(2, "\n", 1);
+  std::abort();
+}
 
 std::vector<std::filesystem::path> inputs(int argc, char** argv) {
   std::vector<std::filesystem::path> files;
@@ -61,6 +76,7 @@ int main(int argc, char** argv) {
     const rlimit limit{kAddressSpaceLimit, kAddressSpaceLimit};
     setrlimit(RLIMIT_AS, &limit);
   }
+  std::signal(SIGALRM, onAlarm);
   const auto files = inputs(argc, argv);
   if (files.empty()) {
     std::fprintf(stderr, "%s: no inputs found\n", argv[0]);
@@ -74,7 +90,10 @@ int main(int argc, char** argv) {
     }
     const std::vector<std::uint8_t> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
     std::fprintf(stderr, "replaying %s (%zu bytes)\n", file.c_str(), bytes.size());
+    std::snprintf(current_input, sizeof current_input, "%s", file.c_str());
+    alarm(kSecondsPerInput);
     LLVMFuzzerTestOneInput(bytes.data(), bytes.size());
+    alarm(0);
   }
   std::printf("%zu input(s) replayed\n", files.size());
   return 0;
