@@ -87,7 +87,8 @@ TEST(RuntimeParameters, MissingUnknownAndMalformed) {
   std::remove(bad.c_str());
 }
 
-// Found by tests/fuzz (target parameters): a list or map as a key escaped as a bare yaml-cpp exception.
+// A list or map as a key escaped as a bare yaml-cpp exception naming neither file nor key (the launch
+// fuzz target found the same in launch files; tests/fuzz/corpus/parameters/regress-complex-key replays it).
 TEST(RuntimeParameters, ComplexKeyNamesTheFileAndLine) {
   std::string file = writeTemp("rate_hz: 1\noctree:\n  ? [a, b]\n  : 3\n");
   const std::string e = errorOf([&] { Parameters::load(file, {}); });
