@@ -41,8 +41,10 @@ class ScratchFile {
   std::string path_;
 };
 
-// Aborts (a finding) when an error message does not name its source.
+// Aborts (a finding) when an error message does not name its source. what() is a C string: a name holding a
+// NUL byte can only appear up to it.
 inline void expectNamed(std::string_view message, std::string_view source) {
+  source = source.substr(0, source.find('\0'));
   if (message.find(source) == std::string_view::npos) {
     std::fprintf(stderr, "error message does not name '%.*s': %.*s\n", int(source.size()), source.data(),
                  int(message.size()), message.data());
