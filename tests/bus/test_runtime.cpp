@@ -87,6 +87,16 @@ TEST(RuntimeParameters, MissingUnknownAndMalformed) {
   std::remove(bad.c_str());
 }
 
+// A list or map as a key escaped as a bare yaml-cpp exception naming neither file nor key (the launch
+// fuzz target found the same in launch files; tests/fuzz/corpus/parameters/regress-complex-key replays it).
+TEST(RuntimeParameters, ComplexKeyNamesTheFileAndLine) {
+  std::string file = writeTemp("rate_hz: 1\noctree:\n  ? [a, b]\n  : 3\n");
+  const std::string e = errorOf([&] { Parameters::load(file, {}); });
+  EXPECT_NE(e.find(file + "' line 3"), std::string::npos) << e;
+  EXPECT_NE(e.find("under 'octree' is a list"), std::string::npos) << e;
+  std::remove(file.c_str());
+}
+
 TEST(RuntimeClock, TopicClockFollowsPublishedTime) {
   for (bus::Vendor v : {bus::Vendor::FastDDS, bus::Vendor::CycloneDDS}) {
     SCOPED_TRACE(vendorTag(v));

@@ -15,6 +15,14 @@ namespace {
 
 bool finite(const msg::Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 
+// Far beyond any world ddsnav plans in, and small enough that centre +- semi-axis and the collision grids'
+// cell arithmetic stay finite and inside int (a finite 1e300 overflowed both; found by tests/fuzz, target cdr).
+constexpr double kMaxObstacleExtent = 1e6;  // m
+
+bool bounded(const msg::Vec3& v) {
+  return std::abs(v.x()) <= kMaxObstacleExtent && std::abs(v.y()) <= kMaxObstacleExtent && std::abs(v.z()) <= kMaxObstacleExtent;
+}
+
 std::string checkFrame(const msg::Header& header, const std::string& frame) {
   if (!frame.empty() && header.frame_id() != frame) return fmt::format("frame '{}', expected '{}'", bus::printable(header.frame_id()), frame);
   return {};
@@ -24,6 +32,9 @@ std::string checkObstacle(const msg::ObstacleEllipsoid& o, bool planar) {
   if (!finite(o.centre())) return fmt::format("non-finite centre ({}, {}, {})", o.centre().x(), o.centre().y(), o.centre().z());
   const auto& s = o.semi_axes();
   if (!finite(s)) return fmt::format("non-finite semi-axes ({}, {}, {})", s.x(), s.y(), s.z());
+  if (!bounded(o.centre()) || !bounded(s))
+    return fmt::format("centre ({}, {}, {}) or semi-axes ({}, {}, {}) beyond {} m", o.centre().x(), o.centre().y(),
+                       o.centre().z(), s.x(), s.y(), s.z(), kMaxObstacleExtent);
   const double axes[3] = {s.x(), s.y(), s.z()};
   const char* names = "xyz";
   for (int i = 0; i < (planar ? 2 : 3); ++i)

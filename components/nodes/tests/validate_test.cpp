@@ -105,6 +105,22 @@ TEST(ObstacleArrayCheck, NamesTheObstacleAndWhatIsWrong) {
   EXPECT_NE(nodes::checkObstacleArray(negative_z, "map").find("semi-axis z"), std::string::npos);
 }
 
+// Found by tests/fuzz (target cdr; corpus/cdr/regress-huge-obstacle-*): finite but absurd sizes passed the
+// check and overflowed the collision grid's int cell index (UBSan) in makeEllipsoidWorld.
+TEST(ObstacleArrayCheck, RefusesObstaclesBeyondAnyWorld) {
+  auto far = goodArray();
+  far.obstacles()[0].centre().y(1e300);
+  EXPECT_NE(nodes::checkObstacleArray(far, "map").find("obstacle 0 (id 3): centre (5, 1e+300, 0) or semi-axes"), std::string::npos)
+      << nodes::checkObstacleArray(far, "map");
+  auto huge = goodArray();
+  huge.obstacles()[1].semi_axes().x(2.4e275);
+  EXPECT_NE(nodes::checkObstacleArray(huge, "map").find("beyond 1000000 m"), std::string::npos);
+  EXPECT_THROW(nodes::toEllipsoidObstacles(huge), std::invalid_argument);
+  auto large = goodArray();
+  large.obstacles()[0].centre().x(-9.9e5);
+  EXPECT_EQ(nodes::checkObstacleArray(large, "map"), "");
+}
+
 TEST(ObstacleArrayCheck, RefusesAForeignFrameUnlessAnyFrameIsAsked) {
   auto lidar = goodArray();
   lidar.header().frame_id("lidar");

@@ -483,7 +483,10 @@ void McapReader::forEachMessage(const std::function<bool(const MessageView&)>& c
     m.sequence = b.u32();
     m.log_time = b.u64();
     m.publish_time = b.u64();
-    m.data = std::span<const std::uint8_t>(b.take(b.remaining(), "message data"), b.remaining());
+    // The size first: the order in which a call's arguments are evaluated is unspecified (clang: left to
+    // right, so remaining() after take() was 0 and every message read back empty).
+    const std::size_t size = b.remaining();
+    m.data = std::span<const std::uint8_t>(b.take(size, "message data"), size);
     return callback(m);
   };
   // Damaged chunks found while scanning were left out of chunks_: report them in file order too.

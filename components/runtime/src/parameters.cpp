@@ -40,7 +40,13 @@ Parameters Parameters::load(const std::string& file, const std::vector<std::stri
 
 void Parameters::flatten(const YAML::Node& node, const std::string& prefix, const std::string& source) {
   for (const auto& kv : node) {
-    std::string key = prefix.empty() ? kv.first.as<std::string>() : prefix + "." + kv.first.as<std::string>();
+    // YAML allows a list or a map as a key ("? [a, b]: 1"); a parameter name is text.
+    if (!kv.first.IsScalar())
+      throw ParameterError("config file '" + source + "' line " + std::to_string(kv.first.Mark().line + 1) + ": a key " +
+                           (prefix.empty() ? std::string("at the top") : "under '" + prefix + "'") + " is a " +
+                           (kv.first.IsMap() ? "map" : kv.first.IsSequence() ? "list" : "null") +
+                           ", expected a parameter name");
+    std::string key = prefix.empty() ? kv.first.Scalar() : prefix + "." + kv.first.Scalar();
     if (kv.second.IsMap())
       flatten(kv.second, key, source);
     else

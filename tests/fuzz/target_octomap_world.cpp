@@ -1,0 +1,35 @@
+// Fuzz target: the map world's reader of OcTree::writeBinary bytes (what map/octomap carries) and the
+// queries a planner makes of the world it builds. The first input byte picks 2-D or 3-D and the
+// unknown-space option, the rest are the octree bytes.
+// Contract: std::runtime_error naming makeOctoMapWorld, or a world that answers every query.
+#include "fuzz_input.hpp"
+
+#include <ddsnav/planner/collision_world.hpp>
+#include <ddsnav/planner/scenario.hpp>
+
+#include <stdexcept>
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace ddsnav::planner;
+  if (size == 0) return 0;
+  const int dimensions = (data[0] & 1) ? 3 : 2;
+  OctoMapWorldOptions options;
+  options.unknown_is_occupied = (data[0] & 2) != 0;
+  const std::vector<std::uint8_t> octree(data + 1, data + size);
+  // The shipped 2-D demo yard and 3-D terrain: the bounds a planner clips the map to.
+  static const Scenario yard = loadScenario(DDSNAV_SOURCE_DIR "/configs/scenarios/demo_2d.yaml");
+  static const Scenario terrain = loadScenario(DDSNAV_SOURCE_DIR "/configs/scenarios/gart_terrain_3d.yaml");
+  const Scenario& s = dimensions == 3 ? terrain : yard;
+  std::unique_ptr<CollisionWorld> world;
+  try {
+    world = makeOctoMapWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, octree, options);
+  } catch (const std::runtime_error& e) {
+    ddsnav::fuzz::expectNamed(e.what(), "makeOctoMapWorld");
+    return 0;
+  }
+  (void)world->isFree(s.start);
+  (void)world->isSegmentFree(s.start, s.goal);
+  (void)world->clearance(s.goal);
+  (void)world->obstaclesNear(s.start, 2.0);
+  return 0;
+}
