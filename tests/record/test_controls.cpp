@@ -1,7 +1,7 @@
 // The recorder's and player's controls: split by size and duration, snapshot mode (in-process and by
 // SIGUSR1 / control topic), play --start/--end/--remap, a looped one-message file, damaged chunks skipped
 // on play, and bad input to `ddsnav record` (folder missing, --max-file-mb 0, disk full mid-split).
-// DDS domains 224..228 (tests/record also owns 190..199).
+// DDS domains 224..229 (tests/record also owns 190..199).
 #include "child.hpp"
 #include "scratch_cleanup.hpp"
 
@@ -19,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <map>
 
 using namespace ddsnav;
 namespace fs = std::filesystem;
@@ -436,3 +437,54 @@ TEST(Player, StartEndAndRemapSelectWhatIsPublishedWhere) {
 namespace {
 [[maybe_unused]] const bool kScratchCleanup = ddsnav::record_test::removeScratchAtExit("ddsnav_record_ctl_");
 }  // namespace
+
+TEST(RecordCommandLine, FoxgloveAddsTheDerivedViewsToTheFinishedFile) {
+  // `ddsnav record --foxglove`: the file holds the recorded vehicle/state unchanged and, beside it, the
+  // Foxglove views of it (foxglove/tf: one FrameTransform per sample; foxglove/vehicle/state: the scene).
+  constexpr int kDomain = 229;
+  const fs::path file = scratch("foxglove.mcap");
+  bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "fox-pub"});
+  auto pub = pub_side.publisher<msg::VehicleState>("vehicle/state", bus::Qos::commands(100));
+  record_test::Child recorder({DDSNAV_RECORD_BIN, "--dds", "cyclonedds", "--domain", std::to_string(kDomain), "--topics",
+                               "vehicle/state", "--foxglove", "-o", file.string()},
+                              scratch("foxglove.log").string());
+  ASSERT_TRUE(pub.waitForSubscribers(1, std::chrono::seconds(15))) << recorder.log();
+  constexpr int kCount = 20;
+  for (int i = 0; i < kCount; ++i) {
+    msg::VehicleState s;
+    s.header().stamp_ns(1'000'000'000LL + i * 200'000'000LL);
+    s.header().frame_id("map");
+    s.position().x(0.5 * i);
+    s.position().y(1.0);
+    s.heading(0.1 * i);
+    pub.publish(s);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  recorder.signal(SIGINT);
+  ASSERT_TRUE(recorder.wait(std::chrono::seconds(30))) << recorder.log();
+  ASSERT_EQ(recorder.exitCode(), 0) << recorder.log();
+  EXPECT_FALSE(fs::exists(file.string() + ".foxglove.tmp"));
+  record::McapReader r(file.string());
+  EXPECT_FALSE(r.truncated());
+  std::map<std::string, int> per_topic;
+  std::map<std::string, std::string> schema_of;
+  for (const auto& [id, channel] : r.channels()) {
+    auto s = r.schemas().find(channel.schema_id);
+    if (s != r.schemas().end()) schema_of[channel.topic] = s->second.name;
+  }
+  std::string first_transform;
+  r.forEachMessage([&](const record::MessageView& m) {
+    ++per_topic[m.channel->topic];
+    if (m.channel->topic == "foxglove/tf" && first_transform.empty()) first_transform.assign(m.data.begin(), m.data.end());
+    return true;
+  });
+  EXPECT_EQ(per_topic["vehicle/state"], kCount) << recorder.log();
+  EXPECT_EQ(per_topic["foxglove/tf"], kCount) << recorder.log();
+  EXPECT_GE(per_topic["foxglove/vehicle/state"], 1) << recorder.log();
+  EXPECT_EQ(schema_of["foxglove/tf"], "foxglove.FrameTransform");
+  EXPECT_EQ(schema_of["foxglove/vehicle/state"], "foxglove.SceneUpdate");
+  // A FrameTransform as Foxglove reads it: JSON naming the frames.
+  EXPECT_NE(first_transform.find("\"parent_frame_id\""), std::string::npos) << first_transform;
+  EXPECT_NE(first_transform.find("\"child_frame_id\""), std::string::npos) << first_transform;
+}

@@ -1,7 +1,9 @@
 // ddsnav record: raw DDS traffic into an MCAP file. SIGINT/SIGTERM (or --duration, --max-messages) end
 // the recording cleanly: queued samples are written, per-topic counts stored, the summary added.
 // --max-file-mb / --max-file-s split into numbered files; --snapshot keeps the last seconds/MB in memory and
-// writes them on SIGUSR1 or a message on --snapshot-topic.
+// writes them on SIGUSR1 or a message on --snapshot-topic. --foxglove adds the Foxglove views
+// (docs/visualize.md) to every file as soon as it is complete.
+#include <ddsnav/foxglove/export.hpp>
 #include <ddsnav/record/recorder.hpp>
 
 #include <CLI/CLI.hpp>
@@ -17,6 +19,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <optional>
 
 using namespace ddsnav;
 
@@ -27,6 +30,39 @@ std::string defaultName() {
   char buf[64];
   std::strftime(buf, sizeof buf, "ddsnav-%Y%m%d-%H%M%S.mcap", std::localtime(&t));
   return buf;
+}
+
+// Rewrites a completed recording with the derived Foxglove channels added (the same conversion as
+// `ddsnav export --foxglove`), through a temporary file renamed over it, so the file is complete at every
+// moment. The recorder's own writer never carries them: it keeps its hot path free of JSON encoding, and a
+// file is rewritten only once it is closed (at each split, each snapshot, and at the end).
+bool addFoxgloveViews(const std::string& path, const std::optional<planner::Scenario>& scenario) {
+  const std::string tmp = path + ".foxglove.tmp";
+  try {
+    foxglove::ExportStats stats;
+    {
+      record::McapReader reader(path);
+      record::McapWriterOptions mcap;
+      mcap.library = "ddsnav-record --foxglove";
+      record::McapWriter writer(tmp, mcap);
+      foxglove::SceneDeriverOptions options;
+      options.scenario = scenario;
+      stats = foxglove::exportFoxglove(reader, writer, std::move(options));
+      writer.close();
+    }
+    std::filesystem::rename(tmp, path);
+    std::uint64_t derived = 0;
+    for (const auto& entry : stats.derived) derived += entry.second;
+    spdlog::info("{}: {} Foxglove messages added", path, derived);
+    if (stats.failed > 0)
+      spdlog::warn("{}: {} message(s) had no Foxglove view; first: {}", path, stats.failed, stats.first_errors.front());
+    return true;
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    spdlog::error("{}: adding the Foxglove views failed ({}); the recording itself is unchanged", path, e.what());
+    return false;
+  }
 }
 
 }  // namespace
@@ -77,7 +113,16 @@ int main(int argc, char** argv) {
   auto* snapshot_s_opt = app.add_option("--snapshot-s", snapshot_s, "snapshot mode: seconds of messages kept in memory");
   auto* snapshot_mb_opt = app.add_option("--snapshot-mb", snapshot_mb, "snapshot mode: MB of messages kept in memory");
   app.add_option("--snapshot-topic", snapshot_topic, "snapshot mode: any message on this topic (any type) writes a snapshot");
+  bool with_foxglove = false;
+  std::string scenario_file;
+  app.add_flag("--foxglove", with_foxglove, "add the Foxglove views (foxglove/* channels, as `ddsnav export --foxglove`) to each file once complete");
+  app.add_option("--scenario", scenario_file, "with --foxglove: scenario file whose true obstacles go on foxglove/scenario")
+      ->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
+  if (!scenario_file.empty() && !with_foxglove) {
+    std::fprintf(stderr, "ddsnav record: --scenario needs --foxglove\n");
+    return 2;
+  }
   // Limits from the command line: a positive finite number or the option is an error (0 would mean
   // "a new file for every message" or "keep nothing" -- never what was meant).
   auto positive = [](CLI::Option* opt, double value, const char* what) {
@@ -132,9 +177,19 @@ int main(int argc, char** argv) {
         return 1;
       }
     }
+    std::optional<planner::Scenario> scenario;
+    if (!scenario_file.empty()) scenario = planner::loadScenario(scenario_file);  // errors name the file, before recording starts
     bus::Participant participant({.vendor = vendor, .domain_id = domain, .name = "ddsnav-record"});
     options.vendor_name = std::string(bus::vendorName(participant.vendor()));
     record::Recorder recorder(participant, options);
+    std::size_t files_with_views = 0;
+    bool views_failed = false;
+    auto addViewsToCompletedFiles = [&] {
+      if (!with_foxglove) return;
+      const auto files = recorder.filesWritten();
+      for (; files_with_views < files.size(); ++files_with_views)
+        views_failed |= !addFoxgloveViews(files[files_with_views], scenario);
+    };
     spdlog::info("recording {} to {} (domain {}, {})", options.topics.empty() ? std::string("every topic") : fmt::format("{}", fmt::join(options.topics, ",")),
                  options.output, domain, options.vendor_name);
 
@@ -197,6 +252,7 @@ int main(int argc, char** argv) {
       if (duration > 0 && now - start >= std::chrono::duration<double>(duration)) break;
       if (recorder.reachedMaxMessages()) break;
       if (recorder.failed()) break;
+      addViewsToCompletedFiles();  // split files and snapshots, as each one closes
       if (now - last_line >= (tty ? std::chrono::milliseconds(500) : std::chrono::milliseconds(5000))) {
         progress(false);
         last_line = now;
@@ -210,6 +266,7 @@ int main(int argc, char** argv) {
       spdlog::error("closing the recording: {}", e.what());
     }
     progress(true);
+    addViewsToCompletedFiles();
     for (const auto& c : recorder.counts())
       spdlog::info("{}: received {} lost {} dropped {} written {}", c.topic, c.received, c.lost, c.dropped, c.written);
     const auto files = recorder.filesWritten();
@@ -222,6 +279,7 @@ int main(int argc, char** argv) {
       spdlog::error("recording stopped early: {}", recorder.error());
       return 1;
     }
+    if (views_failed) return 1;
     if (snapshot) {
       if (files.empty()) spdlog::warn("no snapshot was requested: nothing written");
       return 0;
