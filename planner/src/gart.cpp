@@ -16,6 +16,8 @@ GartOptions gartLazyOptions() {
   GartOptions o;
   o.event1_min_edge = 0.1;
   o.defer_optimisation = true;
+  o.attraction_patience = 20;
+  o.goal_bias = 0.1;  // only used while the attraction is active (docs/planners.md)
   return o;
 }
 
@@ -31,6 +33,10 @@ GartPlanner::GartPlanner(GartOptions options, std::string name) : options_(optio
   addOption("goal_gain", &o.goal_gain, 0.0, 10.0, "goal attraction step, fraction of the reach");
   addOption("event1_turn_steps", &o.event1_turn_steps, 1, 64, "event 1: directions tried per side");
   addOption("event1_min_edge", &o.event1_min_edge, 0.0, 100.0, "event 1's shortest edge in robot radii (0: J/4)");
+  addOption("attraction_patience", &o.attraction_patience, 0, 1000000,
+            "attracted iterations without goal progress before the attraction halves (0: always attract)");
+  addOption("attraction_progress", &o.attraction_progress, 0.0, 1000.0,
+            "goal progress that restores the attraction, in robot radii");
   addOption("rewire_gamma", &o.rewire_gamma, 0.0, 1e12, "RRT* gamma; 0 derives it from the bounds");
   addOption("event1", &o.event1, "collision redistribution (event 1)");
   addOption("event2", &o.event2, "attraction between obstacles (event 2)");
@@ -56,10 +62,21 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
   const std::size_t k = options_.forward_region ? static_cast<std::size_t>(options_.k_nearest) : 1;
   StarInsertion insertion;
   std::vector<int> knn;
+  // Self-limiting goal attraction (docs/planners.md, gart-lazy): level L, record distance to the goal.
+  const bool self_limiting = options_.goal_attraction && options_.attraction_patience > 0;
+  const double progress_step = options_.attraction_progress * world.robotRadius();
+  double attraction_level = 1.0;
+  int fruitless_attractions = 0;
+  double closest_to_goal = (run.problem.start.position - run.problem.goal).norm();
+  GartOptions step_options = options_;
 
   while (run.nextIteration()) {
+    // Whether this iteration attracts towards the goal (always, unless the attraction is self-limiting).
+    const bool attract = !self_limiting || run.rng.uniform() < attraction_level;
+    step_options.goal_attraction = options_.goal_attraction && attract;
+
     // Line 3: sample.
-    const Vec3 sample = run.sample(options_.goal_bias);
+    const Vec3 sample = run.sample(attract ? options_.goal_bias : 0.0);
 
     // Line 4: among the k nearest, the dynamically feasible parent of least control effort (or, with
     // effort_parent off, the closest feasible one); when none is feasible (the sample is behind every
@@ -79,14 +96,29 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
 
     // Lines 5-13: redistribute into one or two collision-free states inside R+(v_near).
     const std::vector<GartCandidate> candidates =
-        gartRedistribute(run.tree.node(v_near).state, sample, run.problem.goal, world, region, options_);
+        gartRedistribute(run.tree.node(v_near).state, sample, run.problem.goal, world, region, step_options);
 
     // Lines 14-16: add each state with the cheapest R+-feasible parent, then rewire around it. v_near's
     // edge was checked by the redistribution.
+    bool progress = false;
     for (const GartCandidate& candidate : candidates) {
       const double radius = rrtStarRadius(gamma, run.tree.size(), world.dimensions(), edge_reach);
-      insertion.insert(run, steering, candidate.state.position, v_near, radius,
-                       options_.defer_optimisation && !run.solved() ? feasibility_first : parts);
+      const int added = insertion.insert(run, steering, candidate.state.position, v_near, radius,
+                                         options_.defer_optimisation && !run.solved() ? feasibility_first : parts);
+      if (added < 0) continue;
+      const double distance = (run.tree.node(added).state.position - run.problem.goal).norm();
+      if (distance < closest_to_goal - progress_step) {
+        closest_to_goal = distance;
+        progress = true;
+      }
+    }
+    if (!self_limiting) continue;
+    if (progress) {
+      attraction_level = 1.0;
+      fruitless_attractions = 0;
+    } else if (attract && ++fruitless_attractions >= options_.attraction_patience) {
+      attraction_level *= 0.5;
+      fruitless_attractions = 0;
     }
   }
   return run.finish();

@@ -103,6 +103,29 @@ INSTANTIATE_TEST_SUITE_P(
       return n;
     });
 
+// gart-lazy's self-limiting goal attraction (docs/planners.md): in the paper-scale bug trap the goal pull
+// is the local minimum behind the closed wall; backing it off must get out with far fewer iterations than
+// the always-on attraction (attraction_patience = 0), and every path must stay valid.
+TEST(Planners, GartLazyBacksOffGoalAttractionInBugTrap) {
+  const Scenario s = shipped("bugtrap_1.0");
+  const auto world = makeScenarioWorld(s);
+  std::uint64_t self_limiting = 0, always_on = 0;
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    PlanProblem problem = problemFor(s, *world, seed);
+    problem.max_iterations = 300000;
+    auto lazy = makePlanner("gart-lazy");
+    const PlanResult r = lazy->solve(problem);
+    ASSERT_TRUE(r.solved) << "seed " << seed;
+    expectValidPath(s, r);
+    self_limiting += r.stats.iterations_to_first_solution;
+    auto always = makePlanner("gart-lazy");
+    applyOptions(*always, {"attraction_patience=0"});
+    const PlanResult a = always->solve(problem);
+    always_on += a.solved ? a.stats.iterations_to_first_solution : problem.max_iterations;
+  }
+  EXPECT_LT(2 * self_limiting, always_on) << "self-limiting " << self_limiting << ", always on " << always_on;
+}
+
 TEST(Planners, PathsStayValidOverManySeeds) {
   // Contact-driven growth (RRRT) and rewiring (RRT*) are where a wrong edge would slip in: sweep seeds.
   for (const std::string scenario : {"demo_2d", "stunnel_small_0.3", "bugtrap_small_1.0"}) {

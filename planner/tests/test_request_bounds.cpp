@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <map>
+#include <set>
 #include <vector>
 #include <string>
 
@@ -205,16 +206,22 @@ TEST(PlannerOptions, ComponentEntriesGroupByPlanner) {
   EXPECT_NE(errorOf([] { parsePlannerOptions({"gart.k_nearest"}); }).find("planner.option=value"), std::string::npos);
 }
 
-// gart-lazy is GART with two documented changes; its options say so and can be switched back.
-TEST(PlannerOptions, GartLazyIsGartWithTwoChanges) {
+// gart-lazy is GART with documented changes; its options say so and can be switched back.
+TEST(PlannerOptions, GartLazyIsGartWithDocumentedChanges) {
   auto lazy = makePlanner("gart-lazy");
   std::map<std::string, std::string> values;
   for (const PlannerOption& o : lazy->options()) values[o.name] = o.value;
   EXPECT_EQ(values["defer_optimisation"], "true");
   EXPECT_EQ(values["event1_min_edge"], "0.1");
+  EXPECT_EQ(values["attraction_patience"], "20");
+  EXPECT_EQ(values["goal_bias"], "0.1");
+  const std::set<std::string> changed = {"defer_optimisation", "event1_min_edge", "attraction_patience", "goal_bias"};
   for (const PlannerOption& o : makePlanner("gart")->options()) {
-    if (o.name != "defer_optimisation" && o.name != "event1_min_edge") EXPECT_EQ(values[o.name], o.value) << o.name;
+    if (!changed.count(o.name)) {
+      EXPECT_EQ(values[o.name], o.value) << o.name;
+    }
   }
+  EXPECT_EQ(makePlanner("gart")->options().size(), lazy->options().size());
 }
 
 }  // namespace

@@ -31,6 +31,12 @@ struct GartOptions {
   // Event 1's shortest edge, in robot radii: 0 keeps the paper's J/4; e.g. 0.5 halves J/4 until the edge
   // would be shorter than half the robot's radius (turning in a corridor barely wider than the robot).
   double event1_min_edge = 0.0;
+  // Self-limiting goal attraction (gart-lazy): 0 = the paper's GART, goal attraction and goal sampling on
+  // every iteration. k > 0: attraction (and the goal bias) is used with probability L, starting at 1;
+  // after every k attracted iterations in a row that bring no node closer to the goal than the closest so
+  // far (by at least attraction_progress robot radii), L halves; a new closest node restores L = 1.
+  int attraction_patience = 0;
+  double attraction_progress = 0.1;  // a "closer" node must beat the record by this many robot radii
 
   // The parts of the algorithm, each of which can be switched off for the ablation benchmark
   // (docs/benchmarks/planner.md). All on is the paper's GART.
@@ -47,7 +53,8 @@ struct GartOptions {
 };
 
 // gart-lazy's defaults: the paper's GART with event 1's reach search refined down to a tenth of the robot's
-// radius and RRT*'s parent choice and rewiring deferred until the first solution (docs/planners.md).
+// radius, RRT*'s parent choice and rewiring deferred until the first solution, and a self-limiting goal
+// attraction (attraction_patience 20, goal_bias 0.1) (docs/planners.md).
 GartOptions gartLazyOptions();
 
 // Which branch of the bidirectional potential field produced a candidate.
