@@ -3,6 +3,7 @@
 // on play, and bad input to `ddsnav record` (folder missing, --max-file-mb 0, disk full mid-split).
 // DDS domains 224..229 (tests/record also owns 190..199).
 #include "child.hpp"
+#include "recorder_waits.hpp"
 #include "scratch_cleanup.hpp"
 
 #include <ddsnav/msg/messages.hpp>
@@ -24,32 +25,15 @@
 using namespace ddsnav;
 namespace fs = std::filesystem;
 
+using record_test::pollUntilSubscribed;
+using record_test::waitFor;
+
 namespace {
 
 fs::path scratch(const std::string& name) {
   fs::path dir = fs::temp_directory_path() / ("ddsnav_record_ctl_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   return dir / name;
-}
-
-bool pollUntilSubscribed(record::Recorder& recorder, std::size_t topics, std::chrono::seconds timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < deadline) {
-    recorder.poll();
-    if (recorder.counts().size() >= topics) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return false;
-}
-
-template <class Pred>
-bool waitFor(Pred pred, std::chrono::milliseconds timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return true;
 }
 
 msg::VelocityCommand command(int i) {

@@ -1,6 +1,7 @@
 // The recorder in-process: schemas from the IDL, per-topic drop counts with a tiny queue and a slow
 // "disk", and a killed recorder process leaving a readable file.
 #include "child.hpp"
+#include "recorder_waits.hpp"
 #include "scratch_cleanup.hpp"
 
 #include <ddsnav/msg/messages.hpp>
@@ -20,23 +21,14 @@
 using namespace ddsnav;
 namespace fs = std::filesystem;
 
+using record_test::pollUntilSubscribed;
+
 namespace {
 
 fs::path tempFile(const std::string& name) {
   fs::path dir = fs::temp_directory_path() / ("ddsnav_record_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   return dir / name;
-}
-
-// Calls recorder.poll() until it subscribed to `topics` topics (bounded).
-bool pollUntilSubscribed(record::Recorder& recorder, std::size_t topics, std::chrono::seconds timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < deadline) {
-    recorder.poll();
-    if (recorder.counts().size() >= topics) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return false;
 }
 
 TEST(RecordSchemas, IdlTextOfTheTypeWithItsIncludes) {
