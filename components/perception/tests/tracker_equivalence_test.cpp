@@ -95,6 +95,35 @@ void expectSameStats(const TrackerUpdateStats& a, const TrackerUpdateStats& b, i
   EXPECT_EQ(a.ignored, b.ignored) << "scan " << scan;
 }
 
+// The 2-D demo drive (720-beam scanner, 2 cm range noise, 1 % NaN/inf) from (3, 3) to (8, 30) in `scans`
+// steps: the detections of scan k, and the detector parameters the trackers are matched to.
+struct Demo2dDrive {
+  static DetectorParams detectorParams() {
+    DetectorParams params;
+    params.beam_spacing = 2.0 * std::numbers::pi / 720;
+    return params;
+  }
+  static sim::RangeSensorConfig sensorConfig() {
+    auto config = sim::RangeSensorConfig::scanner2d(720, 30.0);
+    config.walls = false;
+    config.range_noise_sigma = 0.02;
+    config.invalid_fraction = 0.01;
+    return config;
+  }
+  explicit Demo2dDrive(int scans_) : scans(scans_) {}
+  std::vector<ObstacleEllipsoid> detections(int k) {
+    const Eigen::Vector3d p = a + (b - a) * (double(k) / scans);
+    const auto cloud = sensor.scan({p, std::atan2((b - a).y(), (b - a).x())});
+    return detector.detect(cloud.points, cloud.origin);
+  }
+  int scans;
+  planner::Scenario scenario = planner::loadScenario(std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml");
+  sim::RangeSensor sensor{scenario, sensorConfig()};
+  DetectorParams params = detectorParams();
+  ObstacleDetector detector{params};
+  Eigen::Vector3d a{3, 3, 0}, b{8, 30, 0};
+};
+
 // A city-block lidar drive (as ddsnav-bench-perception drives it, shorter): 3-D tracks that grow,
 // refresh and compete for voxels over thousands of cells per scan.
 TEST(TrackerEquivalence, CityLidarDriveGivesExactlyTheReferenceTracks) {
@@ -130,27 +159,14 @@ TEST(TrackerEquivalence, CityLidarDriveGivesExactlyTheReferenceTracks) {
   EXPECT_GT(total_added, 100u);
 }
 
-// The 2-D demo drive (720-beam scanner, 1 % NaN/inf): the 2-D association order (face neighbours
-// before the previous voxel) and the dims tag of the keys.
+// The 2-D demo drive: the 2-D association order (face neighbours before the previous voxel) and the dims
+// tag of the keys.
 TEST(TrackerEquivalence, Demo2dDriveGivesExactlyTheReferenceTracks) {
-  const planner::Scenario scenario =
-      planner::loadScenario(std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml");
-  auto config = sim::RangeSensorConfig::scanner2d(720, 30.0);
-  config.walls = false;
-  config.range_noise_sigma = 0.02;
-  config.invalid_fraction = 0.01;
-  sim::RangeSensor sensor(scenario, config);
-  DetectorParams params;
-  params.beam_spacing = 2.0 * std::numbers::pi / 720;
-  ObstacleDetector detector(params);
-  ObstacleTracker fast(exact(TrackerParams::matching(params)));
-  reference::ReferenceObstacleTracker ref(TrackerParams::matching(params));
-  const Eigen::Vector3d a(3, 3, 0), b(8, 30, 0);
-  const int scans = 120;
-  for (int k = 0; k < scans; ++k) {
-    const Eigen::Vector3d p = a + (b - a) * (double(k) / scans);
-    const auto cloud = sensor.scan({p, std::atan2((b - a).y(), (b - a).x())});
-    const auto detections = detector.detect(cloud.points, cloud.origin);
+  Demo2dDrive drive(120);
+  ObstacleTracker fast(exact(TrackerParams::matching(drive.params)));
+  reference::ReferenceObstacleTracker ref(TrackerParams::matching(drive.params));
+  for (int k = 0; k < drive.scans; ++k) {
+    const auto detections = drive.detections(k);
     expectSameTracks(fast.update(detections), ref.update(detections), k);
     expectSameStats(fast.lastUpdate(), ref.lastUpdate(), k);
   }
@@ -234,24 +250,12 @@ TEST(TrackerEquivalence, DeferredRefitsKeepTheEvidenceAndEncloseEveryVoxel) {
 
 // The same on the 2-D demo drive, which revisits the same walls for many scans.
 TEST(TrackerEquivalence, DeferredRefitsOnTheDemo2dDrive) {
-  const planner::Scenario scenario =
-      planner::loadScenario(std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml");
-  auto config = sim::RangeSensorConfig::scanner2d(720, 30.0);
-  config.walls = false;
-  config.range_noise_sigma = 0.02;
-  config.invalid_fraction = 0.01;
-  sim::RangeSensor sensor(scenario, config);
-  DetectorParams params;
-  params.beam_spacing = 2.0 * std::numbers::pi / 720;
-  ObstacleDetector detector(params);
-  ObstacleTracker deferred(TrackerParams::matching(params));
-  reference::ReferenceObstacleTracker ref(TrackerParams::matching(params));
-  const Eigen::Vector3d a(3, 3, 0), b(8, 30, 0);
+  Demo2dDrive drive(120);
+  ObstacleTracker deferred(TrackerParams::matching(drive.params));
+  reference::ReferenceObstacleTracker ref(TrackerParams::matching(drive.params));
   std::size_t waiting = 0;
-  for (int k = 0; k < 120; ++k) {
-    const Eigen::Vector3d p = a + (b - a) * (double(k) / 120);
-    const auto cloud = sensor.scan({p, std::atan2((b - a).y(), (b - a).x())});
-    const auto detections = detector.detect(cloud.points, cloud.origin);
+  for (int k = 0; k < drive.scans; ++k) {
+    const auto detections = drive.detections(k);
     deferred.update(detections);
     expectSameEvidence(deferred, ref.update(detections), k);
     expectEveryVoxelEnclosed(deferred, k);
