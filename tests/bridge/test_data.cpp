@@ -58,13 +58,6 @@ msg::VehicleState vehicle(int i, std::int64_t stamp) {
   return s;
 }
 
-template <class T>
-std::vector<std::uint8_t> serialize(const T& sample) {
-  const auto& type = msg::type_support<T>();
-  std::vector<std::uint8_t> bytes(type.serialized_size(&sample));
-  bytes.resize(type.serialize(&sample, bytes.data(), bytes.size()));
-  return bytes;
-}
 
 int recording(const std::string& file) {
   record::McapWriter w(file);
@@ -77,7 +70,7 @@ int recording(const std::string& file) {
       const auto schema = w.addSchema(type, "omgidl", *record::idlSchemaFor(type));
       it = channels.emplace(topic, w.addChannel(schema, topic, "cdr", {{"keyed", "false"}})).first;
     }
-    w.write(it->second, t, t, serialize(sample));
+    w.write(it->second, t, t, msg::serializeToBytes(sample));
   };
   const std::int64_t t0 = 1'700'000'000'000'000'000;
   msg::ComponentStatus status;

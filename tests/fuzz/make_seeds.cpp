@@ -38,13 +38,6 @@ std::vector<std::uint8_t> octree(bool three_d) {
   return {bytes.begin(), bytes.end()};
 }
 
-template <class T>
-std::vector<std::uint8_t> encode(const T& sample) {
-  const auto& ts = msg::type_support<T>();
-  std::vector<std::uint8_t> bytes(ts.serialized_size(&sample));
-  bytes.resize(ts.serialize(&sample, bytes.data(), bytes.size()));
-  return bytes;
-}
 
 msg::Header header() {
   msg::Header h;
@@ -91,7 +84,7 @@ std::vector<std::vector<std::uint8_t>> filledSamples(const std::vector<std::uint
   status.name("planner");
   status.state(msg::LifecycleState::LIFECYCLE_READY);
   status.ready(true);
-  return {encode(cloud), encode(obstacles), encode(map), encode(request), encode(path), encode(status)};
+  return {msg::serializeToBytes(cloud), msg::serializeToBytes(obstacles), msg::serializeToBytes(map), msg::serializeToBytes(request), msg::serializeToBytes(path), msg::serializeToBytes(status)};
 }
 
 }  // namespace

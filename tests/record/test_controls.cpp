@@ -295,12 +295,10 @@ fs::path stateRecording(const std::string& name, int count, int gap_ms, std::siz
   const auto schema = w.addSchema("ddsnav::msg::VehicleState", "omgidl", *record::idlSchemaFor("ddsnav::msg::VehicleState"));
   const auto ch = w.addChannel(schema, "vehicle/state", "cdr",
                                {{"dds_type", "ddsnav::msg::VehicleState"}, {"keyed", "false"}, {"qos", "sensorData"}});
-  const auto& ts = msg::type_support<msg::VehicleState>();
   for (int i = 0; i < count; ++i) {
     msg::VehicleState s;
     s.header().stamp_ns(i);
-    std::vector<std::uint8_t> bytes(ts.serialized_size(&s));
-    bytes.resize(ts.serialize(&s, bytes.data(), bytes.size()));
+    const std::vector<std::uint8_t> bytes = msg::serializeToBytes(s);
     const std::uint64_t t = 1'000'000'000ull + static_cast<std::uint64_t>(gap_ms) * 1'000'000ull * static_cast<std::uint64_t>(i);
     w.write(ch, t, t, bytes);
   }

@@ -75,13 +75,6 @@ std::vector<std::uint8_t> unbase64(const std::string& text) {
   return out;
 }
 
-template <class T>
-std::vector<std::uint8_t> serialize(const T& sample) {
-  const auto& type = msg::type_support<T>();
-  std::vector<std::uint8_t> bytes(type.serialized_size(&sample));
-  bytes.resize(type.serialize(&sample, bytes.data(), bytes.size()));
-  return bytes;
-}
 
 msg::Vec3 v3(double x, double y, double z) {
   msg::Vec3 v;
@@ -359,7 +352,7 @@ TEST(FoxgloveDeriver, ChannelsByType) {
 
 TEST(FoxgloveDeriver, RawSamplesBecomeDerivedMessages) {
   foxglove::SceneDeriver derive;
-  const auto bytes = serialize(ellipses());
+  const auto bytes = msg::serializeToBytes(ellipses());
   auto out = derive.onSample("perception/obstacles", "ddsnav::msg::ObstacleArray", bytes);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].channel.topic, "foxglove/perception/obstacles");
@@ -378,7 +371,7 @@ TEST(FoxgloveDeriver, RawSamplesBecomeDerivedMessages) {
   // Bad values are prefixed with the topic too.
   auto bad = ellipses();
   bad.obstacles()[0].semi_axes(v3(-1, 0, 0));
-  EXPECT_THROW(derive.onSample("perception/obstacles", "ddsnav::msg::ObstacleArray", serialize(bad)), foxglove::ConversionError);
+  EXPECT_THROW(derive.onSample("perception/obstacles", "ddsnav::msg::ObstacleArray", msg::serializeToBytes(bad)), foxglove::ConversionError);
   // Types without a view give nothing.
   EXPECT_TRUE(derive.onSample("system/clock", "ddsnav::msg::Clock", bytes).empty());
 }
@@ -391,7 +384,7 @@ TEST(FoxgloveDeriver, TrackIsSpacedThinnedAndVehicleSceneThrottled) {
   foxglove::SceneDeriver derive(options);
   std::size_t scenes = 0, transforms = 0;
   for (int i = 0; i < 100; ++i) {  // 0.1 m and 50 ns apart: a track point every 5th, a scene every 2nd sample
-    for (const auto& m : derive.onSample("vehicle/state", "ddsnav::msg::VehicleState", serialize(vehicleAt(0.1 * i, 0, 0, 50 * i)))) {
+    for (const auto& m : derive.onSample("vehicle/state", "ddsnav::msg::VehicleState", msg::serializeToBytes(vehicleAt(0.1 * i, 0, 0, 50 * i)))) {
       if (m.channel.schema_name == "foxglove.FrameTransform") ++transforms;
       else {
         ++scenes;
@@ -408,7 +401,7 @@ TEST(FoxgloveDeriver, TrackIsSpacedThinnedAndVehicleSceneThrottled) {
   // A bad state leaves the track as it was.
   const auto before = derive.track().size();
   EXPECT_THROW(derive.onSample("vehicle/state", "ddsnav::msg::VehicleState",
-                               serialize(vehicleAt(std::nan(""), 0, 0, 99999))),
+                               msg::serializeToBytes(vehicleAt(std::nan(""), 0, 0, 99999))),
                foxglove::ConversionError);
   EXPECT_EQ(derive.track().size(), before);
 }

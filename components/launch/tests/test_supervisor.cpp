@@ -167,10 +167,7 @@ TEST_F(SupervisorTest, OnFailureRestartsUpToTheLimitThenFails) {
   flaky.max_restarts = 2;
   config.processes = {flaky};
   EXPECT_NE(run(config), 0) << log_;
-  std::ifstream runs(dir_ / "runs");
-  int count = 0;
-  for (std::string line; std::getline(runs, line);) ++count;
-  EXPECT_EQ(count, 3) << "one start plus two restarts";
+  EXPECT_EQ(lines("runs"), 3) << "one start plus two restarts";
   EXPECT_NE(log_.find("reached max_restarts"), std::string::npos) << log_;
 }
 
@@ -181,10 +178,7 @@ TEST_F(SupervisorTest, CleanExitIsNotRestartedUnderOnFailure) {
   once.restart = RestartPolicy::OnFailure;
   config.processes = {once};
   EXPECT_EQ(run(config), 0) << log_;
-  std::ifstream runs(dir_ / "runs");
-  int count = 0;
-  for (std::string line; std::getline(runs, line);) ++count;
-  EXPECT_EQ(count, 1);
+  EXPECT_EQ(lines("runs"), 1);
 }
 
 TEST_F(SupervisorTest, ReadinessTimeoutFailsAndKillsTheStarter) {

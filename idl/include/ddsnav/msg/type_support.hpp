@@ -41,6 +41,15 @@ struct IsMessage : std::false_type {};
 template <class T>
 const TypeSupport& type_support();
 
+// The wire bytes (encapsulation + XCDR1) of one message, e.g. to record, replay or feed a decoder in tests.
+template <class T>
+std::vector<std::uint8_t> serializeToBytes(const T& sample) {
+  const TypeSupport& type = type_support<T>();
+  std::vector<std::uint8_t> bytes(type.serialized_size(&sample));
+  bytes.resize(type.serialize(&sample, bytes.data(), bytes.size()));
+  return bytes;
+}
+
 // By registered name, e.g. from a recorded file or a discovered topic. nullptr when unknown.
 const TypeSupport* find_type_support(std::string_view type_name);
 
