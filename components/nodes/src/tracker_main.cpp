@@ -118,6 +118,7 @@ int main(int argc, char** argv) {
           request.planner(planner_name);
           request.time_budget_s(time_budget);
           request.seed(seed + d.request_id - 1);
+          request.reason(d.reason);
           spdlog::info("requesting plan {} with {} ({})", d.request_id, planner_name, d.reason);
           requests.publish(request);
           return false;
