@@ -1,4 +1,5 @@
 #include <ddsnav/runtime/component.hpp>
+#include <ddsnav/runtime/topic_names.hpp>
 
 #include <ddsnav/msg/messages.hpp>
 
@@ -86,22 +87,6 @@ class SignalWatcher {
   std::atomic<bool> finished_{false};
   std::thread thread_;
 };
-
-// Letters, digits, '_' and '/' (not first, not last, not doubled): what both vendors accept in a topic
-// name and what ROS users expect. Empty when fine, else the complaint naming the first bad character.
-std::string topicNameError(const std::string& name) {
-  if (name.empty()) return "is empty";
-  for (char c : name) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '/';
-    if (!ok) {
-      const std::string shown = (c >= 0x21 && c <= 0x7e) ? std::string("'") + c + "'" : fmt::format("byte 0x{:02x}", static_cast<unsigned char>(c));
-      return "contains " + shown + ", which a DDS topic name cannot carry (letters, digits, '_' and '/' only)";
-    }
-  }
-  if (name.front() == '/' || name.back() == '/') return "must not begin or end with '/'";
-  if (name.find("//") != std::string::npos) return "must not contain '//'";
-  return "";
-}
 
 class ContextImpl : public Context {
  public:
@@ -365,7 +350,6 @@ int runComponent(const ComponentInfo& info, int argc, char** argv, const std::fu
   std::string instance = launched_as && *launched_as ? launched_as : name;
   std::optional<int> domain;
   std::vector<std::string> overrides, remaps;
-  bool describe = false;
   app.add_option("--dds", dds, "DDS vendor: fastdds | cyclonedds (default: $DDSNAV_DDS, else fastdds)");
   app.add_option("--domain", domain, "DDS domain id 0..232 (default: $DDSNAV_DOMAIN, else 0)");
   app.add_option("--config", config, "YAML parameter file")->check(CLI::ExistingFile);
@@ -375,17 +359,20 @@ int runComponent(const ComponentInfo& info, int argc, char** argv, const std::fu
   app.add_option("--name", instance, "instance name in system/status (default: $DDSNAV_COMPONENT_NAME, else " + name + ")");
   app.add_option("--namespace", ns, "prefix of every topic but system/...: NS/sensors/points");
   app.add_option("--remap", remaps, "use topic TO where the component uses FROM (FROM=TO, repeatable; TO=/name: no namespace)");
-  app.add_flag("--describe", describe, "print every parameter (default, range, unit, description) and exit");
+  // Like --help: before the other options' requirements are checked (a required file argument, say).
+  app.add_flag_callback(
+      "--describe",
+      [&] {
+        std::fputs(describeComponent(name, info.declare).c_str(), stdout);
+        throw CLI::Success();
+      },
+      "print every parameter (default, range, unit, description) and exit");
   if (info.options) info.options(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     int rc = app.exit(e);
     return rc == 0 ? kExitOk : kExitUsage;
-  }
-  if (describe) {
-    std::fputs(describeComponent(name, info.declare).c_str(), stdout);
-    return kExitOk;
   }
 
   auto logger = spdlog::stderr_color_mt(instance);
