@@ -121,6 +121,9 @@ class MonitorComponent : public runtime::Component {
     }));
     // Every component's status (keyed: one instance per name), so a deeper queue than the topic's depth 1.
     subs_.push_back(ctx.subscribe<msg::ComponentStatus>(runtime::topics::status.name, bus::Qos::state(64), [this](const msg::ComponentStatus& m) {
+      // system/status is shared by every pipeline of the domain: a namespaced monitor judges its own
+      // (the launcher names them NS/sim, NS/planner, ...).
+      if (!this->ctx().ns().empty() && m.name().rfind(this->ctx().ns() + "/", 0) != 0) return;
       if (m.state() == msg::LifecycleState::LIFECYCLE_FAILED && seen_.failure.empty())
         seen_.failure = bus::printable(m.name()) + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
     }));
