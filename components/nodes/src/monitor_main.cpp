@@ -1,10 +1,13 @@
 // ddsnav-monitor: watches a running pipeline and writes what happened as a report a person can open:
 // out_dir/report.html (the world, the perceived ellipses, every planned path, the trajectory and the
-// driven track, with the numbers), report.svg and summary.json. Ends with status 0 when the tracker
-// reports the goal reached and the vehicle's true position (vehicle/state) is in the goal region, 1 when
-// timeout_s passes first or a component fails (summary.json's not_reached_why says which).
+// driven track, with the numbers), report.svg and summary.json. Ends with status 0 when the vehicle's true
+// position (vehicle/state) enters the scenario's goal region, 1 when timeout_s passes first, a component
+// fails, the followed clock stops, or the scenario's truth shows the goal cannot be reached (checked at
+// start; summary.json's not_reached_why says which). Time is the component's clock: on `clock: topic`
+// timeout_s and every sim_* number count simulated time.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/ground_truth.hpp"
 #include <ddsnav/bus/printable.hpp>
 #include "ddsnav/nodes/run_report.hpp"
 #include "ddsnav/nodes/validate.hpp"
@@ -19,7 +22,6 @@
 #include <optional>
 
 using namespace ddsnav;
-using nodes::sleepFor;
 
 namespace {
 
@@ -34,6 +36,11 @@ struct Observations {
   std::string failure;  // "component: detail" of the first component that reported LIFECYCLE_FAILED
   std::size_t clouds = 0;
   std::size_t cloud_points = 0;
+  std::size_t tracked_obstacles_max = 0;
+  std::vector<nodes::PlanRequestSeen> requests;
+  std::optional<std::int64_t> first_trajectory_ns;  // clock time the first trajectory was heard
+  std::optional<std::int64_t> goal_entered_ns;      // clock time of the first true position in the goal region
+  std::optional<Eigen::Vector3d> goal_entered_at;   // and that position
 };
 
 // What the report needs from the messages, as plain types.
@@ -44,6 +51,8 @@ nodes::RunObservations toRunObservations(const std::string& scenario, double ela
   run.failure = seen.failure;
   run.clouds = seen.clouds;
   run.cloud_points = seen.cloud_points;
+  run.tracked_obstacles_max = seen.tracked_obstacles_max;
+  run.requests = seen.requests;
   if (seen.obstacles) run.obstacles = nodes::toEllipsoidObstacles(*seen.obstacles);
   for (const auto& m : seen.paths) {
     nodes::PlannedPath path;
@@ -72,13 +81,28 @@ int main(int argc, char** argv) {
   return runtime::runComponent("monitor", argc, argv, [](runtime::Context& ctx) {
     const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
     const std::filesystem::path out_dir = ctx.params().declare<std::string>("out_dir", "out/demo");
-    const double timeout = ctx.params().declare<double>("timeout_s", 120.0);
+    const double timeout = ctx.params().declare<double>("timeout_s", 120.0, "on the component's clock (simulated on clock: topic)");
     if (!(timeout > 0)) throw runtime::ParameterError("parameter timeout_s: expected > 0");
+    const double stall_limit = ctx.params().declare<double>("clock_stall_s", 20.0, "wall seconds the followed clock may stand still");
+    if (!(stall_limit > 0)) throw runtime::ParameterError("parameter clock_stall_s: expected > 0");
     std::filesystem::create_directories(out_dir);
+
+    // A goal the truth says cannot be reached ends the run now, with the reason, instead of at the timeout.
+    const auto feasibility = nodes::checkGoalFeasible(scenario);
+    if (!feasibility.feasible) {
+      nodes::RunObservations run;
+      run.scenario = scenario.name;
+      run.infeasible_why = feasibility.why;
+      nodes::judgeGoal(run, scenario, false, std::nullopt, std::nullopt);
+      nodes::writeReport(out_dir, scenario, run);
+      std::printf("%s\n", nodes::summaryJson(run).dump().c_str());
+      throw std::runtime_error(scenario.source + ": " + feasibility.why);
+    }
 
     std::mutex mutex;
     Observations seen;
     auto& bus = ctx.bus();
+    const auto& clock = ctx.clock();
     // Every input is checked before it can reach the report (NaN in the SVG, null in summary.json) or the
     // verdict: a bad sample is dropped with a warning naming topic and field, and counted.
     nodes::DroppedSamples bad_states("vehicle/state"), bad_paths("planning/path"), bad_trajectories("control/trajectory"),
@@ -89,6 +113,11 @@ int main(int argc, char** argv) {
       const auto p = nodes::fromMsg(m.position());
       seen.vehicle = p;
       if (seen.track.empty() || (seen.track.back() - p).norm() > 0.05) seen.track.push_back(p);
+      if (!seen.goal_entered_ns && tracker::checkGoal(scenario.goal, scenario.goal_radius, p).reached) {
+        seen.goal_entered_ns = clock.nowNs();
+        seen.goal_entered_at = p;
+        if (seen.track.back() != p) seen.track.push_back(p);
+      }
     });
     auto s2 = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& m) {
       // Drawn with toEllipsoidObstacles at the end, which refuses malformed obstacles: keep the last good array.
@@ -97,6 +126,7 @@ int main(int argc, char** argv) {
         return;
       }
       std::lock_guard lock(mutex);
+      seen.tracked_obstacles_max = std::max(seen.tracked_obstacles_max, m.obstacles().size());
       seen.obstacles = m;
     });
     auto s3 = bus.subscribe<msg::Path>("planning/path", bus::Qos::state(), [&](const msg::Path& m) {
@@ -104,10 +134,17 @@ int main(int argc, char** argv) {
       std::lock_guard lock(mutex);
       seen.paths.push_back(m);
     });
+    std::int64_t started_ns = 0;  // clock time the watch began (set before ctx.ready(), read under the mutex)
     auto s4 = bus.subscribe<msg::Trajectory>("control/trajectory", bus::Qos::state(), [&](const msg::Trajectory& m) {
       if (const auto error = nodes::checkTrajectory(m); !error.empty()) return bad_trajectories.drop(error);
       std::lock_guard lock(mutex);
+      if (!seen.first_trajectory_ns) seen.first_trajectory_ns = clock.nowNs();
       seen.trajectory = m;
+    });
+    auto s9 = bus.subscribe<msg::PlanRequest>("planning/request", bus::Qos::commands(), [&](const msg::PlanRequest& m) {
+      std::lock_guard lock(mutex);
+      const double at = started_ns ? (clock.nowNs() - started_ns) * 1e-9 : 0.0;
+      seen.requests.push_back({m.request_id(), at, bus::printable(m.reason())});
     });
     auto s5 = bus.subscribe<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData(), [&](const msg::TrackingStatus& m) {
       if (const auto error = nodes::checkTrackingStatus(m); !error.empty()) return bad_statuses.drop(error);
@@ -134,45 +171,69 @@ int main(int argc, char** argv) {
         seen.failure = bus::printable(m.name()) + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
     });
 
+    // Waits for the followed clock (the simulator's) before the watch starts: timeout_s counts from there.
+    const auto wall_started = std::chrono::steady_clock::now();
     ctx.ready();
-    const auto started = std::chrono::steady_clock::now();
-    auto last_log = started;
-    bool reached = false, timed_out = false;
-    bool claim_logged = false;
-    while (sleepFor(ctx, std::chrono::milliseconds(100))) {
+    while (!clock.valid() && !ctx.shutdownRequested()) {
+      if (std::chrono::steady_clock::now() - wall_started > std::chrono::duration<double>(stall_limit)) break;
+      ctx.waitForShutdown(std::chrono::milliseconds(20));
+    }
+    {
       std::lock_guard lock(mutex);
-      // The tracker's claim is checked against the vehicle's true position (the end of a trajectory is not the goal).
+      started_ns = clock.nowNs();
+    }
+    auto last_log = started_ns;
+    auto last_tick = std::make_pair(started_ns, std::chrono::steady_clock::now());  // the clock's last advance
+    bool reached = false, timed_out = false;
+    std::string clock_stopped;
+    if (!clock.valid()) clock_stopped = fmt::format("no system/clock sample within clock_stall_s ({:g} s): is the simulator running?", stall_limit);
+    bool claim_logged = false;
+    while (clock_stopped.empty() && !ctx.waitForShutdown(std::chrono::milliseconds(50))) {
+      std::lock_guard lock(mutex);
+      reached = seen.goal_entered_ns.has_value();
       const bool claimed = seen.status && seen.status->goal_reached();
-      const auto goal = tracker::checkGoal(scenario.goal, scenario.goal_radius, seen.vehicle);
-      reached = claimed && goal.reached;
-      if (claimed && !goal.reached && !claim_logged) {
+      if (claimed && !reached && !claim_logged) {
         claim_logged = true;
-        spdlog::warn("control/tracking says the goal is reached, but {}: not taken as reached", goal.why);
+        spdlog::warn("control/tracking says the goal is reached, but {}: not taken as reached",
+                     tracker::checkGoal(scenario.goal, scenario.goal_radius, seen.vehicle).why);
       }
-      const auto now = std::chrono::steady_clock::now();
-      timed_out = now - started > std::chrono::duration<double>(timeout);
+      const auto now = clock.nowNs();
+      const auto wall_now = std::chrono::steady_clock::now();
+      if (now != last_tick.first) last_tick = {now, wall_now};
+      if (wall_now - last_tick.second > std::chrono::duration<double>(stall_limit))
+        clock_stopped = fmt::format("the clock stood still for clock_stall_s ({:g} s of wall time): is the simulator running?", stall_limit);
+      timed_out = (now - started_ns) * 1e-9 > timeout;
       if (reached || timed_out) break;
       if (!seen.failure.empty()) {
         spdlog::error("component failed: {}", seen.failure);
         break;
       }
-      if (now - last_log > std::chrono::seconds(3)) {
+      if (now - last_log > 3'000'000'000) {
         last_log = now;
-        spdlog::info("{:.0f} s: {} clouds, {} obstacles, {} paths, progress {:.0f} %, cross-track error {:.3f} m",
-                     std::chrono::duration<double>(now - started).count(), seen.clouds,
-                     seen.obstacles ? seen.obstacles->obstacles().size() : 0, seen.paths.size(),
+        spdlog::info("{:.0f} s: {} clouds, {} obstacles, {} paths, progress {:.0f} %, cross-track error {:.3f} m", (now - started_ns) * 1e-9,
+                     seen.clouds, seen.obstacles ? seen.obstacles->obstacles().size() : 0, seen.paths.size(),
                      seen.status ? 100.0 * seen.status->progress() : 0.0, seen.status ? seen.status->cross_track_error() : 0.0);
       }
     }
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = bus::Subscription();
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_started).count();
+    s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = s9 = bus::Subscription();
 
+    std::lock_guard lock(mutex);  // the subscriptions are gone: only for the analyser
     nodes::RunObservations run = toRunObservations(scenario.name, elapsed, seen);
-    nodes::judgeGoal(run, scenario, seen.status && seen.status->goal_reached(), seen.vehicle,
+    run.sim_elapsed_s = (clock.nowNs() - started_ns) * 1e-9;
+    if (!clock_stopped.empty()) run.failure = run.failure.empty() ? clock_stopped : run.failure + "; " + clock_stopped;
+    if (seen.goal_entered_ns) {
+      // From the mission's start: the first plan request, else (it was missed) the first trajectory.
+      const auto from = !seen.requests.empty() ? std::optional<std::int64_t>(started_ns + static_cast<std::int64_t>(seen.requests.front().sim_time_s * 1e9))
+                                               : seen.first_trajectory_ns;
+      if (from) run.sim_time_to_goal_s = (*seen.goal_entered_ns - *from) * 1e-9;
+    }
+    run.min_true_clearance_m = nodes::minTrueClearance(scenario, seen.track);
+    nodes::judgeGoal(run, scenario, seen.status && seen.status->goal_reached(), seen.goal_entered_at ? seen.goal_entered_at : seen.vehicle,
                      timed_out ? std::optional<double>(timeout) : std::nullopt);
     nodes::writeReport(out_dir, scenario, run);
-    spdlog::info("{}: {} after {:.1f} s; report in {}", scenario.name, run.goal_reached ? "goal reached" : "goal NOT reached", elapsed,
-                 (out_dir / "report.html").string());
+    spdlog::info("{}: {} after {:.1f} s simulated ({:.1f} s wall); report in {}", scenario.name,
+                 run.goal_reached ? "goal reached" : "goal NOT reached", run.sim_elapsed_s, elapsed, (out_dir / "report.html").string());
     std::printf("%s\n", nodes::summaryJson(run).dump().c_str());
     if (!run.goal_reached) throw std::runtime_error("goal not reached: " + run.not_reached_why);
   });
