@@ -29,7 +29,7 @@ double horizontalDiagonal(const planner::Scenario& s) {
 }
 
 void require(bool ok, const std::string& field, const std::string& expected, const std::string& got) {
-  if (!ok) throw std::invalid_argument(fmt::format("sensor {}: expected {}, got {}", field, expected, got));
+  if (!ok) throw std::invalid_argument(fmt::format("parameter {}: expected {}, got {}", field, expected, got));
 }
 
 // Beams every kBeamStepDeg across `fov_deg` (a full circle has no beam on its seam twice).
