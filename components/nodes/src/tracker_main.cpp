@@ -15,6 +15,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <optional>
@@ -152,9 +153,15 @@ int main(int argc, char** argv) {
     // launcher can start whoever waits for us.
     ctx.ready();
     if (!requests.waitForSubscribers(1, std::chrono::seconds(20))) spdlog::warn("no planner subscribed to planning/request yet");
-    const double dt = 1.0 / control_rate;
+    const double nominal_dt = 1.0 / control_rate;
     const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / control_rate));
+    std::int64_t last_tick_ns = 0;
     while (sleepFor(ctx, period)) {
+      // The reference advances by the time that passed on the component's clock (the simulator's, sped up),
+      // not by the nominal period: a loop that overran must not let the trajectory fall behind the vehicle.
+      const std::int64_t tick_ns = ctx.clock().nowNs();
+      const double dt = last_tick_ns ? std::clamp((tick_ns - last_tick_ns) * 1e-9, 0.1 * nominal_dt, 10.0 * nominal_dt) : nominal_dt;
+      last_tick_ns = tick_ns;
       std::optional<tracker::VehicleState> state;
       std::optional<msg::Path> path;
       {

@@ -71,8 +71,8 @@ TEST(SensorChoice, RangeNeverExceedsTheWorldDiagonal) {
 TEST(SensorChoice, ThreeDimensionalWorldGetsALidar) {
   const auto choice = chooseSensor(square(110, 5.0, 0.628, 3));
   EXPECT_EQ(choice.kind, SensorKind::Lidar);
-  EXPECT_EQ(choice.config.rings, 32);
-  EXPECT_EQ(choice.config.columns, 1024);
+  EXPECT_EQ(choice.config.rings, 16);
+  EXPECT_EQ(choice.config.columns, 512);
   EXPECT_NEAR(choice.config.max_range, 50.0 + 2.0 * 5.0 / 0.628, 1e-9);
 }
 

@@ -10,7 +10,7 @@
 //              diameter of the tightest turn) and extent the larger horizontal side of the bounds.
 //   fov        scanner and lidar 360 degrees; sonar 130 degrees centred on the heading.
 //   beams      one every 0.5 degrees for the scanner and the sonar (perception's default beam spacing);
-//              the lidar keeps 32 rings x 1024 columns over -15..+15 degrees.
+//              the lidar has 16 rings x 512 columns over -15..+15 degrees.
 //
 //   sim::SensorRequest request;            // all unset: the default for the scenario
 //   request.max_range = 80.0;              // the user's override
