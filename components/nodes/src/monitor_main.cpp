@@ -88,7 +88,11 @@ int main(int argc, char** argv) {
     std::filesystem::create_directories(out_dir);
 
     // A goal the truth says cannot be reached ends the run now, with the reason, instead of at the timeout.
-    const auto feasibility = nodes::checkGoalFeasible(scenario);
+    // A scenario without a vehicle: the simulator and the tracker refuse it too, but the report must say so.
+    const auto feasibility =
+        scenario.vehicle ? nodes::checkGoalFeasible(scenario)
+                         : nodes::GoalFeasibility{false, "the scenario has no 'vehicle' block: the simulator has no vehicle to drive "
+                                                         "and the tracker no limits to plan with"};
     if (!feasibility.feasible) {
       nodes::RunObservations run;
       run.scenario = scenario.name;
