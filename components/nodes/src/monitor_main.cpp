@@ -18,7 +18,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <mutex>
 #include <optional>
 
 using namespace ddsnav;
@@ -75,170 +74,189 @@ nodes::RunObservations toRunObservations(const std::string& scenario, double ela
   return run;
 }
 
-}  // namespace
+class MonitorComponent : public runtime::Component {
+ public:
+  struct Params {
+    std::string scenario;
+    std::string out_dir;
+    double timeout_s, clock_stall_s;
+    explicit Params(runtime::Parameters& p)
+        : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: the world, goal and goal radius"})),
+          out_dir(p.declare<std::string>("out_dir", "out/demo", {.doc = "where report.html, report.svg and summary.json go"})),
+          timeout_s(p.declare<double>("timeout_s", 120.0, {.above = 0, .unit = "s",
+                                                           .doc = "give up (exit status 1) after this long on the component's clock (simulated on clock: topic)"})),
+          clock_stall_s(p.declare<double>("clock_stall_s", 20.0, {.above = 0, .unit = "s", .doc = "wall seconds the followed clock may stand still"})) {}
+  };
 
-int main(int argc, char** argv) {
-  return runtime::runComponent("monitor", argc, argv, [](runtime::Context& ctx) {
-    const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
-    const std::filesystem::path out_dir = ctx.params().declare<std::string>("out_dir", "out/demo");
-    const double timeout = ctx.params().declare<double>("timeout_s", 120.0, "on the component's clock (simulated on clock: topic)");
-    if (!(timeout > 0)) throw runtime::ParameterError("parameter timeout_s: expected > 0");
-    const double stall_limit = ctx.params().declare<double>("clock_stall_s", 20.0, "wall seconds the followed clock may stand still");
-    if (!(stall_limit > 0)) throw runtime::ParameterError("parameter clock_stall_s: expected > 0");
-    std::filesystem::create_directories(out_dir);
-
+  explicit MonitorComponent(runtime::Context& ctx)
+      : Component(ctx), params_(ctx.params()), scenario_(planner::loadScenario(params_.scenario)), out_dir_(params_.out_dir) {
+    std::filesystem::create_directories(out_dir_);
     // A goal the truth says cannot be reached ends the run now, with the reason, instead of at the timeout.
     // A scenario without a vehicle: the simulator and the tracker refuse it too, but the report must say so.
     const auto feasibility =
-        scenario.vehicle ? nodes::checkGoalFeasible(scenario)
-                         : nodes::GoalFeasibility{false, "the scenario has no 'vehicle' block: the simulator has no vehicle to drive "
-                                                         "and the tracker no limits to plan with"};
+        scenario_.vehicle ? nodes::checkGoalFeasible(scenario_)
+                          : nodes::GoalFeasibility{false, "the scenario has no 'vehicle' block: the simulator has no vehicle to drive "
+                                                          "and the tracker no limits to plan with"};
     if (!feasibility.feasible) {
       nodes::RunObservations run;
-      run.scenario = scenario.name;
+      run.scenario = scenario_.name;
       run.infeasible_why = feasibility.why;
-      nodes::judgeGoal(run, scenario, false, std::nullopt, std::nullopt);
-      nodes::writeReport(out_dir, scenario, run);
+      nodes::judgeGoal(run, scenario_, false, std::nullopt, std::nullopt);
+      nodes::writeReport(out_dir_, scenario_, run);
       std::printf("%s\n", nodes::summaryJson(run).dump().c_str());
-      throw std::runtime_error(scenario.source + ": " + feasibility.why);
+      throw std::runtime_error(scenario_.source + ": " + feasibility.why);
     }
-
-    std::mutex mutex;
-    Observations seen;
-    auto& bus = ctx.bus();
-    const auto& clock = ctx.clock();
     // Every input is checked before it can reach the report (NaN in the SVG, null in summary.json) or the
     // verdict: a bad sample is dropped with a warning naming topic and field, and counted.
-    nodes::DroppedSamples bad_states("vehicle/state"), bad_paths("planning/path"), bad_trajectories("control/trajectory"),
-        bad_statuses("control/tracking");
-    auto s1 = bus.subscribe<msg::VehicleState>("vehicle/state", bus::Qos::sensorData(), [&](const msg::VehicleState& m) {
-      if (const auto error = nodes::checkVehicleState(m, nodes::kWorldFrame); !error.empty()) return bad_states.drop(error);
-      std::lock_guard lock(mutex);
+    subs_.push_back(subscribe(runtime::topics::vehicle_state, [this](const msg::VehicleState& m) {
+      if (const auto error = nodes::checkVehicleState(m, nodes::kWorldFrame); !error.empty()) return bad_states_.drop(error);
       const auto p = nodes::fromMsg(m.position());
-      seen.vehicle = p;
-      if (seen.track.empty() || (seen.track.back() - p).norm() > 0.05) seen.track.push_back(p);
-      if (!seen.goal_entered_ns && tracker::checkGoal(scenario.goal, scenario.goal_radius, p).reached) {
-        seen.goal_entered_ns = clock.nowNs();
-        seen.goal_entered_at = p;
-        if (seen.track.back() != p) seen.track.push_back(p);
+      seen_.vehicle = p;
+      if (seen_.track.empty() || (seen_.track.back() - p).norm() > 0.05) seen_.track.push_back(p);
+      // The goal is judged on the true position, the first time it enters the scenario's goal region.
+      if (!seen_.goal_entered_ns && tracker::checkGoal(scenario_.goal, scenario_.goal_radius, p).reached) {
+        seen_.goal_entered_ns = clock().nowNs();
+        seen_.goal_entered_at = p;
+        if (seen_.track.back() != p) seen_.track.push_back(p);
       }
-    });
-    auto s2 = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& m) {
+    }));
+    subs_.push_back(subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& m) {
       // Drawn with toEllipsoidObstacles at the end, which refuses malformed obstacles: keep the last good array.
       if (const auto error = nodes::checkObstacleArray(m, ""); !error.empty()) {
         spdlog::warn("perception/obstacles: ignoring an array: {}", error);
         return;
       }
-      std::lock_guard lock(mutex);
-      seen.tracked_obstacles_max = std::max(seen.tracked_obstacles_max, m.obstacles().size());
-      seen.obstacles = m;
-    });
-    auto s3 = bus.subscribe<msg::Path>("planning/path", bus::Qos::state(), [&](const msg::Path& m) {
-      if (const auto error = nodes::checkPath(m); !error.empty()) return bad_paths.drop(error);
-      std::lock_guard lock(mutex);
-      seen.paths.push_back(m);
-    });
-    std::int64_t started_ns = 0;  // clock time the watch began (set before ctx.ready(), read under the mutex)
-    auto s4 = bus.subscribe<msg::Trajectory>("control/trajectory", bus::Qos::state(), [&](const msg::Trajectory& m) {
-      if (const auto error = nodes::checkTrajectory(m); !error.empty()) return bad_trajectories.drop(error);
-      std::lock_guard lock(mutex);
-      if (!seen.first_trajectory_ns) seen.first_trajectory_ns = clock.nowNs();
-      seen.trajectory = m;
-    });
-    auto s9 = bus.subscribe<msg::PlanRequest>("planning/request", bus::Qos::commands(), [&](const msg::PlanRequest& m) {
-      std::lock_guard lock(mutex);
-      const double at = started_ns ? (clock.nowNs() - started_ns) * 1e-9 : 0.0;
-      seen.requests.push_back({m.request_id(), at, bus::printable(m.reason())});
-    });
-    auto s5 = bus.subscribe<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData(), [&](const msg::TrackingStatus& m) {
-      if (const auto error = nodes::checkTrackingStatus(m); !error.empty()) return bad_statuses.drop(error);
-      std::lock_guard lock(mutex);
-      seen.status = m;
-    });
+      seen_.tracked_obstacles_max = std::max(seen_.tracked_obstacles_max, m.obstacles().size());
+      seen_.obstacles = m;
+    }));
+    // Every answer counts (the report draws each planned path): a deeper queue than the topic's depth 1.
+    subs_.push_back(ctx.subscribe<msg::Path>(runtime::topics::path.name, bus::Qos{runtime::topics::path.qos.reliability, runtime::topics::path.qos.durability, 64},
+                                             [this](const msg::Path& m) {
+                                               if (const auto error = nodes::checkPath(m); !error.empty()) return bad_paths_.drop(error);
+                                               seen_.paths.push_back(m);
+                                             }));
+    subs_.push_back(subscribe(runtime::topics::trajectory, [this](const msg::Trajectory& m) {
+      if (const auto error = nodes::checkTrajectory(m); !error.empty()) return bad_trajectories_.drop(error);
+      if (!seen_.first_trajectory_ns) seen_.first_trajectory_ns = clock().nowNs();
+      seen_.trajectory = m;
+    }));
+    // Every request with its reason (the summary counts replans by reason): deeper than the topic's queue.
+    subs_.push_back(ctx.subscribe<msg::PlanRequest>(
+        runtime::topics::plan_request.name,
+        bus::Qos{runtime::topics::plan_request.qos.reliability, runtime::topics::plan_request.qos.durability, 64}, [this](const msg::PlanRequest& m) {
+          const double at = started_ns_ ? (clock().nowNs() - started_ns_) * 1e-9 : 0.0;
+          seen_.requests.push_back({m.request_id(), at, bus::printable(m.reason())});
+        }));
+    subs_.push_back(subscribe(runtime::topics::tracking, [this](const msg::TrackingStatus& m) {
+      if (const auto error = nodes::checkTrackingStatus(m); !error.empty()) return bad_statuses_.drop(error);
+      seen_.status = m;
+    }));
     // Only the map's size and resolution are reported: those are checked (its octree is the planner's business).
-    nodes::DroppedSamples bad_maps("map/octomap", "keeping the last good map");
-    auto s6 = bus.subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [&](const msg::OccupancyMap& m) {
+    subs_.push_back(subscribe(runtime::topics::octomap, [this](const msg::OccupancyMap& m) {
       if (!(m.resolution() > 0.0) || !std::isfinite(m.resolution()))
-        return bad_maps.drop(fmt::format("resolution is {}, expected a positive finite number of metres", m.resolution()));
-      std::lock_guard lock(mutex);
-      seen.map = m;
-    });
-    auto s7 = bus.subscribe<msg::PointCloud>("sensors/points", bus::Qos::sensorData(), [&](const msg::PointCloud& m) {
-      std::lock_guard lock(mutex);
-      ++seen.clouds;
-      seen.cloud_points += m.xyz().size() / 3;
-    });
+        return bad_maps_.drop(fmt::format("resolution is {}, expected a positive finite number of metres", m.resolution()));
+      seen_.map = m;
+    }));
+    subs_.push_back(subscribe(runtime::topics::points, [this](const msg::PointCloud& m) {
+      ++seen_.clouds;
+      seen_.cloud_points += m.xyz().size() / 3;
+    }));
+    // Every component's status (keyed: one instance per name), so a deeper queue than the topic's depth 1.
+    subs_.push_back(ctx.subscribe<msg::ComponentStatus>(runtime::topics::status.name, bus::Qos::state(64), [this](const msg::ComponentStatus& m) {
+      // system/status is shared by every pipeline of the domain: a namespaced monitor judges its own
+      // (the launcher names them NS/sim, NS/planner, ...).
+      if (!this->ctx().ns().empty() && m.name().rfind(this->ctx().ns() + "/", 0) != 0) return;
+      if (m.state() == msg::LifecycleState::LIFECYCLE_FAILED && seen_.failure.empty())
+        seen_.failure = bus::printable(m.name()) + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
+    }));
+    wall_started_ = last_clock_advance_wall_ = std::chrono::steady_clock::now();
+    check_ = every(std::chrono::milliseconds(50), [this] { check(); });
+  }
 
-    auto s8 = bus.subscribe<msg::ComponentStatus>("system/status", bus::Qos::state(), [&](const msg::ComponentStatus& m) {
-      std::lock_guard lock(mutex);
-      if (m.state() == msg::LifecycleState::LIFECYCLE_FAILED && seen.failure.empty())
-        seen.failure = bus::printable(m.name()) + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
-    });
-
-    // Waits for the followed clock (the simulator's) before the watch starts: timeout_s counts from there.
-    const auto wall_started = std::chrono::steady_clock::now();
-    ctx.ready();
-    while (!clock.valid() && !ctx.shutdownRequested()) {
-      if (std::chrono::steady_clock::now() - wall_started > std::chrono::duration<double>(stall_limit)) break;
-      ctx.waitForShutdown(std::chrono::milliseconds(20));
-    }
-    {
-      std::lock_guard lock(mutex);
-      started_ns = clock.nowNs();
-    }
-    auto last_log = started_ns;
-    auto last_tick = std::make_pair(started_ns, std::chrono::steady_clock::now());  // the clock's last advance
-    bool reached = false, timed_out = false;
-    std::string clock_stopped;
-    if (!clock.valid()) clock_stopped = fmt::format("no system/clock sample within clock_stall_s ({:g} s): is the simulator running?", stall_limit);
-    bool claim_logged = false;
-    while (clock_stopped.empty() && !ctx.waitForShutdown(std::chrono::milliseconds(50))) {
-      std::lock_guard lock(mutex);
-      reached = seen.goal_entered_ns.has_value();
-      const bool claimed = seen.status && seen.status->goal_reached();
-      if (claimed && !reached && !claim_logged) {
-        claim_logged = true;
-        spdlog::warn("control/tracking says the goal is reached, but {}: not taken as reached",
-                     tracker::checkGoal(scenario.goal, scenario.goal_radius, seen.vehicle).why);
-      }
-      const auto now = clock.nowNs();
-      const auto wall_now = std::chrono::steady_clock::now();
-      if (now != last_tick.first) last_tick = {now, wall_now};
-      if (wall_now - last_tick.second > std::chrono::duration<double>(stall_limit))
-        clock_stopped = fmt::format("the clock stood still for clock_stall_s ({:g} s of wall time): is the simulator running?", stall_limit);
-      timed_out = (now - started_ns) * 1e-9 > timeout;
-      if (reached || timed_out) break;
-      if (!seen.failure.empty()) {
-        spdlog::error("component failed: {}", seen.failure);
-        break;
-      }
-      if (now - last_log > 3'000'000'000) {
-        last_log = now;
-        spdlog::info("{:.0f} s: {} clouds, {} obstacles, {} paths, progress {:.0f} %, cross-track error {:.3f} m", (now - started_ns) * 1e-9,
-                     seen.clouds, seen.obstacles ? seen.obstacles->obstacles().size() : 0, seen.paths.size(),
-                     seen.status ? 100.0 * seen.status->progress() : 0.0, seen.status ? seen.status->cross_track_error() : 0.0);
-      }
-    }
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_started).count();
-    s1 = s2 = s3 = s4 = s5 = s6 = s7 = s8 = s9 = bus::Subscription();
-
-    std::lock_guard lock(mutex);  // the subscriptions are gone: only for the analyser
-    nodes::RunObservations run = toRunObservations(scenario.name, elapsed, seen);
-    run.sim_elapsed_s = (clock.nowNs() - started_ns) * 1e-9;
-    if (!clock_stopped.empty()) run.failure = run.failure.empty() ? clock_stopped : run.failure + "; " + clock_stopped;
-    if (seen.goal_entered_ns) {
+  // The report, written once the executor has stopped; a goal not reached fails the component (exit 1).
+  void shutdown() override {
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_started_).count();
+    subs_.clear();
+    nodes::RunObservations run = toRunObservations(scenario_.name, elapsed, seen_);
+    run.sim_elapsed_s = started_ns_ ? (clock().nowNs() - started_ns_) * 1e-9 : 0.0;
+    if (!clock_stopped_.empty()) run.failure = run.failure.empty() ? clock_stopped_ : run.failure + "; " + clock_stopped_;
+    if (seen_.goal_entered_ns) {
       // From the mission's start: the first plan request, else (it was missed) the first trajectory.
-      const auto from = !seen.requests.empty() ? std::optional<std::int64_t>(started_ns + static_cast<std::int64_t>(seen.requests.front().sim_time_s * 1e9))
-                                               : seen.first_trajectory_ns;
-      if (from) run.sim_time_to_goal_s = (*seen.goal_entered_ns - *from) * 1e-9;
+      const auto from = !seen_.requests.empty()
+                            ? std::optional<std::int64_t>(started_ns_ + static_cast<std::int64_t>(seen_.requests.front().sim_time_s * 1e9))
+                            : seen_.first_trajectory_ns;
+      if (from) run.sim_time_to_goal_s = (*seen_.goal_entered_ns - *from) * 1e-9;
     }
-    run.min_true_clearance_m = nodes::minTrueClearance(scenario, seen.track);
-    nodes::judgeGoal(run, scenario, seen.status && seen.status->goal_reached(), seen.goal_entered_at ? seen.goal_entered_at : seen.vehicle,
-                     timed_out ? std::optional<double>(timeout) : std::nullopt);
-    nodes::writeReport(out_dir, scenario, run);
-    spdlog::info("{}: {} after {:.1f} s simulated ({:.1f} s wall); report in {}", scenario.name,
-                 run.goal_reached ? "goal reached" : "goal NOT reached", run.sim_elapsed_s, elapsed, (out_dir / "report.html").string());
+    run.min_true_clearance_m = nodes::minTrueClearance(scenario_, seen_.track);
+    nodes::judgeGoal(run, scenario_, seen_.status && seen_.status->goal_reached(), seen_.goal_entered_at ? seen_.goal_entered_at : seen_.vehicle,
+                     timed_out_ ? std::optional<double>(params_.timeout_s) : std::nullopt);
+    nodes::writeReport(out_dir_, scenario_, run);
+    spdlog::info("{}: {} after {:.1f} s simulated ({:.1f} s wall); report in {}", scenario_.name,
+                 run.goal_reached ? "goal reached" : "goal NOT reached", run.sim_elapsed_s, elapsed, (out_dir_ / "report.html").string());
     std::printf("%s\n", nodes::summaryJson(run).dump().c_str());
     if (!run.goal_reached) throw std::runtime_error("goal not reached: " + run.not_reached_why);
-  });
-}
+  }
+
+ private:
+  void check() {
+    const auto wall_now = std::chrono::steady_clock::now();
+    const auto stall_limit = std::chrono::duration<double>(params_.clock_stall_s);
+    // The watch starts with the followed clock (the simulator's): timeout_s counts from there.
+    if (!started_ns_) {
+      if (!clock().valid()) {
+        if (wall_now - wall_started_ > stall_limit) {
+          clock_stopped_ = fmt::format("no system/clock sample within clock_stall_s ({:g} s): is the simulator running?", params_.clock_stall_s);
+          ctx().requestShutdown();
+        }
+        return;
+      }
+      started_ns_ = last_log_ns_ = last_clock_ns_ = clock().nowNs();
+      last_clock_advance_wall_ = wall_now;
+    }
+    const bool reached = seen_.goal_entered_ns.has_value();
+    const bool claimed = seen_.status && seen_.status->goal_reached();
+    if (claimed && !reached && !claim_logged_) {
+      claim_logged_ = true;
+      spdlog::warn("control/tracking says the goal is reached, but {}: not taken as reached",
+                   tracker::checkGoal(scenario_.goal, scenario_.goal_radius, seen_.vehicle).why);
+    }
+    const auto now = clock().nowNs();
+    if (now != last_clock_ns_) {
+      last_clock_ns_ = now;
+      last_clock_advance_wall_ = wall_now;
+    }
+    if (wall_now - last_clock_advance_wall_ > stall_limit) {
+      clock_stopped_ = fmt::format("the clock stood still for clock_stall_s ({:g} s of wall time): is the simulator running?", params_.clock_stall_s);
+      return ctx().requestShutdown();
+    }
+    timed_out_ = (now - started_ns_) * 1e-9 > params_.timeout_s;
+    if (reached || timed_out_) return ctx().requestShutdown();
+    if (!seen_.failure.empty()) {
+      spdlog::error("component failed: {}", seen_.failure);
+      return ctx().requestShutdown();
+    }
+    if (now - last_log_ns_ > 3'000'000'000) {
+      last_log_ns_ = now;
+      spdlog::info("{:.0f} s: {} clouds, {} obstacles, {} paths, progress {:.0f} %, cross-track error {:.3f} m", (now - started_ns_) * 1e-9,
+                   seen_.clouds, seen_.obstacles ? seen_.obstacles->obstacles().size() : 0, seen_.paths.size(),
+                   seen_.status ? 100.0 * seen_.status->progress() : 0.0, seen_.status ? seen_.status->cross_track_error() : 0.0);
+    }
+  }
+
+  const Params params_;
+  const planner::Scenario scenario_;
+  const std::filesystem::path out_dir_;
+  Observations seen_;
+  nodes::DroppedSamples bad_states_{"vehicle/state"}, bad_paths_{"planning/path"}, bad_trajectories_{"control/trajectory"},
+      bad_statuses_{"control/tracking"}, bad_maps_{"map/octomap", "keeping the last good map"};
+  std::chrono::steady_clock::time_point wall_started_, last_clock_advance_wall_;
+  std::int64_t started_ns_ = 0, last_log_ns_ = 0, last_clock_ns_ = 0;  // on the component's clock; 0 until it runs
+  std::string clock_stopped_;
+  bool timed_out_ = false, claim_logged_ = false;
+  std::vector<bus::Subscription> subs_;
+  runtime::Timer check_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) { return runtime::runComponent<MonitorComponent>("monitor", argc, argv); }

@@ -13,143 +13,171 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <atomic>
+#include <chrono>
 #include <cmath>
-#include <mutex>
-#include <optional>
 
 using namespace ddsnav;
-using nodes::sleepForWall;
 
 namespace {
 
-// A parameter the user may leave unset (the sensor rule then decides); declared either way.
-template <class T>
-std::optional<T> optionalParam(runtime::Context& ctx, const char* name) {
-  const bool given = ctx.params().has(name);
-  const T value = ctx.params().declare<T>(name, T{});
-  return given ? std::optional<T>(value) : std::nullopt;
-}
+class SimComponent : public runtime::Component {
+ public:
+  struct Params {
+    std::string scenario;
+    double lidar_rate_hz, state_rate_hz, command_timeout_s, speed;
+    sim::SensorRequest sensor;
+    double range_noise_sigma, invalid_fraction;
+    bool walls, noise;
+    std::int64_t seed;
+    explicit Params(runtime::Parameters& p)
+        : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file (needs a vehicle block)"})),
+          lidar_rate_hz(p.declare<double>("lidar_rate_hz", 10.0, {.above = 0, .max = 100, .unit = "Hz", .doc = "clouds per second"})),
+          state_rate_hz(p.declare<double>("state_rate_hz", 50.0, {.above = 0, .max = 1000, .unit = "Hz",
+                                                                  .doc = "vehicle steps (and vehicle/state) per second; at least lidar_rate_hz"})),
+          command_timeout_s(p.declare<double>("command_timeout_s", 0.5, {.above = 0, .unit = "s", .doc = "stop when no command came for this long (simulated time)"})),
+          speed(p.declare<double>("speed", 1.0, {.above = 0, .max = 1000, .doc = "simulated seconds per wall second (system/clock)"})),
+          sensor(sensorRequest(p)),
+          range_noise_sigma(p.declare<double>("range_noise_sigma", 0.02, {.min = 0, .unit = "m", .doc = "range noise of a beam"})),
+          invalid_fraction(p.declare<double>("invalid_fraction", 0.01, {.min = 0, .max = 1, .doc = "fraction of beams returned as invalid (NaN)"})),
+          // The bounds are a modelling device, not a wall the vehicle could see: off unless asked for.
+          walls(p.declare<bool>("walls", false, {.doc = "the scenario's bounds are seen as walls"})),
+          noise(p.declare<bool>("noise", true, {.doc = "the vehicle's motion noise (nominal)"})),
+          seed(p.declare<std::int64_t>("seed", 1, {.doc = "random seed of the sensor and vehicle noise"})) {}
 
-// The sensor: chosen from the scenario (sim::chooseSensor, docs/simulator.md) unless the parameters say
-// otherwise. Every error names the parameter the user set ('beams' is a lidar's 'columns' too).
-sim::SensorChoice sensorChoice(runtime::Context& ctx, const planner::Scenario& scenario) {
-  sim::SensorRequest request;
-  try {
-    request.kind = sim::parseSensorKind(ctx.params().declare<std::string>("sensor", "auto"));
-    request.max_range = optionalParam<double>(ctx, "max_range");
-    request.fov_deg = optionalParam<double>(ctx, "fov_deg");
-    const auto narrow = [](std::optional<std::int64_t> v) -> std::optional<int> {
-      if (!v) return std::nullopt;
-      return static_cast<int>(std::clamp<std::int64_t>(*v, -1, std::int64_t{1} << 20));  // out of range either way: refused below
-    };
-    request.beams = narrow(optionalParam<std::int64_t>(ctx, "beams"));
-    if (!request.beams) request.beams = narrow(optionalParam<std::int64_t>(ctx, "columns"));
-    request.rings = narrow(optionalParam<std::int64_t>(ctx, "rings"));
-    request.vertical_min_deg = optionalParam<double>(ctx, "vertical_min_deg");
-    request.vertical_max_deg = optionalParam<double>(ctx, "vertical_max_deg");
-    auto choice = sim::chooseSensor(scenario, request);
-    auto& config = choice.config;
-    config.range_noise_sigma = ctx.params().declare<double>("range_noise_sigma", 0.02);
-    config.invalid_fraction = ctx.params().declare<double>("invalid_fraction", 0.01);
-    // The bounds are a modelling device, not a wall the vehicle could see: off unless asked for.
-    config.walls = ctx.params().declare<bool>("walls", false);
-    config.seed = static_cast<std::uint64_t>(ctx.params().declare<std::int64_t>("seed", 1));
-    config.validate();
-    return choice;
-  } catch (const std::invalid_argument& e) {
-    throw runtime::ParameterError("sensor for " + scenario.source + ": " + e.what());
+   private:
+    // Every sensor parameter may be left unset: the scenario's rule (sim::chooseSensor, docs/simulator.md)
+    // then decides. A planar scanner's 'beams' are a lidar's 'columns'.
+    static sim::SensorRequest sensorRequest(runtime::Parameters& p) {
+      sim::SensorRequest request;
+      const auto kind = p.declare<std::string>("sensor", "auto", {.doc = "sensor kind; auto picks it from the scenario",
+                                                                  .choices = {"auto", "scanner", "lidar", "sonar"}});
+      try {
+        request.kind = sim::parseSensorKind(kind);
+      } catch (const std::invalid_argument& e) {
+        throw runtime::ParameterError(std::string("parameter 'sensor': ") + e.what());
+      }
+      request.max_range = p.declareOptional<double>("max_range", {.above = 0, .unit = "m", .doc = "sensor range; default from the scenario's scale"});
+      request.fov_deg = p.declareOptional<double>("fov_deg", {.above = 0, .max = 360, .unit = "deg", .doc = "horizontal field of view, centred on the heading"});
+      const auto count = [&](const char* name, const char* doc) -> std::optional<int> {
+        const auto v = p.declareOptional<std::int64_t>(name, {.min = 1, .max = 1 << 16, .doc = doc});
+        return v ? std::optional<int>(static_cast<int>(*v)) : std::nullopt;
+      };
+      request.beams = count("beams", "horizontal beams of a scan");
+      if (const auto columns = count("columns", "3-D lidar: columns (the same as beams)"); columns && !request.beams) request.beams = columns;
+      request.rings = count("rings", "3-D lidar: rings");
+      request.vertical_min_deg = p.declareOptional<double>("vertical_min_deg", {.min = -90, .max = 90, .unit = "deg", .doc = "3-D lidar: lowest ring"});
+      request.vertical_max_deg = p.declareOptional<double>("vertical_max_deg", {.min = -90, .max = 90, .unit = "deg", .doc = "3-D lidar: highest ring"});
+      return request;
+    }
+  };
+
+  explicit SimComponent(runtime::Context& ctx)
+      : Component(ctx),
+        params_(ctx.params()),
+        scenario_(planner::loadScenario(params_.scenario)),
+        sensor_(scenario_, sensorChoice().config),
+        vehicle_(vehicleConfig(), initialState()),
+        clock_(publisher(runtime::topics::clock)),
+        clouds_(publisher(runtime::topics::points)),
+        states_(publisher(runtime::topics::vehicle_state)) {
+    if (params_.state_rate_hz < params_.lidar_rate_hz)
+      throw runtime::ParameterError(fmt::format("parameter 'state_rate_hz': expected [lidar_rate_hz, 1000], got {}", params_.state_rate_hz));
+    commands_ = subscribe(runtime::topics::cmd_vel, [this](const msg::VelocityCommand& m) {
+      if (!std::isfinite(m.v()) || !std::isfinite(m.omega()) || !std::isfinite(m.vz())) {
+        spdlog::warn("control/cmd_vel: ignoring a command with non-finite values");
+        return;
+      }
+      command_ = nodes::fromMsg(m);
+      command_stamp_ = sim_now_;
+    });
+    steps_per_scan_ = std::max(1, static_cast<int>(std::lround(params_.state_rate_hz / params_.lidar_rate_hz)));
+    step_ns_ = static_cast<std::int64_t>(std::llround(1e9 / params_.state_rate_hz));
+    // Each step advances simulated time by 1/state_rate_hz; `speed` of them pass per wall period.
+    sim_started_ = sim_now_;
+    wall_started_ = std::chrono::steady_clock::now();
+    last_log_ = wall_started_;
+    step_ = every(std::chrono::nanoseconds(static_cast<std::int64_t>(std::llround(1e9 / params_.state_rate_hz / params_.speed))),
+                  [this] { step(); });
   }
-}
+
+ private:
+  sim::SensorChoice sensorChoice() const {
+    try {
+      auto choice = sim::chooseSensor(scenario_, params_.sensor);
+      auto& config = choice.config;
+      config.range_noise_sigma = params_.range_noise_sigma;
+      config.invalid_fraction = params_.invalid_fraction;
+      config.walls = params_.walls;
+      config.seed = static_cast<std::uint64_t>(params_.seed);
+      config.validate();
+      spdlog::info("sensor: {}", choice.summary);
+      return choice;
+    } catch (const std::invalid_argument& e) {
+      throw runtime::ParameterError("sensor for " + scenario_.source + ": " + e.what());
+    }
+  }
+
+  tracker::VehicleConfig vehicleConfig() const {
+    if (!scenario_.vehicle) throw std::invalid_argument(scenario_.source + ": the simulator needs a 'vehicle' block");
+    tracker::VehicleConfig config;
+    config.limits = *scenario_.vehicle;
+    config.dimensions = scenario_.dimensions;
+    if (params_.noise) config.noise = tracker::VehicleNoise::nominal(static_cast<std::uint64_t>(params_.seed));
+    return config;
+  }
+
+  tracker::VehicleState initialState() const {
+    tracker::VehicleState initial;
+    initial.position = scenario_.start;
+    initial.heading = planner::startHeading(scenario_);  // the planner assumes the same
+    return initial;
+  }
+
+  void step() {
+    sim_now_ += step_ns_;
+    const std::int64_t now = sim_now_;
+    tracker::VehicleCommand current;
+    // A silent controller must not leave the vehicle driving: stop after the timeout (simulated time).
+    if (command_stamp_ != 0 && (now - command_stamp_) * 1e-9 < params_.command_timeout_s) current = command_;
+    const auto& state = vehicle_.step(current, 1.0 / params_.state_rate_hz);
+    msg::Clock tick;
+    tick.stamp_ns(now);
+    clock_.publish(tick);
+    states_.publish(nodes::toMsg(state, now));
+    if (tick_++ % static_cast<std::uint64_t>(steps_per_scan_) == 0) {
+      const auto cloud = sensor_.scan({state.position, state.heading}, now * 1e-9);
+      clouds_.publish(nodes::toMsg(cloud, now));
+    }
+    const auto wall_now = std::chrono::steady_clock::now();
+    if (wall_now - last_log_ > std::chrono::seconds(10)) {
+      // A speed the machine cannot keep up with is not an error: simulated time just runs slower.
+      last_log_ = wall_now;
+      const double wall = std::chrono::duration<double>(wall_now - wall_started_).count();
+      const double simulated = (now - sim_started_) * 1e-9;
+      spdlog::info("simulated {:.1f} s in {:.1f} s of wall time (speed {:.2f}, asked {:g})", simulated, wall, simulated / wall, params_.speed);
+    }
+  }
+
+  const Params params_;
+  const planner::Scenario scenario_;
+  sim::RangeSensor sensor_;
+  tracker::UnicycleVehicle vehicle_;
+  bus::Publisher<msg::Clock> clock_;
+  bus::Publisher<msg::PointCloud> clouds_;
+  bus::Publisher<msg::VehicleState> states_;
+  tracker::VehicleCommand command_;
+  // Simulated time, ns since the epoch; it starts at the wall time of the start, so stamps read as dates.
+  std::int64_t sim_now_ = runtime::SystemClock().nowNs();
+  std::int64_t sim_started_ = 0;
+  std::int64_t step_ns_ = 0;
+  std::int64_t command_stamp_ = 0;
+  std::chrono::steady_clock::time_point wall_started_, last_log_;
+  int steps_per_scan_ = 1;
+  std::uint64_t tick_ = 0;
+  bus::Subscription commands_;
+  runtime::Timer step_;
+};
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  return runtime::runComponent("sim", argc, argv, [](runtime::Context& ctx) {
-    const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
-    if (!scenario.vehicle) throw std::invalid_argument(scenario.source + ": the simulator needs a 'vehicle' block");
-    const double lidar_rate = ctx.params().declare<double>("lidar_rate_hz", 10.0);
-    const double state_rate = ctx.params().declare<double>("state_rate_hz", 50.0);
-    const double command_timeout = ctx.params().declare<double>("command_timeout_s", 0.5);
-    if (!(command_timeout > 0) || !std::isfinite(command_timeout))
-      throw runtime::ParameterError(fmt::format("parameter command_timeout_s: expected a positive finite number of seconds, got {}", command_timeout));
-    if (!(lidar_rate > 0 && lidar_rate <= 100)) throw runtime::ParameterError("parameter lidar_rate_hz: expected (0, 100]");
-    if (!(state_rate >= lidar_rate && state_rate <= 1000))
-      throw runtime::ParameterError("parameter state_rate_hz: expected [lidar_rate_hz, 1000]");
-
-    const double speed = ctx.params().declare<double>("speed", 1.0, "simulated seconds per wall second");
-    if (!(speed > 0 && speed <= 1000)) throw runtime::ParameterError(fmt::format("parameter speed: expected (0, 1000], got {}", speed));
-
-    const auto choice = sensorChoice(ctx, scenario);
-    spdlog::info("sensor: {}", choice.summary);
-    sim::RangeSensor sensor(scenario, choice.config);
-    tracker::VehicleConfig vehicle_config;
-    vehicle_config.limits = *scenario.vehicle;
-    vehicle_config.dimensions = scenario.dimensions;
-    if (ctx.params().declare<bool>("noise", true)) vehicle_config.noise = tracker::VehicleNoise::nominal(static_cast<std::uint64_t>(ctx.params().declare<std::int64_t>("seed", 1)));
-    tracker::VehicleState initial;
-    initial.position = scenario.start;
-    initial.heading = planner::startHeading(scenario);  // the planner assumes the same
-    tracker::UnicycleVehicle vehicle(vehicle_config, initial);
-
-    auto clock = ctx.bus().publisher<msg::Clock>("system/clock", bus::Qos::sensorData(1));
-    auto clouds = ctx.bus().publisher<msg::PointCloud>("sensors/points", bus::Qos::sensorData());
-    auto states = ctx.bus().publisher<msg::VehicleState>("vehicle/state", bus::Qos::sensorData());
-
-    std::mutex command_mutex;
-    tracker::VehicleCommand command;
-    std::int64_t command_stamp = 0;
-    // Simulated time, ns since the epoch; it starts at the wall time of the start, so stamps read as dates.
-    std::atomic<std::int64_t> sim_now{runtime::SystemClock().nowNs()};
-    auto commands = ctx.bus().subscribe<msg::VelocityCommand>(
-        "control/cmd_vel", bus::Qos::commands(), [&](const msg::VelocityCommand& m) {
-          if (!std::isfinite(m.v()) || !std::isfinite(m.omega()) || !std::isfinite(m.vz())) {
-            spdlog::warn("control/cmd_vel: ignoring a command with non-finite values");
-            return;
-          }
-          std::lock_guard lock(command_mutex);
-          command = nodes::fromMsg(m);
-          command_stamp = sim_now.load();
-        });
-
-    ctx.ready();
-    const auto step_ns = static_cast<std::int64_t>(std::llround(1e9 / state_rate));
-    const auto wall_step = std::chrono::nanoseconds(static_cast<std::int64_t>(std::llround(1e9 / state_rate / speed)));
-    const int steps_per_scan = std::max(1, static_cast<int>(std::lround(state_rate / lidar_rate)));
-    const double dt = 1.0 / state_rate;
-    const auto started = std::chrono::steady_clock::now();
-    const std::int64_t sim_started = sim_now.load();
-    auto next = started;
-    auto last_log = started;
-    for (std::uint64_t tick = 0; !ctx.shutdownRequested(); ++tick) {
-      tracker::VehicleCommand current;
-      const std::int64_t now = sim_now.fetch_add(step_ns) + step_ns;
-      {
-        std::lock_guard lock(command_mutex);
-        // A silent controller must not leave the vehicle driving: stop after the timeout (simulated time).
-        if (command_stamp != 0 && (now - command_stamp) * 1e-9 < command_timeout) current = command;
-      }
-      const auto& state = vehicle.step(current, dt);
-      msg::Clock tick_clock;
-      tick_clock.stamp_ns(now);
-      clock.publish(tick_clock);
-      states.publish(nodes::toMsg(state, now));
-      if (tick % steps_per_scan == 0) {
-        const auto cloud = sensor.scan({state.position, state.heading}, now * 1e-9);
-        clouds.publish(nodes::toMsg(cloud, now));
-      }
-      next += wall_step;
-      const auto wall_now = std::chrono::steady_clock::now();
-      if (wall_now - last_log > std::chrono::seconds(10)) {
-        // A speed the machine cannot keep up with is not an error: simulated time just runs slower.
-        last_log = wall_now;
-        const double wall = std::chrono::duration<double>(wall_now - started).count();
-        spdlog::info("simulated {:.1f} s in {:.1f} s of wall time (speed {:.2f}, asked {:g})", (now - sim_started) * 1e-9, wall,
-                     (now - sim_started) * 1e-9 / wall, speed);
-      }
-      const auto wait = next - wall_now;
-      if (wait > std::chrono::nanoseconds::zero() && !sleepForWall(ctx, wait)) break;
-      if (wait < -std::chrono::milliseconds(500)) next = std::chrono::steady_clock::now();  // do not try to catch up after a stall
-    }
-  });
-}
+int main(int argc, char** argv) { return runtime::runComponent<SimComponent>("sim", argc, argv); }
