@@ -315,6 +315,9 @@ void badParametersEndTheComponentWithStatus2() {
       {"planner", {{"scenario", kScenario}, {"max_time_budget_s", "0"}}, "parameter 'max_time_budget_s'"},
       {"planner", {{"scenario", kScenario}, {"world", "lidar"}}, "parameter 'world'"},
       {"sim", {{"scenario", kScenario}, {"beams", "0"}}, "parameter 'beams'"},
+      {"sim", {{"scenario", kScenario}, {"max_range", "0"}}, "parameter 'max_range'"},
+      {"sim", {{"scenario", kScenario}, {"fov_deg", "0"}}, "parameter 'fov_deg'"},
+      {"sim", {{"scenario", kScenario}, {"speed", "0"}}, "parameter 'speed'"},
       {"sim", {{"scenario", kScenario}, {"command_timeout_s", "-1"}}, "parameter 'command_timeout_s'"},
       {"perception", {{"beam_spacing_rad", "0"}}, "parameter 'beam_spacing_rad'"},
   };

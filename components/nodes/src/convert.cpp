@@ -5,10 +5,27 @@
 #include <ddsnav/perception/obstacle.hpp>
 #include <ddsnav/sim/range_sensor.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 namespace ddsnav::nodes {
+
+bool sleepFor(runtime::Context& ctx, std::chrono::nanoseconds duration) {
+  const auto* followed = dynamic_cast<const runtime::TopicClock*>(&ctx.clock());
+  if (!followed) return sleepForWall(ctx, duration);
+  using std::chrono::milliseconds;
+  while (!followed->valid())
+    if (ctx.waitForShutdown(milliseconds(20))) return false;
+  const std::int64_t until = followed->nowNs() + duration.count();
+  // The speed-up is unknown here: wake often enough for a fast clock (a slice is at most an eighth of what
+  // is left in simulated time, so at speed s the overshoot is about s/8 of the rest), rarely for a slow one.
+  for (std::int64_t left = until - followed->nowNs(); left > 0; left = until - followed->nowNs()) {
+    const auto slice = std::clamp<std::int64_t>(left / 8 / 1'000'000, 1, 20);
+    if (ctx.waitForShutdown(milliseconds(slice))) return false;
+  }
+  return !ctx.shutdownRequested();
+}
 
 msg::Vec3 toMsg(const Eigen::Vector3d& v) {
   msg::Vec3 out;

@@ -1,10 +1,13 @@
 // ddsnav-monitor: watches a running pipeline and writes what happened as a report a person can open:
 // out_dir/report.html (the world, the perceived ellipses, every planned path, the trajectory and the
-// driven track, with the numbers), report.svg and summary.json. Ends with status 0 when the tracker
-// reports the goal reached and the vehicle's true position (vehicle/state) is in the goal region, 1 when
-// timeout_s passes first or a component fails (summary.json's not_reached_why says which).
+// driven track, with the numbers), report.svg and summary.json. Ends with status 0 when the vehicle's true
+// position (vehicle/state) enters the scenario's goal region, 1 when timeout_s passes first, a component
+// fails, the followed clock stops, or the scenario's truth shows the goal cannot be reached (checked at
+// start; summary.json's not_reached_why says which). Time is the component's clock: on `clock: topic`
+// timeout_s and every sim_* number count simulated time.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/ground_truth.hpp"
 #include <ddsnav/bus/printable.hpp>
 #include "ddsnav/nodes/run_report.hpp"
 #include "ddsnav/nodes/validate.hpp"
@@ -32,6 +35,11 @@ struct Observations {
   std::string failure;  // "component: detail" of the first component that reported LIFECYCLE_FAILED
   std::size_t clouds = 0;
   std::size_t cloud_points = 0;
+  std::size_t tracked_obstacles_max = 0;
+  std::vector<nodes::PlanRequestSeen> requests;
+  std::optional<std::int64_t> first_trajectory_ns;  // clock time the first trajectory was heard
+  std::optional<std::int64_t> goal_entered_ns;      // clock time of the first true position in the goal region
+  std::optional<Eigen::Vector3d> goal_entered_at;   // and that position
 };
 
 // What the report needs from the messages, as plain types.
@@ -42,6 +50,8 @@ nodes::RunObservations toRunObservations(const std::string& scenario, double ela
   run.failure = seen.failure;
   run.clouds = seen.clouds;
   run.cloud_points = seen.cloud_points;
+  run.tracked_obstacles_max = seen.tracked_obstacles_max;
+  run.requests = seen.requests;
   if (seen.obstacles) run.obstacles = nodes::toEllipsoidObstacles(*seen.obstacles);
   for (const auto& m : seen.paths) {
     nodes::PlannedPath path;
@@ -69,16 +79,33 @@ class MonitorComponent : public runtime::Component {
   struct Params {
     std::string scenario;
     std::string out_dir;
-    double timeout_s;
+    double timeout_s, clock_stall_s;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: the world, goal and goal radius"})),
           out_dir(p.declare<std::string>("out_dir", "out/demo", {.doc = "where report.html, report.svg and summary.json go"})),
-          timeout_s(p.declare<double>("timeout_s", 120.0, {.above = 0, .unit = "s", .doc = "give up (exit status 1) after this long"})) {}
+          timeout_s(p.declare<double>("timeout_s", 120.0, {.above = 0, .unit = "s",
+                                                           .doc = "give up (exit status 1) after this long on the component's clock (simulated on clock: topic)"})),
+          clock_stall_s(p.declare<double>("clock_stall_s", 20.0, {.above = 0, .unit = "s", .doc = "wall seconds the followed clock may stand still"})) {}
   };
 
   explicit MonitorComponent(runtime::Context& ctx)
       : Component(ctx), params_(ctx.params()), scenario_(planner::loadScenario(params_.scenario)), out_dir_(params_.out_dir) {
     std::filesystem::create_directories(out_dir_);
+    // A goal the truth says cannot be reached ends the run now, with the reason, instead of at the timeout.
+    // A scenario without a vehicle: the simulator and the tracker refuse it too, but the report must say so.
+    const auto feasibility =
+        scenario_.vehicle ? nodes::checkGoalFeasible(scenario_)
+                          : nodes::GoalFeasibility{false, "the scenario has no 'vehicle' block: the simulator has no vehicle to drive "
+                                                          "and the tracker no limits to plan with"};
+    if (!feasibility.feasible) {
+      nodes::RunObservations run;
+      run.scenario = scenario_.name;
+      run.infeasible_why = feasibility.why;
+      nodes::judgeGoal(run, scenario_, false, std::nullopt, std::nullopt);
+      nodes::writeReport(out_dir_, scenario_, run);
+      std::printf("%s\n", nodes::summaryJson(run).dump().c_str());
+      throw std::runtime_error(scenario_.source + ": " + feasibility.why);
+    }
     // Every input is checked before it can reach the report (NaN in the SVG, null in summary.json) or the
     // verdict: a bad sample is dropped with a warning naming topic and field, and counted.
     subs_.push_back(subscribe(runtime::topics::vehicle_state, [this](const msg::VehicleState& m) {
@@ -86,6 +113,12 @@ class MonitorComponent : public runtime::Component {
       const auto p = nodes::fromMsg(m.position());
       seen_.vehicle = p;
       if (seen_.track.empty() || (seen_.track.back() - p).norm() > 0.05) seen_.track.push_back(p);
+      // The goal is judged on the true position, the first time it enters the scenario's goal region.
+      if (!seen_.goal_entered_ns && tracker::checkGoal(scenario_.goal, scenario_.goal_radius, p).reached) {
+        seen_.goal_entered_ns = clock().nowNs();
+        seen_.goal_entered_at = p;
+        if (seen_.track.back() != p) seen_.track.push_back(p);
+      }
     }));
     subs_.push_back(subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& m) {
       // Drawn with toEllipsoidObstacles at the end, which refuses malformed obstacles: keep the last good array.
@@ -93,6 +126,7 @@ class MonitorComponent : public runtime::Component {
         spdlog::warn("perception/obstacles: ignoring an array: {}", error);
         return;
       }
+      seen_.tracked_obstacles_max = std::max(seen_.tracked_obstacles_max, m.obstacles().size());
       seen_.obstacles = m;
     }));
     // Every answer counts (the report draws each planned path): a deeper queue than the topic's depth 1.
@@ -103,8 +137,16 @@ class MonitorComponent : public runtime::Component {
                                              }));
     subs_.push_back(subscribe(runtime::topics::trajectory, [this](const msg::Trajectory& m) {
       if (const auto error = nodes::checkTrajectory(m); !error.empty()) return bad_trajectories_.drop(error);
+      if (!seen_.first_trajectory_ns) seen_.first_trajectory_ns = clock().nowNs();
       seen_.trajectory = m;
     }));
+    // Every request with its reason (the summary counts replans by reason): deeper than the topic's queue.
+    subs_.push_back(ctx.subscribe<msg::PlanRequest>(
+        runtime::topics::plan_request.name,
+        bus::Qos{runtime::topics::plan_request.qos.reliability, runtime::topics::plan_request.qos.durability, 64}, [this](const msg::PlanRequest& m) {
+          const double at = started_ns_ ? (clock().nowNs() - started_ns_) * 1e-9 : 0.0;
+          seen_.requests.push_back({m.request_id(), at, bus::printable(m.reason())});
+        }));
     subs_.push_back(subscribe(runtime::topics::tracking, [this](const msg::TrackingStatus& m) {
       if (const auto error = nodes::checkTrackingStatus(m); !error.empty()) return bad_statuses_.drop(error);
       seen_.status = m;
@@ -127,47 +169,77 @@ class MonitorComponent : public runtime::Component {
       if (m.state() == msg::LifecycleState::LIFECYCLE_FAILED && seen_.failure.empty())
         seen_.failure = bus::printable(m.name()) + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
     }));
-    started_ = last_log_ = std::chrono::steady_clock::now();
-    check_ = every(std::chrono::milliseconds(100), [this] { check(); });
+    wall_started_ = last_clock_advance_wall_ = std::chrono::steady_clock::now();
+    check_ = every(std::chrono::milliseconds(50), [this] { check(); });
   }
 
   // The report, written once the executor has stopped; a goal not reached fails the component (exit 1).
   void shutdown() override {
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_started_).count();
     subs_.clear();
     nodes::RunObservations run = toRunObservations(scenario_.name, elapsed, seen_);
-    nodes::judgeGoal(run, scenario_, seen_.status && seen_.status->goal_reached(), seen_.vehicle,
+    run.sim_elapsed_s = started_ns_ ? (clock().nowNs() - started_ns_) * 1e-9 : 0.0;
+    if (!clock_stopped_.empty()) run.failure = run.failure.empty() ? clock_stopped_ : run.failure + "; " + clock_stopped_;
+    if (seen_.goal_entered_ns) {
+      // From the mission's start: the first plan request, else (it was missed) the first trajectory.
+      const auto from = !seen_.requests.empty()
+                            ? std::optional<std::int64_t>(started_ns_ + static_cast<std::int64_t>(seen_.requests.front().sim_time_s * 1e9))
+                            : seen_.first_trajectory_ns;
+      if (from) run.sim_time_to_goal_s = (*seen_.goal_entered_ns - *from) * 1e-9;
+    }
+    run.min_true_clearance_m = nodes::minTrueClearance(scenario_, seen_.track);
+    nodes::judgeGoal(run, scenario_, seen_.status && seen_.status->goal_reached(), seen_.goal_entered_at ? seen_.goal_entered_at : seen_.vehicle,
                      timed_out_ ? std::optional<double>(params_.timeout_s) : std::nullopt);
     nodes::writeReport(out_dir_, scenario_, run);
-    spdlog::info("{}: {} after {:.1f} s; report in {}", scenario_.name, run.goal_reached ? "goal reached" : "goal NOT reached", elapsed,
-                 (out_dir_ / "report.html").string());
+    spdlog::info("{}: {} after {:.1f} s simulated ({:.1f} s wall); report in {}", scenario_.name,
+                 run.goal_reached ? "goal reached" : "goal NOT reached", run.sim_elapsed_s, elapsed, (out_dir_ / "report.html").string());
     std::printf("%s\n", nodes::summaryJson(run).dump().c_str());
     if (!run.goal_reached) throw std::runtime_error("goal not reached: " + run.not_reached_why);
   }
 
  private:
   void check() {
-    // The tracker's claim is checked against the vehicle's true position (the end of a trajectory is not the goal).
-    const bool claimed = seen_.status && seen_.status->goal_reached();
-    const auto goal = tracker::checkGoal(scenario_.goal, scenario_.goal_radius, seen_.vehicle);
-    const bool reached = claimed && goal.reached;
-    if (claimed && !goal.reached && !claim_logged_) {
-      claim_logged_ = true;
-      spdlog::warn("control/tracking says the goal is reached, but {}: not taken as reached", goal.why);
+    const auto wall_now = std::chrono::steady_clock::now();
+    const auto stall_limit = std::chrono::duration<double>(params_.clock_stall_s);
+    // The watch starts with the followed clock (the simulator's): timeout_s counts from there.
+    if (!started_ns_) {
+      if (!clock().valid()) {
+        if (wall_now - wall_started_ > stall_limit) {
+          clock_stopped_ = fmt::format("no system/clock sample within clock_stall_s ({:g} s): is the simulator running?", params_.clock_stall_s);
+          ctx().requestShutdown();
+        }
+        return;
+      }
+      started_ns_ = last_log_ns_ = last_clock_ns_ = clock().nowNs();
+      last_clock_advance_wall_ = wall_now;
     }
-    const auto now = std::chrono::steady_clock::now();
-    timed_out_ = now - started_ > std::chrono::duration<double>(params_.timeout_s);
+    const bool reached = seen_.goal_entered_ns.has_value();
+    const bool claimed = seen_.status && seen_.status->goal_reached();
+    if (claimed && !reached && !claim_logged_) {
+      claim_logged_ = true;
+      spdlog::warn("control/tracking says the goal is reached, but {}: not taken as reached",
+                   tracker::checkGoal(scenario_.goal, scenario_.goal_radius, seen_.vehicle).why);
+    }
+    const auto now = clock().nowNs();
+    if (now != last_clock_ns_) {
+      last_clock_ns_ = now;
+      last_clock_advance_wall_ = wall_now;
+    }
+    if (wall_now - last_clock_advance_wall_ > stall_limit) {
+      clock_stopped_ = fmt::format("the clock stood still for clock_stall_s ({:g} s of wall time): is the simulator running?", params_.clock_stall_s);
+      return ctx().requestShutdown();
+    }
+    timed_out_ = (now - started_ns_) * 1e-9 > params_.timeout_s;
     if (reached || timed_out_) return ctx().requestShutdown();
     if (!seen_.failure.empty()) {
       spdlog::error("component failed: {}", seen_.failure);
       return ctx().requestShutdown();
     }
-    if (now - last_log_ > std::chrono::seconds(3)) {
-      last_log_ = now;
-      spdlog::info("{:.0f} s: {} clouds, {} obstacles, {} paths, progress {:.0f} %, cross-track error {:.3f} m",
-                   std::chrono::duration<double>(now - started_).count(), seen_.clouds, seen_.obstacles ? seen_.obstacles->obstacles().size() : 0,
-                   seen_.paths.size(), seen_.status ? 100.0 * seen_.status->progress() : 0.0,
-                   seen_.status ? seen_.status->cross_track_error() : 0.0);
+    if (now - last_log_ns_ > 3'000'000'000) {
+      last_log_ns_ = now;
+      spdlog::info("{:.0f} s: {} clouds, {} obstacles, {} paths, progress {:.0f} %, cross-track error {:.3f} m", (now - started_ns_) * 1e-9,
+                   seen_.clouds, seen_.obstacles ? seen_.obstacles->obstacles().size() : 0, seen_.paths.size(),
+                   seen_.status ? 100.0 * seen_.status->progress() : 0.0, seen_.status ? seen_.status->cross_track_error() : 0.0);
     }
   }
 
@@ -177,7 +249,9 @@ class MonitorComponent : public runtime::Component {
   Observations seen_;
   nodes::DroppedSamples bad_states_{"vehicle/state"}, bad_paths_{"planning/path"}, bad_trajectories_{"control/trajectory"},
       bad_statuses_{"control/tracking"}, bad_maps_{"map/octomap", "keeping the last good map"};
-  std::chrono::steady_clock::time_point started_, last_log_;
+  std::chrono::steady_clock::time_point wall_started_, last_clock_advance_wall_;
+  std::int64_t started_ns_ = 0, last_log_ns_ = 0, last_clock_ns_ = 0;  // on the component's clock; 0 until it runs
+  std::string clock_stopped_;
   bool timed_out_ = false, claim_logged_ = false;
   std::vector<bus::Subscription> subs_;
   runtime::Timer check_;

@@ -5,6 +5,7 @@
 
 #include <spdlog/fmt/fmt.h>
 
+#include <cctype>
 #include <cmath>
 
 #include <fstream>
@@ -26,17 +27,41 @@ void writeFile(const std::filesystem::path& path, const std::string& text) {
 void judgeGoal(RunObservations& run, const planner::Scenario& scenario, bool tracker_reported,
                const std::optional<planner::Vec3>& true_position, std::optional<double> timed_out_after_s) {
   const tracker::GoalCheck goal = tracker::checkGoal(scenario.goal, scenario.goal_radius, true_position);
-  run.goal_reached = tracker_reported && goal.reached;
+  run.goal_reached = goal.reached;
+  run.tracker_reported_goal = tracker_reported;
   run.goal_distance_m.reset();
   if (true_position && std::isfinite(goal.distance)) run.goal_distance_m = goal.distance;
   run.not_reached_why.clear();
   if (run.goal_reached) return;
   std::string why;
-  if (!run.failure.empty()) why = "a component failed (" + run.failure + "); ";
+  if (!run.infeasible_why.empty()) why = run.infeasible_why + "; ";
+  if (!run.failure.empty()) why += "a component failed (" + run.failure + "); ";
   if (tracker_reported) why += "the tracker reported the goal reached, but ";
-  why += goal.reached ? std::string("the tracker did not report the goal reached") : goal.why;
+  why += goal.why;
   if (timed_out_after_s) why += fmt::format("; timeout_s ({:g} s) passed", *timed_out_after_s);
   run.not_reached_why = std::move(why);
+}
+
+std::string reasonKind(const std::string& reason) {
+  // "kind: detail" gives the kind; a reason without one is its own kind with the numbers and the
+  // parenthesised places taken out, so that "sample at t=8.3 s (14, 27, 0) blocked" and the same at another
+  // place count together.
+  const auto colon = reason.find(':');
+  std::string kind;
+  int depth = 0;
+  bool in_number = false;
+  for (char c : reason.substr(0, colon)) {
+    if (c == '(') ++depth;
+    if (depth == 0) {
+      const bool digit = std::isdigit(static_cast<unsigned char>(c)) || ((c == '.' || c == '-') && in_number);
+      if (digit && !in_number) kind += '#';
+      in_number = digit;
+      if (!digit && !(c == ' ' && (kind.empty() || kind.back() == ' '))) kind += c;
+    }
+    if (c == ')' && depth > 0) --depth;
+  }
+  while (!kind.empty() && kind.back() == ' ') kind.pop_back();
+  return kind.empty() ? std::string("(no reason given)") : kind;
 }
 
 nlohmann::json summaryJson(const RunObservations& run) {
@@ -46,6 +71,24 @@ nlohmann::json summaryJson(const RunObservations& run) {
   if (!run.goal_reached && !run.not_reached_why.empty()) summary["not_reached_why"] = run.not_reached_why;
   if (run.goal_distance_m) summary["goal_distance_m"] = *run.goal_distance_m;
   summary["elapsed_s"] = run.elapsed_s;
+  summary["sim_elapsed_s"] = run.sim_elapsed_s;
+  summary["tracker_reported_goal"] = run.tracker_reported_goal;
+  if (run.sim_time_to_goal_s) summary["sim_time_to_goal_s"] = *run.sim_time_to_goal_s;
+  if (run.min_true_clearance_m) summary["min_true_clearance_m"] = *run.min_true_clearance_m;
+  if (!run.infeasible_why.empty()) summary["infeasible"] = run.infeasible_why;
+  summary["tracked_obstacles_max"] = run.tracked_obstacles_max;
+  // Every request after the first is a replan; each with its reason, and the count per kind of reason.
+  nlohmann::json replans = nlohmann::json::array();
+  nlohmann::json reasons = nlohmann::json::object();
+  for (std::size_t i = 1; i < run.requests.size(); ++i) {
+    const auto& r = run.requests[i];
+    replans.push_back({{"request_id", r.request_id}, {"sim_time_s", r.sim_time_s}, {"reason", r.reason}});
+    const std::string kind = reasonKind(r.reason);
+    reasons[kind] = reasons.value(kind, 0) + 1;
+  }
+  summary["plan_requests"] = run.requests.size();
+  summary["replans"] = replans;
+  summary["replan_reasons"] = reasons;
   if (!run.failure.empty()) summary["failure"] = run.failure;
   summary["clouds"] = run.clouds;
   summary["cloud_points"] = run.cloud_points;

@@ -1,14 +1,19 @@
 // ddsnav-sim: the scenario world. Simulates the range sensor at the vehicle's pose (sensors/points) and the
-// unicycle vehicle driven by control/cmd_vel (vehicle/state).
+// unicycle vehicle driven by control/cmd_vel (vehicle/state), on simulated time: every step advances the
+// simulated clock by 1/state_rate_hz, published on system/clock, and `speed` simulated seconds pass per
+// wall second (components on `clock: topic` follow it; docs/simulator.md).
 
 #include "ddsnav/nodes/convert.hpp"
 #include <ddsnav/runtime/component.hpp>
 
 #include <ddsnav/sim/range_sensor.hpp>
+#include <ddsnav/sim/sensor_choice.hpp>
 #include <ddsnav/tracker/vehicle.hpp>
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 
 using namespace ddsnav;
@@ -19,11 +24,8 @@ class SimComponent : public runtime::Component {
  public:
   struct Params {
     std::string scenario;
-    double lidar_rate_hz, state_rate_hz, command_timeout_s;
-    // A planar scanner's 'beams' are the sensor config's 'columns'; the 3-D lidar has rings x columns.
-    int beams, rings, columns;
-    double vertical_min_deg, vertical_max_deg;
-    std::optional<double> max_range;
+    double lidar_rate_hz, state_rate_hz, command_timeout_s, speed;
+    sim::SensorRequest sensor;
     double range_noise_sigma, invalid_fraction;
     bool walls, noise;
     std::int64_t seed;
@@ -32,13 +34,9 @@ class SimComponent : public runtime::Component {
           lidar_rate_hz(p.declare<double>("lidar_rate_hz", 10.0, {.above = 0, .max = 100, .unit = "Hz", .doc = "clouds per second"})),
           state_rate_hz(p.declare<double>("state_rate_hz", 50.0, {.above = 0, .max = 1000, .unit = "Hz",
                                                                   .doc = "vehicle steps (and vehicle/state) per second; at least lidar_rate_hz"})),
-          command_timeout_s(p.declare<double>("command_timeout_s", 0.5, {.above = 0, .unit = "s", .doc = "stop when no command came for this long"})),
-          beams(count(p, "beams", 720, 1 << 16, "2-D scanner: beams per scan")),
-          rings(count(p, "rings", 32, 4096, "3-D lidar: rings")),
-          columns(count(p, "columns", 1024, 1 << 16, "3-D lidar: columns")),
-          vertical_min_deg(p.declare<double>("vertical_min_deg", -15.0, {.unit = "deg", .doc = "3-D lidar: lowest ring"})),
-          vertical_max_deg(p.declare<double>("vertical_max_deg", 15.0, {.unit = "deg", .doc = "3-D lidar: highest ring"})),
-          max_range(p.declareOptional<double>("max_range", {.above = 0, .unit = "m", .doc = "sensor range; default 30 m (2-D scanner), 50 m (3-D lidar)"})),
+          command_timeout_s(p.declare<double>("command_timeout_s", 0.5, {.above = 0, .unit = "s", .doc = "stop when no command came for this long (simulated time)"})),
+          speed(p.declare<double>("speed", 1.0, {.above = 0, .max = 1000, .doc = "simulated seconds per wall second (system/clock)"})),
+          sensor(sensorRequest(p)),
           range_noise_sigma(p.declare<double>("range_noise_sigma", 0.02, {.min = 0, .unit = "m", .doc = "range noise of a beam"})),
           invalid_fraction(p.declare<double>("invalid_fraction", 0.01, {.min = 0, .max = 1, .doc = "fraction of beams returned as invalid (NaN)"})),
           // The bounds are a modelling device, not a wall the vehicle could see: off unless asked for.
@@ -47,8 +45,29 @@ class SimComponent : public runtime::Component {
           seed(p.declare<std::int64_t>("seed", 1, {.doc = "random seed of the sensor and vehicle noise"})) {}
 
    private:
-    static int count(runtime::Parameters& p, const char* name, std::int64_t fallback, std::int64_t hi, const char* doc) {
-      return static_cast<int>(p.declare<std::int64_t>(name, fallback, {.min = 1, .max = static_cast<double>(hi), .doc = doc}));
+    // Every sensor parameter may be left unset: the scenario's rule (sim::chooseSensor, docs/simulator.md)
+    // then decides. A planar scanner's 'beams' are a lidar's 'columns'.
+    static sim::SensorRequest sensorRequest(runtime::Parameters& p) {
+      sim::SensorRequest request;
+      const auto kind = p.declare<std::string>("sensor", "auto", {.doc = "sensor kind; auto picks it from the scenario",
+                                                                  .choices = {"auto", "scanner", "lidar", "sonar"}});
+      try {
+        request.kind = sim::parseSensorKind(kind);
+      } catch (const std::invalid_argument& e) {
+        throw runtime::ParameterError(std::string("parameter 'sensor': ") + e.what());
+      }
+      request.max_range = p.declareOptional<double>("max_range", {.above = 0, .unit = "m", .doc = "sensor range; default from the scenario's scale"});
+      request.fov_deg = p.declareOptional<double>("fov_deg", {.above = 0, .max = 360, .unit = "deg", .doc = "horizontal field of view, centred on the heading"});
+      const auto count = [&](const char* name, const char* doc) -> std::optional<int> {
+        const auto v = p.declareOptional<std::int64_t>(name, {.min = 1, .max = 1 << 16, .doc = doc});
+        return v ? std::optional<int>(static_cast<int>(*v)) : std::nullopt;
+      };
+      request.beams = count("beams", "horizontal beams of a scan");
+      if (const auto columns = count("columns", "3-D lidar: columns (the same as beams)"); columns && !request.beams) request.beams = columns;
+      request.rings = count("rings", "3-D lidar: rings");
+      request.vertical_min_deg = p.declareOptional<double>("vertical_min_deg", {.min = -90, .max = 90, .unit = "deg", .doc = "3-D lidar: lowest ring"});
+      request.vertical_max_deg = p.declareOptional<double>("vertical_max_deg", {.min = -90, .max = 90, .unit = "deg", .doc = "3-D lidar: highest ring"});
+      return request;
     }
   };
 
@@ -56,8 +75,9 @@ class SimComponent : public runtime::Component {
       : Component(ctx),
         params_(ctx.params()),
         scenario_(planner::loadScenario(params_.scenario)),
-        sensor_(scenario_, sensorConfig()),
+        sensor_(scenario_, sensorChoice().config),
         vehicle_(vehicleConfig(), initialState()),
+        clock_(publisher(runtime::topics::clock)),
         clouds_(publisher(runtime::topics::points)),
         states_(publisher(runtime::topics::vehicle_state)) {
     if (params_.state_rate_hz < params_.lidar_rate_hz)
@@ -68,29 +88,33 @@ class SimComponent : public runtime::Component {
         return;
       }
       command_ = nodes::fromMsg(m);
-      command_stamp_ = clock().nowNs();
+      command_stamp_ = sim_now_;
     });
     steps_per_scan_ = std::max(1, static_cast<int>(std::lround(params_.state_rate_hz / params_.lidar_rate_hz)));
-    step_ = every(std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / params_.state_rate_hz)), [this] { step(); });
+    step_ns_ = static_cast<std::int64_t>(std::llround(1e9 / params_.state_rate_hz));
+    // Each step advances simulated time by 1/state_rate_hz; `speed` of them pass per wall period.
+    sim_started_ = sim_now_;
+    wall_started_ = std::chrono::steady_clock::now();
+    last_log_ = wall_started_;
+    step_ = every(std::chrono::nanoseconds(static_cast<std::int64_t>(std::llround(1e9 / params_.state_rate_hz / params_.speed))),
+                  [this] { step(); });
   }
 
  private:
-  sim::RangeSensorConfig sensorConfig() const {
-    const auto& p = params_;
-    sim::RangeSensorConfig config = scenario_.dimensions == 2
-                                        ? sim::RangeSensorConfig::scanner2d(p.beams, p.max_range.value_or(30.0))
-                                        : sim::RangeSensorConfig::lidar3d(p.rings, p.columns, p.vertical_min_deg, p.vertical_max_deg,
-                                                                          p.max_range.value_or(50.0));
-    config.range_noise_sigma = p.range_noise_sigma;
-    config.invalid_fraction = p.invalid_fraction;
-    config.walls = p.walls;
-    config.seed = static_cast<std::uint64_t>(p.seed);
+  sim::SensorChoice sensorChoice() const {
     try {
+      auto choice = sim::chooseSensor(scenario_, params_.sensor);
+      auto& config = choice.config;
+      config.range_noise_sigma = params_.range_noise_sigma;
+      config.invalid_fraction = params_.invalid_fraction;
+      config.walls = params_.walls;
+      config.seed = static_cast<std::uint64_t>(params_.seed);
       config.validate();
+      spdlog::info("sensor: {}", choice.summary);
+      return choice;
     } catch (const std::invalid_argument& e) {
-      throw runtime::ParameterError(e.what());
+      throw runtime::ParameterError("sensor for " + scenario_.source + ": " + e.what());
     }
-    return config;
   }
 
   tracker::VehicleConfig vehicleConfig() const {
@@ -110,15 +134,27 @@ class SimComponent : public runtime::Component {
   }
 
   void step() {
+    sim_now_ += step_ns_;
+    const std::int64_t now = sim_now_;
     tracker::VehicleCommand current;
-    // A silent controller must not leave the vehicle driving: stop after the timeout.
-    if (command_stamp_ != 0 && (clock().nowNs() - command_stamp_) * 1e-9 < params_.command_timeout_s) current = command_;
+    // A silent controller must not leave the vehicle driving: stop after the timeout (simulated time).
+    if (command_stamp_ != 0 && (now - command_stamp_) * 1e-9 < params_.command_timeout_s) current = command_;
     const auto& state = vehicle_.step(current, 1.0 / params_.state_rate_hz);
-    const auto now = clock().nowNs();
+    msg::Clock tick;
+    tick.stamp_ns(now);
+    clock_.publish(tick);
     states_.publish(nodes::toMsg(state, now));
     if (tick_++ % static_cast<std::uint64_t>(steps_per_scan_) == 0) {
       const auto cloud = sensor_.scan({state.position, state.heading}, now * 1e-9);
       clouds_.publish(nodes::toMsg(cloud, now));
+    }
+    const auto wall_now = std::chrono::steady_clock::now();
+    if (wall_now - last_log_ > std::chrono::seconds(10)) {
+      // A speed the machine cannot keep up with is not an error: simulated time just runs slower.
+      last_log_ = wall_now;
+      const double wall = std::chrono::duration<double>(wall_now - wall_started_).count();
+      const double simulated = (now - sim_started_) * 1e-9;
+      spdlog::info("simulated {:.1f} s in {:.1f} s of wall time (speed {:.2f}, asked {:g})", simulated, wall, simulated / wall, params_.speed);
     }
   }
 
@@ -126,10 +162,16 @@ class SimComponent : public runtime::Component {
   const planner::Scenario scenario_;
   sim::RangeSensor sensor_;
   tracker::UnicycleVehicle vehicle_;
+  bus::Publisher<msg::Clock> clock_;
   bus::Publisher<msg::PointCloud> clouds_;
   bus::Publisher<msg::VehicleState> states_;
   tracker::VehicleCommand command_;
+  // Simulated time, ns since the epoch; it starts at the wall time of the start, so stamps read as dates.
+  std::int64_t sim_now_ = runtime::SystemClock().nowNs();
+  std::int64_t sim_started_ = 0;
+  std::int64_t step_ns_ = 0;
   std::int64_t command_stamp_ = 0;
+  std::chrono::steady_clock::time_point wall_started_, last_log_;
   int steps_per_scan_ = 1;
   std::uint64_t tick_ = 0;
   bus::Subscription commands_;

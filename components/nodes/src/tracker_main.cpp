@@ -15,6 +15,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 
@@ -163,7 +164,12 @@ class TrackerComponent : public runtime::Component {
       if (requests_.matchedSubscribers() == 0) spdlog::warn("no planner subscribed to planning/request yet");
       planner_seen_ = true;
     }
-    const double dt = 1.0 / params_.control_rate_hz;
+    // The reference advances by the time that passed on the component's clock (the simulator's, sped up),
+    // not by the nominal period: a loop that overran must not let the trajectory fall behind the vehicle.
+    const double nominal_dt = 1.0 / params_.control_rate_hz;
+    const std::int64_t tick_ns = clock().nowNs();
+    const double dt = last_tick_ns_ ? std::clamp((tick_ns - last_tick_ns_) * 1e-9, 0.1 * nominal_dt, 10.0 * nominal_dt) : nominal_dt;
+    last_tick_ns_ = tick_ns;
     const std::optional<tracker::VehicleState> state = vehicle_;
     std::optional<msg::Path> path;
     path.swap(new_path_);
@@ -238,6 +244,7 @@ class TrackerComponent : public runtime::Component {
   std::chrono::steady_clock::time_point started_;
   bool planner_seen_ = false;
   bus::Subscription state_sub_, path_sub_;
+  std::int64_t last_tick_ns_ = 0;
   runtime::Timer control_;
 };
 

@@ -108,7 +108,7 @@ TEST(RunReport, SummaryOfAReachedGoalHasTheLastPlanAndTrackingNumbers) {
   EXPECT_DOUBLE_EQ(j.at("progress").get<double>(), 1.0);
   EXPECT_EQ(j.at("map_bytes"), 2048);
   EXPECT_DOUBLE_EQ(j.at("map_resolution_m").get<double>(), 0.1);
-  EXPECT_EQ(j.size(), 17u);
+  EXPECT_EQ(j.size(), 23u);
 }
 
 TEST(RunReport, SummaryOfAFailedRunNamesTheFailureAndOmitsWhatNeverArrived) {
@@ -121,7 +121,9 @@ TEST(RunReport, SummaryOfAFailedRunNamesTheFailureAndOmitsWhatNeverArrived) {
   for (const char* key : {"planner", "path_cost_m", "plan_time_s", "plan_iterations", "trajectory_samples",
                           "mean_cross_track_error_m", "max_cross_track_error_m", "progress", "map_bytes", "map_resolution_m"})
     EXPECT_FALSE(j.contains(key)) << key;
-  EXPECT_EQ(j.size(), 8u);
+  EXPECT_EQ(j.size(), 14u);
+  EXPECT_EQ(j.at("replans"), nlohmann::json::array());
+  EXPECT_EQ(j.at("plan_requests"), 0);
 }
 
 TEST(RunReport, SvgDrawsEllipsesEveryPathTrajectoryTrackAndLegend) {
@@ -210,9 +212,18 @@ TEST(RunReport, GoalIsReachedOnlyWhenTheTrueVehicleIsInTheGoalRegion) {
   EXPECT_EQ(j.at("not_reached_why"), run.not_reached_why);
   EXPECT_DOUBLE_EQ(j.at("goal_distance_m").get<double>(), 38.0);
 
-  nodes::judgeGoal(run, world, false, planner::Vec3{8.5, 2.5, 0}, 120.0);
+  // Issue 9: the true position decides alone; the tracker's silence is recorded, not needed.
+  nodes::judgeGoal(run, world, false, planner::Vec3{8.5, 2.5, 0}, std::nullopt);
+  EXPECT_TRUE(run.goal_reached);
+  EXPECT_FALSE(run.tracker_reported_goal);
+  EXPECT_EQ(nodes::summaryJson(run).at("tracker_reported_goal"), false);
+
+  // A scenario whose truth rules the goal out says so first.
+  run.infeasible_why = "the goal (9, 2.5) is inside obstacle #1";
+  nodes::judgeGoal(run, world, false, planner::Vec3{1, 2.5, 0}, std::nullopt);
   EXPECT_FALSE(run.goal_reached);
-  EXPECT_EQ(run.not_reached_why, "the tracker did not report the goal reached; timeout_s (120 s) passed");
+  EXPECT_EQ(run.not_reached_why.rfind("the goal (9, 2.5) is inside obstacle #1; the vehicle is 8.00 m", 0), 0u) << run.not_reached_why;
+  EXPECT_EQ(nodes::summaryJson(run).at("infeasible"), run.infeasible_why);
 
   auto failed = failedRun();
   nodes::judgeGoal(failed, world, false, std::nullopt, std::nullopt);
@@ -221,4 +232,33 @@ TEST(RunReport, GoalIsReachedOnlyWhenTheTrueVehicleIsInTheGoalRegion) {
   j = nodes::summaryJson(failed);
   EXPECT_FALSE(j.contains("goal_distance_m"));
   EXPECT_EQ(j.at("not_reached_why"), failed.not_reached_why);
+}
+
+// Issue 9: the mission numbers of summary.json.
+TEST(RunReport, SummaryCountsReplansByReasonAndCarriesTheTruthNumbers) {
+  auto run = reachedRun();
+  run.requests = {{1, 0.5, "first plan"},
+                  {2, 12.0, "path blocked: trajectory sample at t=3 s (4, 1, 0) is no longer collision free"},
+                  {3, 20.5, "path blocked: trajectory sample at t=9 s (7, 2, 0) is no longer collision free"},
+                  {4, 31.0, "deviation: cross-track error 2.1 m"},
+                  {5, 40.0, ""}};
+  run.sim_time_to_goal_s = 45.25;
+  run.sim_elapsed_s = 46.0;
+  run.min_true_clearance_m = 0.35;
+  run.tracked_obstacles_max = 17;
+  const auto j = nodes::summaryJson(run);
+  EXPECT_EQ(j.at("plan_requests"), 5);
+  ASSERT_EQ(j.at("replans").size(), 4u);
+  EXPECT_EQ(j.at("replans")[0].at("request_id"), 2);
+  EXPECT_DOUBLE_EQ(j.at("replans")[0].at("sim_time_s").get<double>(), 12.0);
+  EXPECT_EQ(j.at("replans")[2].at("reason"), "deviation: cross-track error 2.1 m");
+  EXPECT_EQ(j.at("replan_reasons"), (nlohmann::json{{"path blocked", 2}, {"deviation", 1}, {"(no reason given)", 1}}));
+  EXPECT_DOUBLE_EQ(j.at("sim_time_to_goal_s").get<double>(), 45.25);
+  EXPECT_DOUBLE_EQ(j.at("sim_elapsed_s").get<double>(), 46.0);
+  EXPECT_DOUBLE_EQ(j.at("min_true_clearance_m").get<double>(), 0.35);
+  EXPECT_EQ(j.at("tracked_obstacles_max"), 17);
+  EXPECT_EQ(nodes::reasonKind("first plan"), "first plan");
+  EXPECT_EQ(nodes::reasonKind("  : x"), "(no reason given)");
+  EXPECT_EQ(nodes::reasonKind("trajectory sample at t=13.8 s (14.8, 25.9, 0) is no longer collision free"),
+            "trajectory sample at t=# s is no longer collision free");
 }

@@ -30,10 +30,16 @@ namespace ddsnav::nodes {
 
 inline constexpr const char* kWorldFrame = "map";
 
-// Sleeps up to `duration`; false as soon as the component is asked to shut down.
-inline bool sleepFor(runtime::Context& ctx, std::chrono::nanoseconds duration) {
+// Sleeps `duration` of wall time; false as soon as the component is asked to shut down.
+inline bool sleepForWall(runtime::Context& ctx, std::chrono::nanoseconds duration) {
   return !ctx.waitForShutdown(std::chrono::ceil<std::chrono::milliseconds>(duration));
 }
+
+// Sleeps `duration` on the component's clock: wall time on the system clock; on `clock: topic` until the
+// followed clock (the simulator's system/clock) has advanced by `duration`, first waiting for its first
+// sample, so a loop paced by it runs at its rate in simulated time whatever the speed-up. False as soon as
+// the component is asked to shut down.
+bool sleepFor(runtime::Context& ctx, std::chrono::nanoseconds duration);
 
 msg::Vec3 toMsg(const Eigen::Vector3d& v);
 Eigen::Vector3d fromMsg(const msg::Vec3& v);

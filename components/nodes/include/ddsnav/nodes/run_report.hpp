@@ -39,12 +39,32 @@ struct MapSummary {
   double resolution_m = 0.0;
 };
 
+// One planning/request the monitor heard (the first plan and every replan), in order.
+struct PlanRequestSeen {
+  std::uint32_t request_id = 0;
+  double sim_time_s = 0.0;  // simulated seconds since the monitor started
+  std::string reason;       // the requester's (msg::PlanRequest::reason); empty when it gave none
+};
+
+// The first word group of a reason, for counting: "path blocked: trajectory sample at ..." -> "path blocked".
+std::string reasonKind(const std::string& reason);
+
 struct RunObservations {
   std::string scenario;   // scenario name
-  bool goal_reached = false;     // the tracker said so AND the vehicle's true position is in the goal region
+  bool goal_reached = false;     // the vehicle's true position (vehicle/state) was in the scenario's goal region
+  bool tracker_reported_goal = false;  // control/tracking said goal_reached (recorded, not needed)
   std::string not_reached_why;  // when not reached: why (timeout, a failure, the vehicle's distance to the goal)
   std::optional<double> goal_distance_m;  // the vehicle's last true position to the goal; none without one
-  double elapsed_s = 0.0;
+  double elapsed_s = 0.0;       // wall time the monitor watched
+  double sim_elapsed_s = 0.0;   // simulated time it watched (what timeout_s counts)
+  // Simulated time from the first plan request heard (else the first trajectory) to the first true position
+  // inside the goal region; nullopt when the goal was not reached.
+  std::optional<double> sim_time_to_goal_s;
+  // Ground truth (ground_truth.hpp): the driven track's smallest clearance to the true obstacles.
+  std::optional<double> min_true_clearance_m;
+  std::string infeasible_why;   // set when the scenario's truth says the goal cannot be reached at all
+  std::vector<PlanRequestSeen> requests;
+  std::size_t tracked_obstacles_max = 0;  // the largest perception/obstacles array heard
   std::string failure;    // "component: detail" of the first component that failed; empty when none did
   std::size_t clouds = 0;
   std::size_t cloud_points = 0;
@@ -57,11 +77,12 @@ struct RunObservations {
   std::optional<MapSummary> map;
 };
 
-// The monitor's verdict on a run: the goal is reached only when the tracker reported it (control/tracking)
-// AND the vehicle's last true position (vehicle/state, the simulator's) is in the scenario's goal region
-// (tracker::checkGoal) — the end of a trajectory is not the goal. Otherwise `why` says what happened:
+// The monitor's verdict on a run: the goal is reached when the vehicle's true position (vehicle/state, the
+// simulator's) is in the scenario's goal region (tracker::checkGoal) — the tracker's claim alone is not
+// enough, and not needed. Otherwise `why` says what happened: the scenario's infeasibility (run.infeasible_why),
 // the first component failure, the vehicle's distance to the goal (naming the tracker's claim when it made
-// one), and whether timeout_s ran out. Fills goal_reached, not_reached_why and goal_distance_m of `run`.
+// one), and whether timeout_s ran out. Fills goal_reached, tracker_reported_goal, not_reached_why and
+// goal_distance_m of `run`.
 void judgeGoal(RunObservations& run, const planner::Scenario& scenario, bool tracker_reported,
                const std::optional<planner::Vec3>& true_position, std::optional<double> timed_out_after_s);
 

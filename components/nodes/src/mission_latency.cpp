@@ -1,0 +1,73 @@
+#include "ddsnav/nodes/mission_latency.hpp"
+
+#include <algorithm>
+#include <map>
+
+namespace ddsnav::nodes {
+
+namespace {
+
+// The first receipt of each key: a late duplicate (a transient-local resend) is not a new effect.
+std::map<std::int64_t, std::uint64_t> firstByKey(const std::vector<RecordedEvent>& events) {
+  std::map<std::int64_t, std::uint64_t> first;
+  for (const auto& e : events) {
+    auto [it, added] = first.emplace(e.key, e.log_ns);
+    if (!added) it->second = std::min(it->second, e.log_ns);
+  }
+  return first;
+}
+
+double ms(std::uint64_t from, std::uint64_t to) { return (static_cast<double>(to) - static_cast<double>(from)) * 1e-6; }
+
+// Effect - cause for every effect whose key names a recorded cause that came first.
+LatencyStats keyed(const std::vector<RecordedEvent>& causes, const std::vector<RecordedEvent>& effects) {
+  const auto cause = firstByKey(causes);
+  std::vector<double> out;
+  for (const auto& [key, at] : firstByKey(effects)) {
+    const auto it = cause.find(key);
+    if (it != cause.end() && at >= it->second) out.push_back(ms(it->second, at));
+  }
+  return latencyStats(std::move(out));
+}
+
+}  // namespace
+
+LatencyStats latencyStats(std::vector<double> values) {
+  LatencyStats s;
+  s.count = values.size();
+  if (values.empty()) return s;
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  s.median_ms = n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+  const auto rank = static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(n)));
+  s.p99_ms = values[std::max<std::size_t>(rank, 1) - 1];
+  s.max_ms = values.back();
+  return s;
+}
+
+MissionLatencies missionLatencies(const MissionRecording& r) {
+  MissionLatencies out;
+  out.cloud_to_obstacles = keyed(r.clouds, r.obstacles);
+  out.cloud_to_map = keyed(r.clouds, r.maps);
+  out.request_to_path = keyed(r.requests, r.paths);
+
+  std::vector<std::uint64_t> obstacle_times;
+  for (const auto& e : r.obstacles) obstacle_times.push_back(e.log_ns);
+  std::sort(obstacle_times.begin(), obstacle_times.end());
+  const auto trajectory = firstByKey(r.trajectories);
+  const auto request = firstByKey(r.requests);
+  std::vector<double> replans;
+  for (auto it = request.begin(); it != request.end(); ++it) {
+    if (it == request.begin()) continue;  // the first plan answers no change
+    const auto answer = trajectory.find(it->first);
+    if (answer == trajectory.end()) continue;
+    const auto newest = std::upper_bound(obstacle_times.begin(), obstacle_times.end(), it->second);
+    if (newest == obstacle_times.begin()) continue;
+    const std::uint64_t perceived = *std::prev(newest);
+    if (answer->second >= perceived) replans.push_back(ms(perceived, answer->second));
+  }
+  out.obstacles_to_trajectory = latencyStats(std::move(replans));
+  return out;
+}
+
+}  // namespace ddsnav::nodes

@@ -1,0 +1,48 @@
+// Latencies of a mission recording, on hand-made receipts.
+#include "ddsnav/nodes/mission_latency.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace ddsnav;
+
+namespace {
+
+constexpr std::uint64_t kMs = 1'000'000;
+
+TEST(MissionLatency, StatsAreMedianAndNearestRankP99) {
+  std::vector<double> values;
+  for (int i = 1; i <= 200; ++i) values.push_back(i);
+  const auto s = nodes::latencyStats(values);
+  EXPECT_EQ(s.count, 200u);
+  EXPECT_DOUBLE_EQ(s.median_ms, 100.5);
+  EXPECT_DOUBLE_EQ(s.p99_ms, 198.0);
+  EXPECT_DOUBLE_EQ(s.max_ms, 200.0);
+  EXPECT_TRUE(std::isnan(nodes::latencyStats({}).median_ms));
+  EXPECT_DOUBLE_EQ(nodes::latencyStats({7.0}).p99_ms, 7.0);
+}
+
+TEST(MissionLatency, EffectsAreTiedToTheirCausesByKey) {
+  nodes::MissionRecording r;
+  // Clouds stamped 100, 200, 300 received at 10, 20, 30 ms; obstacles of 100 and 300 at 15 and 42 ms, a
+  // duplicate of 100 later (not a new effect), and one of a cloud never recorded (skipped).
+  r.clouds = {{10 * kMs, 100}, {20 * kMs, 200}, {30 * kMs, 300}};
+  r.obstacles = {{15 * kMs, 100}, {42 * kMs, 300}, {90 * kMs, 100}, {95 * kMs, 999}};
+  r.maps = {{1020 * kMs, 300}};
+  // Request 1 (first plan), 2 and 3 (replans); paths 1 and 2 answer; trajectory 2 at 150 ms, 3 never.
+  r.requests = {{5 * kMs, 1}, {100 * kMs, 2}, {200 * kMs, 3}};
+  r.paths = {{50 * kMs, 1}, {120 * kMs, 2}};
+  r.trajectories = {{60 * kMs, 1}, {150 * kMs, 2}};
+  const auto l = nodes::missionLatencies(r);
+  EXPECT_EQ(l.cloud_to_obstacles.count, 2u);
+  EXPECT_DOUBLE_EQ(l.cloud_to_obstacles.median_ms, 8.5);  // 5 and 12 ms
+  EXPECT_DOUBLE_EQ(l.cloud_to_obstacles.max_ms, 12.0);
+  EXPECT_EQ(l.cloud_to_map.count, 1u);
+  EXPECT_DOUBLE_EQ(l.cloud_to_map.median_ms, 990.0);
+  EXPECT_EQ(l.request_to_path.count, 2u);
+  EXPECT_DOUBLE_EQ(l.request_to_path.max_ms, 45.0);
+  // The replan of request 2: newest obstacles before 100 ms arrived at 95 ms; its trajectory at 150 ms.
+  ASSERT_EQ(l.obstacles_to_trajectory.count, 1u);
+  EXPECT_DOUBLE_EQ(l.obstacles_to_trajectory.median_ms, 55.0);
+}
+
+}  // namespace

@@ -1,0 +1,73 @@
+// Issue 9's missions on simulated time: `ddsnav launch configs/launch/demo.yaml --set speed=4` on a 3-D and a
+// 2-D world other than the yard must reach the goal (judged by the monitor on the true vehicle position) with a
+// positive true clearance, within a bounded wall time. Domains 140 and 141 (the mission helper's 240-244 lie
+// beyond DDS's 0..232).
+//
+// PENDING: both need issue 9 part B (the fused world model and replanning that converges); before it landed
+// neither reached its goal (gart_terrain_3d: perception tiles the hills with thousands of tracks; the cluttered
+// field: the vehicle stalls after its eighth plan). They are DISABLED_ until then, so the default run does not
+// fail on them; run them with `build/bin/mission_tests --gtest_also_run_disabled_tests` under the DDS lock.
+
+#include <ddsnav/testing/harness.hpp>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+using namespace ddsnav;
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+namespace {
+
+// Runs the demo launch file on `scenario` at speed 4 with a simulated timeout, and returns summary.json.
+nlohmann::json runMission(int domain, const std::string& scenario, double timeout_s, std::string& log) {
+  harness::Harness h(domain);
+  const fs::path out = fs::temp_directory_path() / ("ddsnav_mission_" + std::to_string(domain) + "_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  const std::string source = DDSNAV_SOURCE_DIR;
+  h.start({.name = "launcher",
+           .command = "ddsnav-launch",
+           .args = {source + "/configs/launch/demo.yaml", "--domain", std::to_string(domain), "--set",
+                    "scenario=" + source + "/configs/scenarios/" + scenario, "--set", "speed=4", "--set",
+                    "timeout_s=" + std::to_string(static_cast<int>(timeout_s)), "--set", "out=" + out.string()}});
+  // The monitor ends the run at the goal or after timeout_s of simulated time (a quarter of it in wall time
+  // at speed 4, if the machine keeps up); this bound only guards against a run that never ends.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s / 4 * 2 + 60);
+  while (h.running("launcher") && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(200ms);
+  const bool ended = !h.running("launcher");
+  h.stop("launcher");
+  log = h.log("launcher");
+  if (!ended) return {{"error", "the run did not end within its wall-time bound"}};
+  std::ifstream file(out / "summary.json");
+  auto summary = nlohmann::json::parse(file, nullptr, /*allow_exceptions=*/false);
+  fs::remove_all(out);
+  return summary.is_object() ? summary : nlohmann::json{{"error", "no summary.json"}};
+}
+
+void expectReached(const nlohmann::json& summary, const std::string& log) {
+  ASSERT_FALSE(summary.contains("error")) << summary.dump(2) << "\n" << log;
+  EXPECT_TRUE(summary.value("goal_reached", false)) << summary.dump(2);
+  EXPECT_GT(summary.value("min_true_clearance_m", -1.0), 0.0) << summary.dump(2);
+  EXPECT_TRUE(summary.contains("sim_time_to_goal_s")) << summary.dump(2);
+  EXPECT_GE(summary.value("plan_requests", 0), 1) << summary.dump(2);
+}
+
+}  // namespace
+
+TEST(Mission, DISABLED_Terrain3dReachesTheGoalOnSimulatedTime) {
+  std::string log;
+  const auto summary = runMission(140, "gart_terrain_3d.yaml", 240, log);
+  expectReached(summary, log);
+  EXPECT_LE(summary.value("tracked_obstacles_max", 1 << 30), 2000) << summary.dump(2);
+}
+
+TEST(Mission, DISABLED_ClutteredField2dReachesTheGoalOnSimulatedTime) {
+  std::string log;
+  expectReached(runMission(141, "gart_cluttered_2d.yaml", 200, log), log);
+}
