@@ -46,9 +46,10 @@ struct Validity {
   static Validity fromNow(int days);
 };
 
-// DDS domain ids the governance and every grant cover.
+// DDS domain ids the governance and every grant cover. Cyclone's access-control parser refuses ids above
+// 230 (the RTPS port mapping alone would allow 232), so secured participants live on 0..230.
 inline constexpr int kMinDomain = 0;
-inline constexpr int kMaxDomain = 232;
+inline constexpr int kMaxDomain = 230;
 inline constexpr int kMaxValidityDays = 36500;
 
 struct InitOptions {
