@@ -278,7 +278,8 @@ class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
       dds_entity_t topic = dds_create_topic(participant_, descriptor, spec.topic.c_str(), nullptr, nullptr);
       if (topic < 0)
         throw BusError("Cyclone DDS could not create topic '" + spec.topic + "' of type " + spec.type_name + ": " +
-                       errorText(topic));
+                       errorText(topic) +
+                       (secured_ ? " (with DDS Security: do this identity's permissions allow the topic?)" : ""));
       it = topics_.emplace(spec.topic, topic).first;
     }
     return {it->second, sertypeFor(spec.type_name, descriptor)};
