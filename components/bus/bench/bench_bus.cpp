@@ -5,6 +5,7 @@
 //
 //   ddsnav-bench-bus                                  # everything, 3 alternating repeats per case
 //   ddsnav-bench-bus --pairs cyclone --sizes 1k --impls bus,native
+//   ddsnav-bench-bus --impls bus,secure               # DDS Security's cost: the bus with and without it
 #include "link.hpp"
 
 #include <CLI/CLI.hpp>
@@ -16,8 +17,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <ddsnav/security/security.hpp>
+
 #include <algorithm>
 #include <atomic>
+#include <filesystem>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -38,8 +42,19 @@ std::int64_t monoNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
 }
 
+// The credentials of the "secure" impl: made once per run, in a folder both processes read.
+std::string& securityDir() {
+  static std::string dir;
+  return dir;
+}
+
 std::unique_ptr<Link> makeLink(const std::string& impl, const LinkOptions& o) {
   if (impl == "bus") return makeBusLink(o);
+  if (impl == "secure") {
+    LinkOptions secured = o;
+    secured.security_dir = securityDir();
+    return makeBusLink(secured);
+  }
   return o.cyclone ? makeNativeCycloneLink(o) : makeNativeFastLink(o);
 }
 
@@ -191,7 +206,7 @@ Result measure(const std::string& impl, const Pair& pair, std::size_t size, int 
   const Plan plan = planFor(size, scale);
   Child child({"ddsnav-bench-bus", "--role", "pong", "--impls", impl, "--pong-cyclone", pair.pong_cyclone ? "1" : "0",
                "--shm", pair.shm ? "1" : "0", "--size", std::to_string(size), "--domain", std::to_string(domain),
-               "--stream-count", std::to_string(plan.stream)});
+               "--stream-count", std::to_string(plan.stream), "--security-dir", securityDir()});
   if (child.line(std::chrono::seconds(20)) != std::optional<std::string>("READY")) {
     r.error = "pong process did not start";
     return r;
@@ -321,9 +336,24 @@ int main(int argc, char** argv) {
   app.add_option("--shm", shm)->group("");
   app.add_option("--size", size)->group("");
   app.add_option("--stream-count", stream_count)->group("");
+  app.add_option("--security-dir", securityDir())->group("");
   CLI11_PARSE(app, argc, argv);
+  for (const std::string& impl : impls)
+    if (impl != "bus" && impl != "native" && impl != "secure") {
+      std::cerr << "unknown impl '" << impl << "': expected bus, native or secure\n";
+      return 2;
+    }
 
   if (role == "pong") return runPong(impls.at(0), pong_cyclone, shm, size, domain, stream_count);
+  // Authentication + access control + AES-GCM on everything (docs/security.md), one identity for both ends.
+  std::filesystem::path credentials;
+  if (std::find(impls.begin(), impls.end(), "secure") != impls.end()) {
+    credentials = std::filesystem::temp_directory_path() / ("ddsnav_bench_security_" + std::to_string(getpid()));
+    std::filesystem::remove_all(credentials);
+    ddsnav::security::initDirectory(credentials.string(), {.grants = {{"bench-bus", {"bench/*", "system/status", "ddsnav_internal/*"},
+                                                                       {"bench/*", "ddsnav_internal/*"}}}});
+    securityDir() = credentials.string();
+  }
 
   const std::map<std::string, Pair> known = {{"fast-shm", {"Fast SHM ↔ Fast SHM", false, false, true}},
                                              {"fast-udp", {"Fast UDP ↔ Fast UDP", false, false, false}},
@@ -383,6 +413,19 @@ int main(int argc, char** argv) {
         std::cout << fmt::format("| {} | {} | {:.3f} | {:.3f} | {:.3f} |\n", b.pair, sizeName(b.size),
                                  b.rtt_median_us / n.rtt_median_us, b.rtt_p99_us / n.rtt_p99_us,
                                  b.stream_mb_s / n.stream_mb_s);
+  }
+  // DDS Security's cost as a ratio to the plain bus of the same pair and size.
+  if (!credentials.empty()) {
+    std::cout << "\n| pair | size | RTT median secure/plain | RTT p99 secure/plain | throughput secure/plain |\n|---|---|---|---|---|\n";
+    for (const Result& s : results) {
+      if (s.impl != "secure") continue;
+      for (const Result& b : results)
+        if (b.impl == "bus" && b.pair == s.pair && b.size == s.size)
+          std::cout << fmt::format("| {} | {} | {:.3f} | {:.3f} | {:.3f} |\n", s.pair, sizeName(s.size),
+                                   s.rtt_median_us / b.rtt_median_us, s.rtt_p99_us / b.rtt_p99_us,
+                                   s.stream_mb_s / b.stream_mb_s);
+    }
+    std::filesystem::remove_all(credentials);
   }
   if (!json_path.empty()) {
     nlohmann::json j = nlohmann::json::array();

@@ -17,6 +17,7 @@ class BusLink : public Link {
     po.domain_id = o.domain;
     po.name = "bench-bus";
     po.fast_shared_memory = o.shared_memory;
+    po.security_dir = o.security_dir;  // empty: explicitly unsecured, whatever $DDSNAV_SECURITY says
     participant_ = std::make_unique<bus::Participant>(po);
     sample_.header().frame_id("bench");
     sample_.octree().resize(o.payload, 0x5a);

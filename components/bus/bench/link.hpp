@@ -23,6 +23,7 @@ struct LinkOptions {
   int domain = 0;
   std::size_t payload = 1024;  // bytes of the sequence<octet> in each sample
   bool pinger = true;          // pinger: writes ping + stream, reads pong; else the reverse
+  std::string security_dir;    // bus only: DDS Security with identity bench-bus from this directory
   ReceiveFn on_receive;
 };
 

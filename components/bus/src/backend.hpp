@@ -2,6 +2,7 @@
 #pragma once
 
 #include <ddsnav/bus/bus.hpp>
+#include <ddsnav/security/security.hpp>
 
 #include <functional>
 #include <memory>
@@ -46,9 +47,25 @@ class Backend {
                                                    RawCallback raw) = 0;
 };
 
+// The network and security settings of one participant, resolved and checked by bus.cpp before a
+// backend is made: backends only translate them into vendor settings.
+struct Transport {
+  std::string address = "127.0.0.1";  // IPv4 address of the interface every socket uses
+  std::string interface;              // its name; empty: loopback
+  std::vector<std::string> peers;     // IPv4 addresses for unicast discovery, this host's included
+  bool multicast = false;
+  std::optional<security::Credentials> security;
+  bool loopback() const { return interface.empty(); }
+};
+
+// URI of a credentials file as both vendors' plugins take it.
+inline std::string fileUri(const std::string& path) { return "file://" + path; }
+
 // The sink may be called from vendor threads until the backend is destroyed.
-std::unique_ptr<Backend> makeFastBackend(const ParticipantOptions& options, DiscoverySink sink);
-std::unique_ptr<Backend> makeCycloneBackend(const ParticipantOptions& options, DiscoverySink sink);
+std::unique_ptr<Backend> makeFastBackend(const ParticipantOptions& options, const Transport& transport,
+                                         DiscoverySink sink);
+std::unique_ptr<Backend> makeCycloneBackend(const ParticipantOptions& options, const Transport& transport,
+                                            DiscoverySink sink);
 
 // Topics whose name starts with this are the bus's own plumbing, hidden from discovery.
 inline constexpr std::string_view kInternalTopicPrefix = "ddsnav_internal/";

@@ -5,6 +5,11 @@
 
 #include <spdlog/spdlog.h>
 
+#include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <netdb.h>
+#include <netinet/in.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cstdlib>
@@ -45,7 +50,122 @@ int domainFromEnvironment(int fallback) {
   return value;
 }
 
+std::vector<std::string> parsePeers(std::string_view text) {
+  std::vector<std::string> peers;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t comma = text.find(',', start);
+    std::string_view item = text.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start);
+    while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
+    while (!item.empty() && item.back() == ' ') item.remove_suffix(1);
+    if (item.empty()) throw BusError("peer list '" + std::string(text) + "': empty entry (expected host,host,...)");
+    peers.emplace_back(item);
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return peers;
+}
+
+NetworkOptions networkFromEnvironment() {
+  auto env = [](const char* name) -> std::string {
+    const char* v = std::getenv(name);
+    return v != nullptr ? v : "";
+  };
+  NetworkOptions network;
+  network.interface = env("DDSNAV_NETWORK");
+  const std::string peers = env("DDSNAV_PEERS"), multicast = env("DDSNAV_MULTICAST");
+  if (network.interface.empty()) {
+    if (!peers.empty() || (!multicast.empty() && multicast != "0" && multicast != "false"))
+      throw BusError("DDSNAV_PEERS / DDSNAV_MULTICAST are set but DDSNAV_NETWORK (the interface) is not");
+    return network;
+  }
+  if (!peers.empty()) {
+    try {
+      network.peers = parsePeers(peers);
+    } catch (const BusError& e) {
+      throw BusError(std::string("environment variable DDSNAV_PEERS: ") + e.what());
+    }
+  }
+  if (multicast == "1" || multicast == "true") network.multicast = true;
+  else if (!multicast.empty() && multicast != "0" && multicast != "false")
+    throw BusError("environment variable DDSNAV_MULTICAST='" + multicast + "': expected 1, true, 0 or false");
+  return network;
+}
+
 namespace detail {
+namespace {
+
+// The IPv4 address of a named interface; a clear error listing what exists when it does not.
+std::string interfaceAddress(const std::string& interface) {
+  ifaddrs* list = nullptr;
+  if (getifaddrs(&list) != 0) throw BusError("network interface '" + interface + "': cannot list interfaces");
+  std::string address, names;
+  bool exists = false;
+  for (ifaddrs* it = list; it != nullptr; it = it->ifa_next) {
+    if (it->ifa_name == nullptr) continue;
+    const std::string name = it->ifa_name;
+    if (names.find(" " + name + ",") == std::string::npos) names += " " + name + ",";
+    if (name != interface) continue;
+    exists = true;
+    if (it->ifa_addr != nullptr && it->ifa_addr->sa_family == AF_INET && address.empty()) {
+      char text[INET_ADDRSTRLEN];
+      inet_ntop(AF_INET, &reinterpret_cast<const sockaddr_in*>(it->ifa_addr)->sin_addr, text, sizeof(text));
+      address = text;
+    }
+  }
+  freeifaddrs(list);
+  if (!names.empty()) names.pop_back();
+  if (!exists)
+    throw BusError("network interface '" + interface + "' does not exist on this host (interfaces:" + names + ")");
+  if (address.empty()) throw BusError("network interface '" + interface + "' has no IPv4 address");
+  return address;
+}
+
+std::string resolvePeer(const std::string& peer) {
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  addrinfo* found = nullptr;
+  if (getaddrinfo(peer.c_str(), nullptr, &hints, &found) != 0 || found == nullptr)
+    throw BusError("peer '" + peer + "': not an IPv4 address or a host name that resolves to one");
+  char text[INET_ADDRSTRLEN];
+  inet_ntop(AF_INET, &reinterpret_cast<const sockaddr_in*>(found->ai_addr)->sin_addr, text, sizeof(text));
+  freeaddrinfo(found);
+  return text;
+}
+
+Transport resolveTransport(const ParticipantOptions& options) {
+  Transport t;
+  const NetworkOptions network = options.network ? *options.network : networkFromEnvironment();
+  if (network.interface.empty()) {
+    if (!network.peers.empty() || network.multicast)
+      throw BusError("network: peers or multicast given without an interface");
+    t.peers = {t.address};
+  } else {
+    t.interface = network.interface;
+    t.address = interfaceAddress(network.interface);
+    t.multicast = network.multicast;
+    t.peers.push_back(t.address);
+    for (const std::string& peer : network.peers) {
+      std::string address = resolvePeer(peer);
+      if (std::find(t.peers.begin(), t.peers.end(), address) == t.peers.end()) t.peers.push_back(address);
+    }
+  }
+  std::string dir;
+  if (options.security_dir) dir = *options.security_dir;
+  else if (const char* env = std::getenv("DDSNAV_SECURITY")) dir = env;
+  if (!dir.empty()) {
+    std::string identity = options.identity;
+    if (identity.empty()) identity = options.name.starts_with("ddsnav-") ? options.name.substr(7) : options.name;
+    try {
+      t.security = security::credentialsFor(dir, identity);
+    } catch (const security::SecurityError& e) {
+      throw BusError(std::string("security: ") + e.what() + "; participant '" + options.name + "' not created");
+    }
+  }
+  return t;
+}
+
+}  // namespace
 
 void write(WriterImpl& writer, const void* sample) { writer.writeSample(sample); }
 std::size_t matchedReaders(const WriterImpl& writer) { return writer.matched(); }
@@ -134,8 +254,11 @@ Participant::Participant(const ParticipantOptions& options) : impl_(std::make_un
   detail::DiscoverySink sink = [weak](const TopicInfo& info, bool is_writer) {
     if (auto state = weak.lock()) state->onEndpoint(info, is_writer);
   };
-  impl_->backend = options.vendor == Vendor::FastDDS ? detail::makeFastBackend(options, sink)
-                                                     : detail::makeCycloneBackend(options, sink);
+  const detail::Transport transport = detail::resolveTransport(options);
+  impl_->backend = options.vendor == Vendor::FastDDS ? detail::makeFastBackend(options, transport, sink)
+                                                     : detail::makeCycloneBackend(options, transport, sink);
+  if (transport.security)
+    spdlog::debug("bus: participant '{}' secured as {}", options.name, transport.security->identity_certificate);
 }
 
 Participant::~Participant() = default;

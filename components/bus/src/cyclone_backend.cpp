@@ -19,32 +19,67 @@
 namespace ddsnav::bus::detail {
 namespace {
 
-// Loopback only, unicast discovery to 127.0.0.1 over a participant-index range that covers the host.
-constexpr const char* kLoopbackConfig =
-    "<CycloneDDS><Domain id=\"any\">"
-    "<General><Interfaces><NetworkInterface address=\"127.0.0.1\"/></Interfaces>"
-    "<AllowMulticast>false</AllowMulticast></General>"
-    "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>"
-    "<Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery>"
-    "<Internal><SocketReceiveBufferSize min=\"4MB\"/></Internal>"
-    "</Domain></CycloneDDS>";
+// Unicast discovery to the peers (loopback: 127.0.0.1) over a participant-index range that covers a host.
+std::string domainConfig(const Transport& t) {
+  std::string x = "<CycloneDDS><Domain id=\"any\"><General><Interfaces>";
+  x += t.loopback() ? "<NetworkInterface address=\"127.0.0.1\"/>" : "<NetworkInterface name=\"" + t.interface + "\"/>";
+  x += "</Interfaces><AllowMulticast>";
+  x += t.multicast ? "spdp" : "false";
+  x += "</AllowMulticast></General>"
+       "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>32</MaxAutoParticipantIndex><Peers>";
+  for (const std::string& peer : t.peers) x += "<Peer address=\"" + peer + "\"/>";
+  x += "</Peers></Discovery><Internal><SocketReceiveBufferSize min=\"4MB\"/></Internal></Domain></CycloneDDS>";
+  return x;
+}
 
 std::string errorText(dds_return_t rc) { return dds_strretcode(rc); }
 
-// A domain's configuration is fixed when the process first creates it; later participants share it.
-void ensureDomain(int domain_id) {
+// A domain's configuration is fixed when the process first creates it; later participants share it, so
+// one with other network settings is refused rather than silently given the first one's.
+void ensureDomain(int domain_id, const Transport& transport) {
   static std::mutex mutex;
-  static std::set<int> created;
+  static std::map<int, std::string> created;
+  const std::string config = domainConfig(transport);
   std::lock_guard lock(mutex);
-  if (created.count(domain_id) != 0) return;
-  const char* override_config = std::getenv("DDSNAV_CYCLONEDDS_CONFIG");
-  const char* config = override_config != nullptr && *override_config != '\0' ? override_config : kLoopbackConfig;
-  dds_entity_t domain = dds_create_domain(static_cast<dds_domainid_t>(domain_id), config);
+  if (auto it = created.find(domain_id); it != created.end()) {
+    if (it->second != config)
+      throw BusError("Cyclone DDS domain " + std::to_string(domain_id) +
+                     " already exists in this process with other network settings; one process uses one network per domain");
+    return;
+  }
+  dds_entity_t domain = dds_create_domain(static_cast<dds_domainid_t>(domain_id), config.c_str());
   if (domain < 0 && domain != DDS_RETCODE_PRECONDITION_NOT_MET)  // NOT_MET: it exists already
     throw BusError("Cyclone DDS could not create domain " + std::to_string(domain_id) +
-                   (config == kLoopbackConfig ? std::string() : " from DDSNAV_CYCLONEDDS_CONFIG") + ": " +
+                   (transport.loopback() ? std::string() : " on network interface '" + transport.interface + "'") + ": " +
                    errorText(domain));
-  created.insert(domain_id);
+  created.emplace(domain_id, config);
+}
+
+// The builtin plugins (Debian installs them outside the library path; CMake found them) and the files.
+void addSecurity(dds_qos_t* qos, const security::Credentials& c) {
+  const std::string dir = DDSNAV_CYCLONE_SECURITY_DIR;
+  if (dir.empty())
+    throw BusError("DDS Security on Cyclone DDS: this build found no libdds_security_*.so plugins (see docs/security.md)");
+  struct Plugin {
+    const char* kind;
+    const char* library;
+    const char* init;
+    const char* finalize;
+  };
+  for (const Plugin& p : {Plugin{"auth", "libdds_security_auth.so", "init_authentication", "finalize_authentication"},
+                          Plugin{"crypto", "libdds_security_crypto.so", "init_crypto", "finalize_crypto"},
+                          Plugin{"access", "libdds_security_ac.so", "init_access_control", "finalize_access_control"}}) {
+    const std::string prefix = std::string("dds.sec.") + p.kind + ".library.";
+    dds_qset_prop(qos, (prefix + "path").c_str(), (dir + "/" + p.library).c_str());
+    dds_qset_prop(qos, (prefix + "init").c_str(), p.init);
+    dds_qset_prop(qos, (prefix + "finalize").c_str(), p.finalize);
+  }
+  dds_qset_prop(qos, "dds.sec.auth.identity_ca", fileUri(c.identity_ca).c_str());
+  dds_qset_prop(qos, "dds.sec.auth.identity_certificate", fileUri(c.identity_certificate).c_str());
+  dds_qset_prop(qos, "dds.sec.auth.private_key", fileUri(c.private_key).c_str());
+  dds_qset_prop(qos, "dds.sec.access.permissions_ca", fileUri(c.permissions_ca).c_str());
+  dds_qset_prop(qos, "dds.sec.access.governance", fileUri(c.governance).c_str());
+  dds_qset_prop(qos, "dds.sec.access.permissions", fileUri(c.permissions).c_str());
 }
 
 struct QosHandle {
@@ -182,11 +217,16 @@ class CycloneReader : public ReaderImpl {
 
 class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
  public:
-  CycloneCore(const ParticipantOptions& options, DiscoverySink sink) : sink_(std::move(sink)) {
-    ensureDomain(options.domain_id);
-    participant_ = dds_create_participant(static_cast<dds_domainid_t>(options.domain_id), nullptr, nullptr);
+  CycloneCore(const ParticipantOptions& options, const Transport& transport, DiscoverySink sink)
+      : sink_(std::move(sink)), secured_(transport.security.has_value()) {
+    ensureDomain(options.domain_id, transport);
+    QosHandle qos;
+    dds_qset_entity_name(qos.qos, options.name.c_str());
+    if (transport.security) addSecurity(qos.qos, *transport.security);
+    participant_ = dds_create_participant(static_cast<dds_domainid_t>(options.domain_id), qos.qos, nullptr);
     if (participant_ < 0)
       throw BusError("Cyclone DDS could not create a participant on domain " + std::to_string(options.domain_id) +
+                     (transport.security ? " with DDS Security (" + transport.security->identity_certificate + ")" : "") +
                      ": " + errorText(participant_));
     watchBuiltin(DDS_BUILTIN_TOPIC_DCPSPUBLICATION, &CycloneCore::onPublication);
     watchBuiltin(DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION, &CycloneCore::onSubscription);
@@ -204,7 +244,8 @@ class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
     applyQos(spec.qos, qos.qos);
     dds_entity_t writer = dds_create_writer(participant_, topic, qos.qos, nullptr);
     if (writer < 0)
-      throw BusError("Cyclone DDS could not create a writer on topic '" + spec.topic + "': " + errorText(writer));
+      throw BusError("Cyclone DDS could not create a writer on topic '" + spec.topic + "': " + errorText(writer) +
+                     (secured_ ? " (with DDS Security: do this identity's permissions allow publishing it?)" : ""));
     return std::make_shared<CycloneWriter>(shared_from_this(), writer, sertype, spec);
   }
 
@@ -219,7 +260,8 @@ class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
     dds_entity_t reader = dds_create_reader(participant_, topic, qos.qos, listener);
     dds_delete_listener(listener);
     if (reader < 0)
-      throw BusError("Cyclone DDS could not create a reader on topic '" + spec.topic + "': " + errorText(reader));
+      throw BusError("Cyclone DDS could not create a reader on topic '" + spec.topic + "': " + errorText(reader) +
+                     (secured_ ? " (with DDS Security: do this identity's permissions allow subscribing to it?)" : ""));
     impl->attach(reader);
     return impl;
   }
@@ -236,7 +278,8 @@ class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
       dds_entity_t topic = dds_create_topic(participant_, descriptor, spec.topic.c_str(), nullptr, nullptr);
       if (topic < 0)
         throw BusError("Cyclone DDS could not create topic '" + spec.topic + "' of type " + spec.type_name + ": " +
-                       errorText(topic));
+                       errorText(topic) +
+                       (secured_ ? " (with DDS Security: do this identity's permissions allow the topic?)" : ""));
       it = topics_.emplace(spec.topic, topic).first;
     }
     return {it->second, sertypeFor(spec.type_name, descriptor)};
@@ -316,6 +359,7 @@ class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
   }
 
   DiscoverySink sink_;
+  bool secured_ = false;
   dds_entity_t participant_ = 0;
   std::mutex mutex_;
   std::map<std::string, dds_entity_t> topics_;
@@ -325,8 +369,8 @@ class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
 
 class CycloneBackend : public Backend {
  public:
-  CycloneBackend(const ParticipantOptions& options, DiscoverySink sink)
-      : core_(std::make_shared<CycloneCore>(options, std::move(sink))) {}
+  CycloneBackend(const ParticipantOptions& options, const Transport& transport, DiscoverySink sink)
+      : core_(std::make_shared<CycloneCore>(options, transport, std::move(sink))) {}
   std::shared_ptr<WriterImpl> createWriter(const EndpointSpec& spec) override { return core_->createWriter(spec); }
   std::shared_ptr<ReaderImpl> createReader(const EndpointSpec& spec, SampleCallback typed, RawCallback raw) override {
     return core_->createReader(spec, std::move(typed), std::move(raw));
@@ -338,8 +382,9 @@ class CycloneBackend : public Backend {
 
 }  // namespace
 
-std::unique_ptr<Backend> makeCycloneBackend(const ParticipantOptions& options, DiscoverySink sink) {
-  return std::make_unique<CycloneBackend>(options, std::move(sink));
+std::unique_ptr<Backend> makeCycloneBackend(const ParticipantOptions& options, const Transport& transport,
+                                            DiscoverySink sink) {
+  return std::make_unique<CycloneBackend>(options, transport, std::move(sink));
 }
 
 }  // namespace ddsnav::bus::detail

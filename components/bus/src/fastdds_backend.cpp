@@ -164,24 +164,29 @@ void cleanStaleSharedMemory() {
   if (removed > 0) spdlog::debug("bus: removed {} stale Fast DDS shared-memory segments", removed);
 }
 
-rtps::Locator_t loopbackLocator() {
+rtps::Locator_t udpLocator(const std::string& address, std::uint32_t port = 0) {
   rtps::Locator_t loc;
   loc.kind = LOCATOR_KIND_UDPv4;
-  rtps::IPLocator::setIPv4(loc, 127, 0, 0, 1);
-  loc.port = 0;  // 0: derived from domain and participant id, for each of the peer range
+  rtps::IPLocator::setIPv4(loc, address);
+  loc.port = port;  // 0: derived from domain and participant id, for each of the peer range
   return loc;
 }
 
-dds::DomainParticipantQos participantQos(const ParticipantOptions& options) {
-  auto* factory = dds::DomainParticipantFactory::get_instance();
-  if (const char* file = std::getenv("DDSNAV_FASTDDS_PROFILES"); file != nullptr && *file != '\0') {
-    // Real deployments: the user's XML decides transports and discovery entirely.
-    if (factory->load_XML_profiles_file(file) != ReturnCode_t::RETCODE_OK)
-      throw BusError(std::string("DDSNAV_FASTDDS_PROFILES: cannot load Fast DDS profiles from '") + file + "'");
-    dds::DomainParticipantQos qos = factory->get_default_participant_qos();
-    qos.name(options.name);
-    return qos;
-  }
+// The builtin plugins' properties (DDS Security 1.1 names, Fast DDS's "builtin.*" plugin ids).
+void addSecurity(dds::DomainParticipantQos& qos, const security::Credentials& c) {
+  auto& p = qos.properties().properties();
+  p.emplace_back("dds.sec.auth.plugin", "builtin.PKI-DH");
+  p.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_ca", fileUri(c.identity_ca));
+  p.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_certificate", fileUri(c.identity_certificate));
+  p.emplace_back("dds.sec.auth.builtin.PKI-DH.private_key", fileUri(c.private_key));
+  p.emplace_back("dds.sec.access.plugin", "builtin.Access-Permissions");
+  p.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions_ca", fileUri(c.permissions_ca));
+  p.emplace_back("dds.sec.access.builtin.Access-Permissions.governance", fileUri(c.governance));
+  p.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", fileUri(c.permissions));
+  p.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+}
+
+dds::DomainParticipantQos participantQos(const ParticipantOptions& options, const Transport& t) {
   dds::DomainParticipantQos qos;  // not the factory default: an environment XML must not re-enable multicast
   qos.name(options.name);
   auto& transport = qos.transport();
@@ -192,7 +197,7 @@ dds::DomainParticipantQos participantQos(const ParticipantOptions& options) {
     transport.user_transports.push_back(shm);
   }
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
-  udp->interfaceWhiteList.emplace_back("127.0.0.1");
+  udp->interfaceWhiteList.emplace_back(t.address);
   udp->maxInitialPeersRange = kMaxParticipantsPerHost;
   udp->sendBufferSize = kSocketBufferSize;
   udp->receiveBufferSize = kSocketBufferSize;
@@ -202,11 +207,17 @@ dds::DomainParticipantQos participantQos(const ParticipantOptions& options) {
 
   auto& builtin = qos.wire_protocol().builtin;
   // A unicast metatraffic locator is what keeps Fast DDS from adding its multicast discovery locator.
-  builtin.metatrafficUnicastLocatorList.push_back(loopbackLocator());
-  builtin.initialPeersList.push_back(loopbackLocator());
+  builtin.metatrafficUnicastLocatorList.push_back(udpLocator(t.address));
+  for (const std::string& peer : t.peers) builtin.initialPeersList.push_back(udpLocator(peer));
+  if (t.multicast) {
+    // The standard SPDP multicast group and port (7400 + 250 * domain).
+    builtin.metatrafficMulticastLocatorList.push_back(
+        udpLocator("239.255.0.1", 7400 + 250 * static_cast<std::uint32_t>(options.domain_id)));
+  }
   // Announce every 0.5 s instead of 3 s: late joiners match in < 1 s.
   builtin.discovery_config.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(0, 500'000'000);
   builtin.discovery_config.leaseDuration = eprosima::fastrtps::Duration_t(10, 0);
+  if (t.security) addSecurity(qos, *t.security);
   return qos;
 }
 
@@ -317,14 +328,18 @@ class DiscoveryListener : public dds::DomainParticipantListener {
 // The participant and its publisher/subscriber; kept alive by every endpoint created from it.
 class FastCore : public std::enable_shared_from_this<FastCore> {
  public:
-  FastCore(const ParticipantOptions& options, DiscoverySink sink) : listener_(std::move(sink)) {
+  FastCore(const ParticipantOptions& options, const Transport& transport, DiscoverySink sink)
+      : listener_(std::move(sink)), secured_(transport.security.has_value()) {
     static std::once_flag cleaned;
     std::call_once(cleaned, cleanStaleSharedMemory);
     auto* factory = dds::DomainParticipantFactory::get_instance();
-    participant_ = factory->create_participant(options.domain_id, participantQos(options), &listener_,
+    participant_ = factory->create_participant(options.domain_id, participantQos(options, transport), &listener_,
                                                dds::StatusMask::none());
     if (participant_ == nullptr)
-      throw BusError("Fast DDS could not create a participant on domain " + std::to_string(options.domain_id));
+      throw BusError("Fast DDS could not create a participant on domain " + std::to_string(options.domain_id) +
+                     (transport.security ? " with DDS Security (" + transport.security->identity_certificate +
+                                               "; the vendor's log above says why)"
+                                         : std::string()));
     publisher_ = participant_->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
     subscriber_ = participant_->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
     if (publisher_ == nullptr || subscriber_ == nullptr) {
@@ -352,7 +367,9 @@ class FastCore : public std::enable_shared_from_this<FastCore> {
     // Repair lost fragments of large samples quickly rather than after the default 3 s heartbeat.
     qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
     dds::DataWriter* writer = publisher_->create_datawriter(topic, qos);
-    if (writer == nullptr) throw BusError("Fast DDS could not create a writer on topic '" + spec.topic + "'");
+    if (writer == nullptr)
+      throw BusError("Fast DDS could not create a writer on topic '" + spec.topic + "'" +
+                     (secured_ ? " (with DDS Security: do this identity's permissions allow publishing it?)" : ""));
     return std::make_shared<FastWriter>(shared_from_this(), writer, spec.topic);
   }
 
@@ -366,7 +383,9 @@ class FastCore : public std::enable_shared_from_this<FastCore> {
     auto impl = std::make_shared<FastReader>(shared_from_this(), spec, std::move(typed), std::move(raw));
     dds::DataReader* reader = subscriber_->create_datareader(topic, qos, impl.get(),
                                                              dds::StatusMask::data_available());
-    if (reader == nullptr) throw BusError("Fast DDS could not create a reader on topic '" + spec.topic + "'");
+    if (reader == nullptr)
+      throw BusError("Fast DDS could not create a reader on topic '" + spec.topic + "'" +
+                     (secured_ ? " (with DDS Security: do this identity's permissions allow subscribing to it?)" : ""));
     impl->attach(reader);
     return impl;
   }
@@ -413,6 +432,7 @@ class FastCore : public std::enable_shared_from_this<FastCore> {
   }
 
   DiscoveryListener listener_;
+  bool secured_ = false;
   dds::DomainParticipant* participant_ = nullptr;
   dds::Publisher* publisher_ = nullptr;
   dds::Subscriber* subscriber_ = nullptr;
@@ -430,8 +450,8 @@ FastReader::~FastReader() {
 
 class FastBackend : public Backend {
  public:
-  FastBackend(const ParticipantOptions& options, DiscoverySink sink)
-      : core_(std::make_shared<FastCore>(options, std::move(sink))) {}
+  FastBackend(const ParticipantOptions& options, const Transport& transport, DiscoverySink sink)
+      : core_(std::make_shared<FastCore>(options, transport, std::move(sink))) {}
   std::shared_ptr<WriterImpl> createWriter(const EndpointSpec& spec) override { return core_->createWriter(spec); }
   std::shared_ptr<ReaderImpl> createReader(const EndpointSpec& spec, SampleCallback typed, RawCallback raw) override {
     return core_->createReader(spec, std::move(typed), std::move(raw));
@@ -443,8 +463,9 @@ class FastBackend : public Backend {
 
 }  // namespace
 
-std::unique_ptr<Backend> makeFastBackend(const ParticipantOptions& options, DiscoverySink sink) {
-  return std::make_unique<FastBackend>(options, std::move(sink));
+std::unique_ptr<Backend> makeFastBackend(const ParticipantOptions& options, const Transport& transport,
+                                         DiscoverySink sink) {
+  return std::make_unique<FastBackend>(options, transport, std::move(sink));
 }
 
 }  // namespace ddsnav::bus::detail

@@ -435,7 +435,7 @@ LaunchConfig parseLaunchRoot(const std::string& yaml_text, const std::string& so
     throw LaunchError(source_name + ":" + std::to_string(e.mark.line + 1) + ": invalid YAML: " + e.msg);
   }
   if (!root.IsMap()) throw LaunchError(source_name + ": expected a mapping at the top level");
-  reader.allowOnly(root, {"name", "domain", "dds", "shutdown_timeout_s", "variables", "processes"}, "");
+  reader.allowOnly(root, {"name", "domain", "dds", "shutdown_timeout_s", "variables", "security", "network", "processes"}, "");
 
   LaunchConfig config;
   config.source = source_name;
@@ -450,6 +450,32 @@ LaunchConfig parseLaunchRoot(const std::string& yaml_text, const std::string& so
   }
   if (root["shutdown_timeout_s"]) config.shutdown_timeout_s = reader.duration(root["shutdown_timeout_s"], kShutdownTimeoutRange);
   config.variables = resolveVariables(root, reader, source_name, overrides, set_flag);
+  // Relative to the launch file's folder, like every other path a launch file names.
+  if (const auto node = root["security"]) {
+    std::string dir = substitute(reader.scalar(node, "security", true), config.variables, reader, node, "security");
+    if (dir.empty()) reader.fail(node, "security", "expected the directory made by `ddsnav security init`");
+    if (std::filesystem::path(dir).is_relative()) dir = config.variables["launch_dir"] + "/" + dir;
+    config.security = std::filesystem::path(dir).lexically_normal().string();
+  }
+  if (const auto node = root["network"]) {
+    if (!node.IsMap()) reader.fail(node, "network", "expected a mapping with interface, peers, multicast");
+    reader.allowOnly(node, {"interface", "peers", "multicast"}, "network");
+    if (!node["interface"]) reader.fail(node, "network.interface", "required: the network interface to use, e.g. eth0");
+    NetworkSpec network;
+    network.interface = substitute(reader.scalar(node["interface"], "network.interface", true), config.variables, reader,
+                                   node["interface"], "network.interface");
+    if (network.interface.empty() || network.interface.find_first_of(" ,/") != std::string::npos)
+      reader.fail(node["interface"], "network.interface", "expected an interface name such as eth0");
+    if (node["peers"])
+      for (const auto& peer : reader.stringList(node["peers"], "network.peers")) {
+        std::string host = substitute(peer, config.variables, reader, node["peers"], "network.peers");
+        if (host.empty() || host.find_first_of(" ,") != std::string::npos)
+          reader.fail(node["peers"], "network.peers", "each peer is one host name or IPv4 address");
+        network.peers.push_back(host);
+      }
+    if (node["multicast"]) network.multicast = reader.boolean(node["multicast"], "network.multicast");
+    config.network = network;
+  }
   std::vector<ProcessSpec> processes;
   parseProcessList(root["processes"], reader, config.variables, ns, source_name, include_depth, processes);
   if (processes.size() > kMaxProcesses)

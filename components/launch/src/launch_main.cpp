@@ -14,6 +14,7 @@
 
 #include <chrono>
 #include <climits>
+#include <filesystem>
 #include <map>
 
 namespace {
@@ -44,6 +45,12 @@ int main(int argc, char** argv) {
   app.add_option("--domain", domain, "DDS domain id for every process (default: the file's, else DDSNAV_DOMAIN, else 0)")
       ->check(CLI::Range(0, bus::kMaxDomainId));
   app.add_option("--dds", dds, "default vendor for processes that do not name one: fastdds | cyclonedds");
+  std::string security, network, peers;
+  bool multicast = false;
+  app.add_option("--security", security, "DDS Security directory for every process (overrides the file's `security:`)");
+  app.add_option("--network", network, "network interface for every process (overrides the file's `network:`)");
+  app.add_option("--peers", peers, "with --network: peer hosts, comma-separated");
+  app.add_flag("--multicast", multicast, "with --network: also discover by multicast");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -64,6 +71,18 @@ int main(int argc, char** argv) {
     if (domain < 0) domain = config.domain.value_or(-1);
     if (domain < 0) domain = bus::domainFromEnvironment(0);
     const auto vendor = bus::parseVendor(config.dds);
+    if (!security.empty()) config.security = std::filesystem::absolute(security).lexically_normal().string();
+    if (!network.empty()) config.network = launch::NetworkSpec{network, peers.empty() ? std::vector<std::string>{} : bus::parsePeers(peers), multicast};
+    else if (!peers.empty() || multicast) throw launch::LaunchError("--peers / --multicast need --network");
+    // Through the environment: every process started below inherits it, and so does this one's participant.
+    if (config.security) ::setenv("DDSNAV_SECURITY", config.security->c_str(), 1);
+    if (config.network) {
+      std::string list;
+      for (const auto& p : config.network->peers) list += (list.empty() ? "" : ",") + p;
+      ::setenv("DDSNAV_NETWORK", config.network->interface.c_str(), 1);
+      ::setenv("DDSNAV_PEERS", list.c_str(), 1);
+      ::setenv("DDSNAV_MULTICAST", config.network->multicast ? "1" : "0", 1);
+    }
     for (const auto& p : config.processes)
       if (p.dds) bus::parseVendor(*p.dds);  // reject a typo before anything starts
 

@@ -223,3 +223,32 @@ TEST(LaunchConfig, ComplexKeysEmptyCommandsAndControlCharactersAreRefused) {
   EXPECT_THROW(parseLaunchConfig("processes: [{name: a, command: x}]\n", "s.yaml", {{"launch_dir", std::string("a\0b", 3)}}),
                LaunchError);
 }
+
+TEST(LaunchConfig, SecurityAndNetworkSettingsApplyToTheWholeSet) {
+  const auto config = parseLaunchConfig(R"(
+variables: {keys: /etc/ddsnav/keys, peer: 10.0.0.2}
+security: ${keys}
+network: {interface: veth0, peers: ["${peer}", robot-b], multicast: false}
+processes:
+  - {name: sim, command: ddsnav-sim}
+)", "/launch/set.yaml");
+  ASSERT_TRUE(config.security.has_value());
+  EXPECT_EQ(*config.security, "/etc/ddsnav/keys");
+  ASSERT_TRUE(config.network.has_value());
+  EXPECT_EQ(config.network->interface, "veth0");
+  EXPECT_EQ(config.network->peers, (std::vector<std::string>{"10.0.0.2", "robot-b"}));
+  EXPECT_FALSE(config.network->multicast);
+  // A relative security directory is relative to the launch file, like the other paths it names.
+  EXPECT_EQ(*parseLaunchConfig("security: keys\nprocesses: [{name: a, command: b}]", "/launch/set.yaml").security,
+            "/launch/keys");
+  EXPECT_FALSE(parseLaunchConfig("processes: [{name: a, command: b}]", "set.yaml").network.has_value());
+}
+
+TEST(LaunchConfig, BadNetworkSettingsNameTheKey) {
+  EXPECT_NE(errorOf("network: {peers: [a]}\nprocesses: [{name: a, command: b}]").find("network.interface"), std::string::npos);
+  EXPECT_NE(errorOf("network: {interface: eth0, port: 3}\nprocesses: [{name: a, command: b}]").find("port"), std::string::npos);
+  EXPECT_NE(errorOf("network: {interface: eth0, peers: [\"a,b\"]}\nprocesses: [{name: a, command: b}]").find("network.peers"),
+            std::string::npos);
+  EXPECT_NE(errorOf("network: eth0\nprocesses: [{name: a, command: b}]").find("expected a mapping"), std::string::npos);
+  EXPECT_NE(errorOf("security: \"\"\nprocesses: [{name: a, command: b}]").find("security"), std::string::npos);
+}

@@ -357,6 +357,13 @@ int runComponent(const ComponentInfo& info, int argc, char** argv, const std::fu
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error | off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
   app.add_option("--name", instance, "instance name in system/status (default: $DDSNAV_COMPONENT_NAME, else " + name + ")");
+  std::optional<std::string> security;
+  std::string network, peers;
+  bool multicast = false;
+  app.add_option("--security", security, "DDS Security directory from `ddsnav security init` (default: $DDSNAV_SECURITY, else off)");
+  app.add_option("--network", network, "network interface to talk on (default: $DDSNAV_NETWORK, else loopback only)");
+  app.add_option("--peers", peers, "with --network: peer hosts, comma-separated (default: $DDSNAV_PEERS)");
+  app.add_flag("--multicast", multicast, "with --network: also discover by multicast");
   app.add_option("--namespace", ns, "prefix of every topic but system/...: NS/sensors/points");
   app.add_option("--remap", remaps, "use topic TO where the component uses FROM (FROM=TO, repeatable; TO=/name: no namespace)");
   // Like --help: before the other options' requirements are checked (a required file argument, say).
@@ -389,6 +396,12 @@ int runComponent(const ComponentInfo& info, int argc, char** argv, const std::fu
       throw bus::BusError("DDS domain id " + std::to_string(bus_options.domain_id) + " is out of range: expected 0.." +
                           std::to_string(bus::kMaxDomainId));
     bus_options.name = instance;
+    bus_options.identity = name;  // the credentials are per component, whatever the instance is called
+    bus_options.security_dir = security;
+    if (!network.empty())
+      bus_options.network = bus::NetworkOptions{network, peers.empty() ? std::vector<std::string>{} : bus::parsePeers(peers), multicast};
+    else if (!peers.empty() || multicast)
+      throw bus::BusError("--peers / --multicast need --network INTERFACE");
     ctx = std::make_unique<ContextImpl>(instance, Parameters::load(config, overrides), logger);
     ctx->setNames(ns, remaps);
   } catch (const std::exception& e) {

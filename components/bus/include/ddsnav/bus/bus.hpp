@@ -26,9 +26,11 @@
 // callback is fine. A Subscription (or Inbox) stops its callbacks when destroyed; destroy subscriptions
 // before the state their callbacks use.
 //
-// Network: every participant is loopback-only with no multicast unless an override is given
-// (docs/bus.md): DDSNAV_FASTDDS_PROFILES (Fast DDS XML file whose default participant profile is used)
-// or DDSNAV_CYCLONEDDS_CONFIG (Cyclone XML / file:// URI).
+// Network: every participant is loopback-only with no multicast unless ParticipantOptions::network (or
+// $DDSNAV_NETWORK, $DDSNAV_PEERS, $DDSNAV_MULTICAST) names an interface and unicast peers (docs/bus.md).
+// Security: with ParticipantOptions::security_dir (or $DDSNAV_SECURITY) the participant authenticates,
+// is access-controlled and encrypts on either vendor (docs/security.md); its files are checked before the
+// vendor sees them and any failure throws BusError: never a silent fall-back to an unsecured participant.
 #pragma once
 
 #include <ddsnav/msg/type_support.hpp>
@@ -90,12 +92,34 @@ struct Qos {
   static Qos state(int depth = 1) { return {Reliability::Reliable, Durability::TransientLocal, depth}; }
 };
 
+// Where a participant talks. The default (empty interface) is loopback only, without multicast.
+struct NetworkOptions {
+  std::string interface;           // a network interface name ("eth0"); its IPv4 address is used
+  std::vector<std::string> peers;  // hosts (IPv4 or names) discovered by unicast; this host is always added
+  bool multicast = false;          // also discover by multicast on the interface
+};
+
+// A network from $DDSNAV_NETWORK (interface), $DDSNAV_PEERS (comma-separated) and $DDSNAV_MULTICAST
+// (1/true/0/false); an empty interface (loopback) when DDSNAV_NETWORK is unset. Throws BusError on
+// peers or multicast given without an interface, or a multicast value that is not a boolean.
+NetworkOptions networkFromEnvironment();
+// "a,b , c" -> {"a","b","c"}; throws BusError on an empty entry.
+std::vector<std::string> parsePeers(std::string_view text);
+
 struct ParticipantOptions {
   Vendor vendor = Vendor::FastDDS;
   int domain_id = 0;            // [0, kMaxDomainId]
   std::string name = "ddsnav";  // participant name, shown by DDS tools
-  // Fast DDS only: false leaves only UDPv4 on loopback (benchmarks compare SHM against UDP).
+  // Fast DDS only: false leaves only UDPv4 (benchmarks compare SHM against UDP).
   bool fast_shared_memory = true;
+  // Unset: networkFromEnvironment(). An interface that does not exist (or has no IPv4 address) or a peer
+  // that does not resolve throws BusError before any participant is created.
+  std::optional<NetworkOptions> network;
+  // DDS Security directory (`ddsnav security init`). Unset: $DDSNAV_SECURITY when set, else off; an empty
+  // string: off whatever the environment says.
+  std::optional<std::string> security_dir;
+  // Identity within security_dir; empty: the participant name without a leading "ddsnav-".
+  std::string identity;
 };
 
 // What a subscriber learns besides the sample itself.

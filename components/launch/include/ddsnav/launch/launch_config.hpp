@@ -56,6 +56,14 @@ struct ProcessSpec {
   bool required = false;                    // when it exits, the whole set is torn down
 };
 
+// `network:` — every process of the set talks on this interface with unicast discovery of the peers
+// (see docs/bus.md); without it everything stays on loopback.
+struct NetworkSpec {
+  std::string interface;
+  std::vector<std::string> peers;
+  bool multicast = false;
+};
+
 struct LaunchConfig {
   std::string name;
   std::string source;                        // file it was read from
@@ -64,6 +72,8 @@ struct LaunchConfig {
   bool dds_given = false;                    // `dds:` was in the file (an included file's default for its processes)
   double shutdown_timeout_s = 5.0;
   std::map<std::string, std::string> variables;  // ${name} substitutions, overridable from the CLI
+  std::optional<std::string> security;         // `security: DIR` (absolute): DDS Security for every process
+  std::optional<NetworkSpec> network;
   std::vector<ProcessSpec> processes;          // in an order where every `after` comes first
 };
 

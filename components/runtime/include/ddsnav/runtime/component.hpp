@@ -41,7 +41,9 @@
 //
 // Common options: --dds fastdds|cyclonedds (default $DDSNAV_DDS, else fastdds), --domain N (default
 // $DDSNAV_DOMAIN, else 0), --config FILE.yaml, --param key=value (repeatable), --log-level
-// trace|debug|info|warn|error|off, --name (instance name; default the component name).
+// trace|debug|info|warn|error|off, --name (instance name; default the component name), --security DIR
+// (DDS Security with the identity named after the component; default $DDSNAV_SECURITY), --network IFACE
+// --peers host,... [--multicast] (default $DDSNAV_NETWORK..., else loopback only).
 // Parameters the runtime itself reads: heartbeat_period_s (1.0), shutdown_timeout_s (5.0),
 // clock ("system" | "topic": follow msg::Clock on system/clock).
 //
