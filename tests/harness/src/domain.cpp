@@ -4,6 +4,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -57,8 +58,14 @@ DomainLease::DomainLease(double timeout_s) {
   std::error_code ignored;
   fs::create_directories(folder, ignored);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  // Scan from a point that moves on with every lease (and differs between processes), so an id just
+  // released is not taken again at once: a new test must not hear the lingering participants of the last.
+  static std::atomic<unsigned> leases{static_cast<unsigned>(::getpid()) * 7u};
+  const int size = pool.high - pool.low + 1;
+  const int first = static_cast<int>(leases++ % static_cast<unsigned>(size));
   for (;;) {
-    for (int id = pool.low; id <= pool.high; ++id) {
+    for (int step = 0; step < size; ++step) {
+      const int id = pool.low + (first + step) % size;
       if (!pool.contains(id)) continue;
       const std::string path = folder + "/domain-" + std::to_string(id) + ".lock";
       const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);

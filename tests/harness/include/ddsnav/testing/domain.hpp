@@ -3,7 +3,7 @@
 // threads, test binaries and `ctest -j` (each id is held through an flock()ed file, released when the
 // lease ends or the process dies, however it dies).
 //
-//   ddsnav::testing::DomainLease domain;            // the lowest free id of the pool
+//   ddsnav::testing::DomainLease domain;            // a free id of the pool
 //   bus::Participant p({.domain_id = domain.id()});
 //
 // The pool is kMinTestDomain..kMaxTestDomain, minus kReservedLow..kReservedHigh (ids picked by hand
@@ -21,7 +21,7 @@ inline constexpr int kReservedHigh = 259;
 
 class DomainLease {
  public:
-  // Takes the lowest free id; waits up to `timeout_s` for one to free up, then throws std::runtime_error
+  // Takes a free id (not the one released last); waits up to `timeout_s` for one to free up, then throws std::runtime_error
   // naming the pool and the lock folder.
   explicit DomainLease(double timeout_s = 120.0);
   ~DomainLease();
