@@ -35,6 +35,21 @@
 namespace ddsnav::bus::detail {
 namespace {
 
+// Fast DDS keeps at most 10 instances of a keyed topic by default (Cyclone: no limit): with more than ten
+// processes on system/status (keyed by name, two pipelines in one domain) the eleventh was never heard.
+// KEEP_LAST depth bounds each instance's samples, so the totals can be left open.
+void unlimitedInstances(eprosima::fastdds::dds::ResourceLimitsQosPolicy& limits) {
+  limits.max_instances = 0;  // 0: no limit
+  limits.max_samples = 0;
+}
+
+// The writer's 16-byte instance handle (its GUID) folded to 64 bits with FNV-1a.
+std::uint64_t publicationHandle(const eprosima::fastdds::dds::InstanceHandle_t& handle) {
+  std::uint64_t h = 14695981039346656037ull;
+  for (std::size_t i = 0; i < 16; ++i) h = (h ^ handle.value[i]) * 1099511628211ull;
+  return h;
+}
+
 namespace dds = eprosima::fastdds::dds;
 namespace rtps = eprosima::fastrtps::rtps;
 using eprosima::fastrtps::types::ReturnCode_t;
@@ -260,7 +275,7 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
     // Fast DDS calls this once per reader at a time, so the one carrier (and its grown buffers) is reused.
     while (reader->take_next_sample(&carrier_, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;
-      SampleInfo si{info.source_timestamp.to_ns()};
+      SampleInfo si{info.source_timestamp.to_ns(), publicationHandle(info.publication_handle)};
       if (typed_) {
         invokeSafely(spec_.topic, [&] { typed_(carrier_.typed, si); });
       } else {
@@ -332,6 +347,7 @@ class FastCore : public std::enable_shared_from_this<FastCore> {
     applyQos(spec.qos, qos.reliability(), qos.durability(), qos.history());
     qos.durability_service().history_kind = dds::KEEP_LAST_HISTORY_QOS;
     qos.durability_service().history_depth = spec.qos.depth;
+    unlimitedInstances(qos.resource_limits());
     qos.endpoint().history_memory_policy = rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;
     // Repair lost fragments of large samples quickly rather than after the default 3 s heartbeat.
     qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
@@ -345,6 +361,7 @@ class FastCore : public std::enable_shared_from_this<FastCore> {
     dds::Topic* topic = topicFor(spec);
     dds::DataReaderQos qos = subscriber_->get_default_datareader_qos();
     applyQos(spec.qos, qos.reliability(), qos.durability(), qos.history());
+    unlimitedInstances(qos.resource_limits());
     qos.endpoint().history_memory_policy = rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;
     auto impl = std::make_shared<FastReader>(shared_from_this(), spec, std::move(typed), std::move(raw));
     dds::DataReader* reader = subscriber_->create_datareader(topic, qos, impl.get(),

@@ -16,9 +16,10 @@ WorldKind parseWorldKind(const std::string& text, const std::string& param) {
   throw runtime::ParameterError("parameter " + param + ": expected one of obstacles, map, scenario, got '" + text + "'");
 }
 
-WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario)
+WorldSource::WorldSource(runtime::Context& ctx, WorldKind kind, const planner::Scenario& scenario)
     : kind_(kind), scenario_(scenario) {
-  obstacles_sub_ = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [this](const msg::ObstacleArray& a) {
+  // On the component's executor: the arrays and maps are checked there, not on a DDS thread.
+  obstacles_sub_ = ctx.subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& a) {
     const auto error = checkObstacleArray(a, kWorldFrame);
     std::lock_guard lock(mutex_);
     if (!error.empty()) {
@@ -31,7 +32,7 @@ WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::S
     obstacles_ = a;
   });
   if (kind_ == WorldKind::Map) {
-    map_sub_ = bus.subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [this](const msg::OccupancyMap& m) {
+    map_sub_ = ctx.subscribe(runtime::topics::octomap, [this](const msg::OccupancyMap& m) {
       // Parsed outside the lock: a large octree takes a while, and snapshot() must not wait for it.
       const auto error = checkOccupancyMap(m, kWorldFrame, scenario_);
       std::lock_guard lock(mutex_);

@@ -8,7 +8,7 @@
 #include <ddsnav/bus/bus.hpp>
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/collision_world.hpp>
-#include <ddsnav/runtime/parameters.hpp>
+#include <ddsnav/runtime/component.hpp>
 
 #include <memory>
 #include <mutex>
@@ -24,14 +24,15 @@ WorldKind parseWorldKind(const std::string& text, const std::string& param = "wo
 
 class WorldSource {
  public:
-  WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario);
+  // Subscribes through ctx (its executor, its topic names).
+  WorldSource(runtime::Context& ctx, WorldKind kind, const planner::Scenario& scenario);
 
   // False until the world's input has arrived (always true for the scenario world).
   bool available() const;
   // A snapshot of the newest world, seen from a robot at `robot_position`: obstacle ellipses that would
   // cover the robot there are left out (see clearFootprint). nullptr when not available(). Inputs are
-  // checked on arrival, so this throws only for a world the scenario itself cannot hold; callers on the
-  // bus's threads still catch, so nothing that reaches here can end the process.
+  // checked on arrival, so this throws only for a world the scenario itself cannot hold; callers still
+  // catch, so nothing that reaches here can end the process.
   std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position) const;
   bool hasObstacles() const;  // perception/obstacles received (whatever the kind)
   // Messages dropped as malformed so far, per topic.

@@ -6,8 +6,8 @@
 //   ddsnav::testing::DomainLease domain;            // a free id of the pool
 //   bus::Participant p({.domain_id = domain.id()});
 //
-// The pool is kMinTestDomain..kMaxTestDomain, minus kReservedLow..kReservedHigh (ids picked by hand
-// elsewhere). DDSNAV_TEST_DOMAINS=LOW-HIGH narrows it (it can only narrow: the reserved ids stay out).
+// The pool is kMinTestDomain..kMaxTestDomain, minus kReservedLow..kReservedHigh and kFixedLow..kFixedHigh (ids
+// picked by hand elsewhere). DDSNAV_TEST_DOMAINS=LOW-HIGH narrows it (it can only narrow: the reserved ids stay out).
 // Lock files live in DDSNAV_TEST_DOMAIN_LOCKS, default <temp dir>/ddsnav-test-domains.
 
 #include <string>
@@ -18,6 +18,9 @@ inline constexpr int kMinTestDomain = 1;     // 0 is the default domain of demos
 inline constexpr int kMaxTestDomain = 232;   // bus::kMaxDomainId
 inline constexpr int kReservedLow = 230;     // hand-picked ids of tests that predate the allocator
 inline constexpr int kReservedHigh = 259;
+// Also hand-picked, by the security and network tests (131-140) and the mission tests (140-142).
+inline constexpr int kFixedLow = 130;
+inline constexpr int kFixedHigh = 142;
 
 class DomainLease {
  public:
@@ -43,7 +46,7 @@ class DomainLease {
 struct DomainPool {
   int low;
   int high;
-  bool contains(int id) const { return id >= low && id <= high && (id < kReservedLow || id > kReservedHigh); }
+  bool contains(int id) const { return id >= low && id <= high && (id < kReservedLow || id > kReservedHigh) && (id < kFixedLow || id > kFixedHigh); }
 };
 DomainPool domainPoolFromEnvironment();
 
