@@ -2,106 +2,114 @@
 // descriptor of the same IDL struct (the Cyclone side of the bus creates its topics from it).
 #include <ddsnav/msg/messages.hpp>
 
-#include <fastcdr/Cdr.h>
-#include <fastcdr/FastBuffer.h>
-#include <fastcdr/exceptions/Exception.h>
+#include <ddsnav/msg/make_type_support.hpp>
+#include <ddsnav/msg/registry.hpp>
 
-#include <new>
+#include <dlfcn.h>
+
+#include <cstdlib>
+#include <mutex>
+#include <stdexcept>
 #include <string>
 
 // The idlc descriptors, declared without Cyclone's headers: only their addresses are used here (the bus's
 // Cyclone backend casts them back to dds_topic_descriptor_t).
-struct dds_topic_descriptor;
 #define DDSNAV_MESSAGE(T) extern "C" const dds_topic_descriptor ddsnav_msg_##T##_desc;
 #include <ddsnav/msg/type_list.inc>
 #undef DDSNAV_MESSAGE
 
 namespace ddsnav::msg {
-namespace {
-
-using eprosima::fastcdr::Cdr;
-using eprosima::fastcdr::FastBuffer;
-
-template <class T>
-std::size_t serializedSize(const void* sample) {
-  return T::getCdrSerializedSize(*static_cast<const T*>(sample)) + 4;  // + encapsulation
-}
-
-template <class T>
-std::size_t serialize(const void* sample, void* buffer, std::size_t capacity) {
-  FastBuffer fb(static_cast<char*>(buffer), capacity);
-  Cdr cdr(fb, Cdr::DEFAULT_ENDIAN, Cdr::DDS_CDR);
-  try {
-    cdr.serialize_encapsulation();
-    static_cast<const T*>(sample)->serialize(cdr);
-  } catch (const eprosima::fastcdr::exception::Exception&) {
-    return 0;
-  }
-  return cdr.getSerializedDataLength();
-}
-
-template <class T>
-bool deserialize(const void* buffer, std::size_t size, void* sample) {
-  // Fast CDR only reads through the buffer; the cast is for its non-const constructor.
-  FastBuffer fb(static_cast<char*>(const_cast<void*>(buffer)), size);
-  Cdr cdr(fb, Cdr::DEFAULT_ENDIAN, Cdr::DDS_CDR);
-  try {
-    cdr.read_encapsulation();
-    static_cast<T*>(sample)->deserialize(cdr);
-  } catch (const eprosima::fastcdr::exception::Exception&) {
-    return false;
-  } catch (const std::bad_alloc&) {  // a corrupt sequence length
-    return false;
-  } catch (const std::length_error&) {
-    return false;
-  }
-  return true;
-}
-
-template <class T>
-void serializeKey(const void* sample, std::vector<unsigned char>& out) {
-  out.clear();
-  if (!T::isKeyDefined()) return;
-  FastBuffer fb;  // grows as needed: string keys have no fixed bound
-  Cdr cdr(fb, Cdr::BIG_ENDIANNESS);
-  static_cast<const T*>(sample)->serializeKey(cdr);
-  out.assign(fb.getBuffer(), fb.getBuffer() + cdr.getSerializedDataLength());
-}
-
-template <class T>
-TypeSupport make(std::string_view name, const dds_topic_descriptor* descriptor) {
-  TypeSupport ts;
-  ts.name = name;
-  ts.keyed = T::isKeyDefined();
-  ts.key_max_size = T::getKeyMaxCdrSerializedSize();
-  ts.create = [] { return static_cast<void*>(new T()); };
-  ts.destroy = [](void* s) { delete static_cast<T*>(s); };
-  ts.serialized_size = &serializedSize<T>;
-  ts.serialize = &serialize<T>;
-  ts.deserialize = &deserialize<T>;
-  ts.serialize_key = &serializeKey<T>;
-  ts.cyclone_descriptor = descriptor;
-  return ts;
-}
-
-}  // namespace
 
 #define DDSNAV_MESSAGE(T)                                                                     \
   template <>                                                                                 \
   const TypeSupport& type_support<T>() {                                                      \
-    static const TypeSupport ts = make<T>("ddsnav::msg::" #T, &ddsnav_msg_##T##_desc);        \
+    static const TypeSupport ts = makeTypeSupport<T>("ddsnav::msg::" #T, &ddsnav_msg_##T##_desc); \
     return ts;                                                                                \
   }
 #include <ddsnav/msg/type_list.inc>
 #undef DDSNAV_MESSAGE
 
-const std::vector<const TypeSupport*>& all_type_supports() {
-  static const std::vector<const TypeSupport*> all = {
-#define DDSNAV_MESSAGE(T) &type_support<T>(),
+namespace {
+
+struct Registry {
+  std::mutex mutex;
+  std::vector<const TypeSupport*> types;
+  std::vector<std::string_view> schemas;  // per type; empty for the stock ones
+  std::vector<std::string> owners;  // library that registered types[i] ("ddsnav_msgs" for the stock ones)
+  std::string conflict;             // first duplicate name seen, reported by the next lookup
+};
+
+Registry& registry() {
+  static Registry* r = [] {
+    auto* init = new Registry;  // never destroyed: libraries may register from their own static init
+#define DDSNAV_MESSAGE(T) \
+  init->types.push_back(&type_support<T>()); init->schemas.emplace_back(); init->owners.emplace_back("ddsnav_msgs");
 #include <ddsnav/msg/type_list.inc>
 #undef DDSNAV_MESSAGE
-  };
-  return all;
+    return init;
+  }();
+  return *r;
+}
+
+// DDSNAV_MESSAGE_LIBRARIES, once per process (a failed load is retried, and reported, on every lookup).
+void loadLibrariesFromEnvironment() {
+  static std::once_flag loaded;
+  std::call_once(loaded, [] {
+    const char* value = std::getenv(kMessageLibrariesVariable);
+    std::string list = value ? value : "";
+    std::size_t from = 0;
+    while (from <= list.size()) {
+      const std::size_t colon = list.find(':', from);
+      const std::string path = list.substr(from, colon == std::string::npos ? std::string::npos : colon - from);
+      if (!path.empty() && !::dlopen(path.c_str(), RTLD_NOW | RTLD_GLOBAL)) {
+        const char* why = ::dlerror();
+        throw std::runtime_error(std::string(kMessageLibrariesVariable) + ": cannot load message library '" + path +
+                                 "': " + (why ? why : "unknown error"));
+      }
+      if (colon == std::string::npos) break;
+      from = colon + 1;
+    }
+  });
+  Registry& r = registry();
+  std::lock_guard lock(r.mutex);
+  if (!r.conflict.empty()) throw std::runtime_error(r.conflict);
+}
+
+}  // namespace
+
+bool registerMessageLibrary(std::string_view library, std::initializer_list<RegisteredType> types) {
+  Registry& r = registry();
+  std::lock_guard lock(r.mutex);
+  for (const RegisteredType& entry : types) {
+    const TypeSupport* type = entry.type;
+    bool known = false;
+    for (std::size_t i = 0; i < r.types.size(); ++i) {
+      if (r.types[i]->name != type->name) continue;
+      known = true;
+      if (r.types[i] != type && r.conflict.empty())
+        r.conflict = "message type " + std::string(type->name) + " is defined by both " + r.owners[i] + " and " +
+                     std::string(library) + "; rename one of them (module and struct name must be unique)";
+    }
+    if (known) continue;
+    r.types.push_back(type);
+    r.schemas.push_back(entry.omgidl_schema);
+    r.owners.emplace_back(library);
+  }
+  return true;
+}
+
+std::string_view registeredSchema(std::string_view type_name) {
+  loadLibrariesFromEnvironment();
+  Registry& r = registry();
+  std::lock_guard lock(r.mutex);
+  for (std::size_t i = 0; i < r.types.size(); ++i)
+    if (r.types[i]->name == type_name) return r.schemas[i];
+  return {};
+}
+
+const std::vector<const TypeSupport*>& all_type_supports() {
+  loadLibrariesFromEnvironment();
+  return registry().types;
 }
 
 const TypeSupport* find_type_support(std::string_view type_name) {

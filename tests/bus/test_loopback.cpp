@@ -106,7 +106,7 @@ class StrayVendorConfig {
 };
 
 void checkLoopbackOnly(Vendor vendor, int domain_offset) {
-  const int domain = kDomainBase + domain_offset;
+  const int domain = testDomain(domain_offset);
   StrayVendorConfig stray;
   bus::Participant a(options(vendor, domain_offset, "loopback-a"));
   bus::Participant b(options(vendor, domain_offset, "loopback-b"));

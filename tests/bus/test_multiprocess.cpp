@@ -17,7 +17,7 @@ using bus::Vendor;
 
 void echoEveryType(Vendor local, Vendor remote, int domain_offset) {
   ChildProcess peer({BUS_TEST_PEER, "--dds", std::string(bus::vendorName(remote)), "--domain",
-                     std::to_string(kDomainBase + domain_offset)});
+                     std::to_string(testDomain(domain_offset))});
   ASSERT_EQ(peer.readLine(kWait), std::optional<std::string>("READY"));
   bus::Participant p(options(local, domain_offset, "echo-client"));
   forEachMessageType([&](auto proto) {
@@ -84,7 +84,7 @@ TEST(BusSharedMemory, StaleSegmentsOfKilledProcessRemoved) {
   const std::set<std::string> before = shmSegments();
   std::set<std::string> dead;
   {
-    ChildProcess peer({BUS_TEST_PEER, "--dds", "fastdds", "--domain", std::to_string(kDomainBase + 24)});
+    ChildProcess peer({BUS_TEST_PEER, "--dds", "fastdds", "--domain", std::to_string(testDomain(24))});
     ASSERT_EQ(peer.readLine(kWait), std::optional<std::string>("READY"));
     std::set<std::string> during = shmSegments();
     kill(peer.pid(), SIGKILL);

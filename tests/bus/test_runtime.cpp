@@ -129,7 +129,7 @@ void componentLifecycle(bus::Vendor component_vendor, bus::Vendor observer_vendo
   bus::Participant observer(options(observer_vendor, domain_offset, "status-observer"));
   auto status = observer.inbox<msg::ComponentStatus>("system/status", bus::Qos::state(1));
   ChildProcess talker({DDSNAV_TALKER, "--dds", std::string(bus::vendorName(component_vendor)), "--domain",
-                       std::to_string(kDomainBase + domain_offset), "--name", "talker-under-test", "--param",
+                       std::to_string(testDomain(domain_offset)), "--name", "talker-under-test", "--param",
                        "heartbeat_period_s=0.2", "--log-level", "warn"});
   bool ready = false;
   auto deadline = std::chrono::steady_clock::now() + kWait;
@@ -157,7 +157,7 @@ TEST(RuntimeComponent, CycloneComponentLifecycle) {
 TEST(RuntimeComponent, RepeatedSigtermIsStillOneCleanShutdown) {
   bus::Participant observer(options(bus::Vendor::CycloneDDS, 36, "status-observer"));
   auto status = observer.inbox<msg::ComponentStatus>("system/status", bus::Qos::state(1));
-  ChildProcess talker({DDSNAV_TALKER, "--dds", "fastdds", "--domain", std::to_string(kDomainBase + 36), "--name",
+  ChildProcess talker({DDSNAV_TALKER, "--dds", "fastdds", "--domain", std::to_string(testDomain(36)), "--name",
                        "talker-twice", "--log-level", "warn"});
   bool ready = false;
   const auto deadline = std::chrono::steady_clock::now() + kWait;
@@ -182,7 +182,7 @@ TEST(RuntimeComponent, UsageErrorsExitWithTwo) {
                                         std::vector<std::string>{"--param", "shutdown_timeout_s=1e300"},
                                         std::vector<std::string>{"--param", "heartbeat_period_s=inf"}}) {
     args.insert(args.begin(), DDSNAV_TALKER);
-    args.insert(args.end(), {"--log-level", "off", "--domain", std::to_string(kDomainBase + 33)});
+    args.insert(args.end(), {"--log-level", "off", "--domain", std::to_string(testDomain(33))});
     if (args[1] == "--domain") args.resize(args.size() - 2);
     ChildProcess p(args);
     std::optional<std::string> line = p.readLine(kWait);  // EOF when it exits
@@ -200,7 +200,7 @@ namespace {
 // The first pipeline on the bus: ddsnav-talker on Cyclone, ddsnav-echo on Fast DDS finds the topic by
 // discovery and prints decoded samples.
 TEST(RuntimeTools, EchoPrintsTalkerAcrossVendors) {
-  const std::string domain = std::to_string(kDomainBase + 34);
+  const std::string domain = std::to_string(testDomain(34));
   ChildProcess talker({DDSNAV_TALKER, "--dds", "cyclonedds", "--domain", domain, "--param", "rate_hz=50",
                        "--log-level", "warn"});
   ChildProcess echo({DDSNAV_ECHO, "vehicle/state", "--dds", "fastdds", "--domain", domain, "--count", "3",

@@ -1,8 +1,7 @@
 // Bad input from outside: perception and the mapper log and skip (or clean) bad clouds on sensors/points;
 // the planner and the tracker drop malformed perception/obstacles arrays (keeping the last good one) and
 // keep answering; bad parameters end a component at startup with status 2 and the parameter named.
-// Each test's parts share one domain (215, and 219 for the issue 13 cases), so they run one after the other
-// inside it.
+// Each part gets a domain of its own from the harness's allocator.
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/testing/harness.hpp>
@@ -38,7 +37,6 @@ msg::PointCloud boxCloud(const std::string& frame = "map") {
   return cloud;
 }
 
-constexpr int kDomain = 215;
 const std::string kScenario = std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml";
 
 // Polls NAME's log until it contains `text`; bounded.
@@ -104,7 +102,7 @@ std::optional<msg::Path> answerTo(bus::Inbox<msg::Path>& paths, std::uint32_t id
 // Starts NAME with `params`, waits (bounded) for it to end by itself and returns its log; whether it did goes
 // to `ended`, its wait status to `status`.
 std::string runToExit(const std::string& name, const std::map<std::string, std::string>& params, bool& ended, int& status) {
-  harness::Harness h(kDomain);
+  harness::Harness h;
   h.start({.name = name, .command = "ddsnav-" + name, .params = params});
   const auto deadline = std::chrono::steady_clock::now() + 20s;
   while (h.running(name) && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
@@ -114,7 +112,7 @@ std::string runToExit(const std::string& name, const std::map<std::string, std::
 }
 
 void perceptionAndMapperSkipBadCloudsAndKeepServing() {
-  harness::Harness h(kDomain);
+  harness::Harness h;
   h.startReady({.name = "perception", .command = "ddsnav-perception", .dds = "cyclonedds"});
   h.startReady({.name = "mapper", .command = "ddsnav-mapper", .params = {{"publish_rate_hz", "10"}}, .dds = "fastdds"});
   auto clouds = h.bus().publisher<msg::PointCloud>("sensors/points", bus::Qos::sensorData());
@@ -176,7 +174,7 @@ void perceptionAndMapperSkipBadCloudsAndKeepServing() {
 }
 
 void plannerAndTrackerDropMalformedWorlds() {
-  harness::Harness h(kDomain);
+  harness::Harness h;
   h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}}, .dds = "cyclonedds"});
   h.startReady({.name = "tracker",
                 .command = "ddsnav-tracker",
@@ -248,7 +246,7 @@ void plannerAndTrackerDropMalformedWorlds() {
 
 // A map/octomap whose bytes are no octree is dropped by a planner on world=map; it keeps answering.
 void plannerDropsAMapThatIsNoOctree() {
-  harness::Harness h(kDomain);
+  harness::Harness h;
   h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"world", "map"}}});
   auto maps = h.bus().publisher<msg::OccupancyMap>("map/octomap", bus::Qos::state());
   auto requests = h.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
@@ -273,7 +271,7 @@ void plannerDropsAMapThatIsNoOctree() {
 // Nobody answers the tracker's requests (the test only listens on planning/request): after
 // max_plan_attempts unanswered requests it ends with a failure naming the cause instead of asking forever.
 void trackerGivesUpWhenThePlannerNeverAnswers() {
-  harness::Harness h(kDomain);
+  harness::Harness h;
   auto requests = h.bus().inbox<msg::PlanRequest>("planning/request", bus::Qos::commands());
   auto states = h.bus().publisher<msg::VehicleState>("vehicle/state", bus::Qos::sensorData());
   // world=scenario is there from the start; an unanswered request is re-sent after 2 * 0.5 + 2 = 3 s.
@@ -334,7 +332,6 @@ void badParametersEndTheComponentWithStatus2() {
 
 // --- issue 13, rows 1, 2, 3 and 5: their own domain, as they run in a test of their own ---
 
-constexpr int kIssue13Domain = 219;
 
 std::int64_t nowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -371,7 +368,7 @@ struct FakeVehicle {
 // Row 1: vehicle/state samples with NaN/inf while the tracker follows a trajectory: dropped with a warning
 // naming topic and field (by the tracker and the monitor), counted; both keep running.
 void trackerAndMonitorDropNonFiniteVehicleStates() {
-  harness::Harness h(kIssue13Domain);
+  harness::Harness h;
   const auto out = std::filesystem::temp_directory_path() / ("ddsnav_bad_state_" + std::to_string(::getpid()));
   h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"world", "scenario"}}});
   h.startReady({.name = "tracker",
@@ -416,7 +413,7 @@ void trackerAndMonitorDropNonFiniteVehicleStates() {
 // Row 2: start or goal outside the planning bounds (z = 1e300 in the 2-D yard, x = 1e300, NaN) is refused
 // with an answered, unsolved Path naming the field and the bound; the planner keeps answering.
 void plannerRefusesRequestsOutsideTheBounds() {
-  harness::Harness h(kIssue13Domain);
+  harness::Harness h;
   h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"world", "scenario"}}});
   auto requests = h.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
   auto paths = h.bus().inbox<msg::Path>("planning/path", bus::Qos::state());
@@ -469,7 +466,7 @@ std::size_t peakRssKb(pid_t pid) {
 // on world=map a bounded amount of memory (clipped to the bounds: a few thousand bricks), and requests are
 // still answered.
 void plannerBoundsAHostileCoarseMap() {
-  harness::Harness h(kIssue13Domain);
+  harness::Harness h;
   const pid_t pid = h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"world", "map"}}});
   auto maps = h.bus().publisher<msg::OccupancyMap>("map/octomap", bus::Qos::state());
   auto requests = h.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
@@ -504,7 +501,7 @@ void plannerBoundsAHostileCoarseMap() {
 // reports the goal reached and gives up after max_plan_attempts; the monitor does not take the tracker's
 // word for it either (the vehicle's true position decides) and says why in summary.json.
 void shortPathsAreNoSuccess() {
-  harness::Harness h(kIssue13Domain);
+  harness::Harness h;
   auto requests = h.bus().inbox<msg::PlanRequest>("planning/request", bus::Qos::commands());
   auto paths = h.bus().publisher<msg::Path>("planning/path", bus::Qos::state());
   auto statuses = h.bus().inbox<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData());
@@ -597,7 +594,7 @@ TEST(BadInput, ComponentsSurviveBadMessagesAndRefuseBadParameters) {
 }
 
 // Issue 13: non-finite vehicle states, requests outside the bounds, a hostile coarse map, short paths
-// (domain 219: ctest -j runs this beside the test above).
+
 TEST(BadInput, NonFiniteStatesOutOfBoundsRequestsCoarseMapsAndShortPaths) {
   {
     SCOPED_TRACE("non-finite vehicle/state");

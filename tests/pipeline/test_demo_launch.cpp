@@ -18,7 +18,7 @@ using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
 TEST(DemoLaunch, TheReadmeDemoReachesTheGoalAndWritesItsReport) {
-  harness::Harness h(218);
+  harness::Harness h;
   const fs::path out = fs::temp_directory_path() / ("ddsnav_demo_launch_" + std::to_string(::getpid()));
   fs::remove_all(out);
   h.start({.name = "launcher",

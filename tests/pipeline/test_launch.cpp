@@ -71,7 +71,7 @@ std::string writeLaunchFile(const std::string& name, const std::string& text) {
 }  // namespace
 
 TEST(Launch, StartsInOrderRestartsOnFailureAndTearsDownWithoutOrphans) {
-  harness::Harness h(210);
+  harness::Harness h;
   ReadyPids ready(h.bus());
   const auto file = writeLaunchFile("launch_restart", R"(
 name: restart-test
@@ -115,7 +115,7 @@ processes:
 }
 
 TEST(Launch, ABadLaunchFileIsRejectedBeforeAnythingStarts) {
-  harness::Harness h(211);
+  harness::Harness h;
   const auto file = writeLaunchFile("launch_bad", "processes:\n  - name: a\n    command: ddsnav-sim\n    restart: sometimes\n");
   h.start({.name = "launcher", .command = "ddsnav-launch", .args = {file}});
   int status = 0;
@@ -189,7 +189,7 @@ pid_t readPid(const std::string& path, std::chrono::seconds timeout) {
 // Issue 13 row 4: SIGSTOP a component mid-run. The launcher notices its silence within
 // liveness_timeout_s, names it, kills it, restarts it by policy, and tells the system on system/status.
 TEST(Launch, StoppedComponentIsNamedKilledRestartedAndAnnounced) {
-  harness::Harness h(212);
+  harness::Harness h;
   ReadyPids ready(h.bus());
   StatusLog statuses(h.bus());
   const auto file = writeLaunchFile("launch_liveness", R"(
@@ -242,7 +242,7 @@ processes:
 // Issue 13 row 6: kill -9 the launcher. Its components shut down cleanly (one SIGTERM's worth: FINISHED,
 // not exit 3) and a grandchild (`sh -c "sleep 301 & ..."`) goes too.
 TEST(Launch, SigkilledLauncherTakesTheWholeTreeDownCleanly) {
-  harness::Harness h(213);
+  harness::Harness h;
   ReadyPids ready(h.bus());
   StatusLog statuses(h.bus());
   const auto pid_file = (std::filesystem::temp_directory_path() / ("launch_grandchild_" + std::to_string(::getpid()))).string();
@@ -281,7 +281,7 @@ processes:
 
 // Issue 13 row 13: exit statuses as docs/launch.md gives them.
 TEST(Launch, UsageAndStartErrorsExitAsDocumented) {
-  harness::Harness h(214);
+  harness::Harness h;
   auto exitOf = [&](const std::string& name, const std::vector<std::string>& args) {
     h.start({.name = name, .command = "ddsnav-launch", .args = args});
     for (int i = 0; i < 400 && h.running(name); ++i) std::this_thread::sleep_for(50ms);
@@ -292,10 +292,10 @@ TEST(Launch, UsageAndStartErrorsExitAsDocumented) {
   EXPECT_EQ(exitOf("domain", {good, "--domain", "233"}), 2) << h.log("domain");
   EXPECT_NE(h.log("domain").find("--domain"), std::string::npos) << h.log("domain");
   const auto folder = writeLaunchFile("launch_folder", "processes:\n  - {name: a, command: /tmp, wait_ready: false}\n");
-  EXPECT_EQ(exitOf("folder", {folder, "--domain", "214"}), 1) << h.log("folder");
+  EXPECT_EQ(exitOf("folder", {folder, "--domain", std::to_string(h.domain())}), 1) << h.log("folder");
   EXPECT_NE(h.log("folder").find("cannot start a: command '/tmp' is a directory"), std::string::npos) << h.log("folder");
   const auto nul = writeLaunchFile("launch_nul", "processes:\n  - {name: \"pl\\0anner\", command: /bin/true}\n");
-  EXPECT_EQ(exitOf("nul", {nul, "--domain", "214"}), 2) << h.log("nul");
+  EXPECT_EQ(exitOf("nul", {nul, "--domain", std::to_string(h.domain())}), 2) << h.log("nul");
   EXPECT_NE(h.log("nul").find(nul + ":2: key 'name': control character (byte 0)"), std::string::npos) << h.log("nul");
   for (const auto& f : {good, folder, nul}) std::filesystem::remove(f);
 }

@@ -21,7 +21,7 @@ const std::string kScenario = std::string(DDSNAV_SOURCE_DIR) + "/configs/scenari
 }  // namespace
 
 TEST(Pipeline, DemoYardIsDrivenToTheGoalAcrossVendors) {
-  harness::Harness h(200);
+  harness::Harness h;
   h.startReady({.name = "sim", .command = "ddsnav-sim", .params = {{"scenario", kScenario}}, .dds = "fastdds"});
   h.startReady({.name = "perception", .command = "ddsnav-perception", .dds = "cyclonedds"});
   h.startReady({.name = "mapper", .command = "ddsnav-mapper", .dds = "fastdds"});
@@ -69,7 +69,7 @@ TEST(Pipeline, DemoYardIsDrivenToTheGoalAcrossVendors) {
 }
 
 TEST(Pipeline, ComponentRejectsAnUnknownParameterByName) {
-  harness::Harness h(201);
+  harness::Harness h;
   h.start({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"wrold", "map"}}});
   EXPECT_FALSE(h.waitReady("planner", 10s));
   const int status = h.stop("planner");
@@ -78,7 +78,7 @@ TEST(Pipeline, ComponentRejectsAnUnknownParameterByName) {
 }
 
 TEST(Pipeline, MissingScenarioIsAClearError) {
-  harness::Harness h(202);
+  harness::Harness h;
   h.start({.name = "sim", .command = "ddsnav-sim", .params = {{"scenario", "/nonexistent/world.yaml"}}});
   EXPECT_FALSE(h.waitReady("sim", 10s));
   EXPECT_NE(h.log("sim").find("/nonexistent/world.yaml"), std::string::npos) << h.log("sim");
@@ -87,7 +87,7 @@ TEST(Pipeline, MissingScenarioIsAClearError) {
 }
 
 TEST(Pipeline, PlannerAnswersABadRequestWithAnUnsolvedPathAndKeepsServing) {
-  harness::Harness h(203);
+  harness::Harness h;
   h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}, {"world", "scenario"}}, .dds = "cyclonedds"});
   auto requests = h.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
   ASSERT_TRUE(requests.waitForSubscribers(1, 10s));

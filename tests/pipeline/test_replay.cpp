@@ -1,6 +1,6 @@
-// "Any stage can be swapped for a replay": record the simulator's sensor topics (domain 216), then run
+// "Any stage can be swapped for a replay": record the simulator's sensor topics, then run
 // perception and the mapper on that recording instead of the simulator with
-// configs/launch/replay_perception.yaml (domain 217), following the recording's clock.
+// configs/launch/replay_perception.yaml (each phase on a domain of its own), following the recording's clock.
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/collision_world.hpp>
@@ -71,7 +71,7 @@ double distanceToScenarioObstacle(const planner::CollisionWorld& world, double x
   return std::max(world.clearance(planner::Vec3(x, y, 0.0)) + world.robotRadius(), 0.0);
 }
 
-// What the test sees on domain 217 while the replay runs.
+// What the test sees while the replay runs.
 struct Observed {
   std::mutex mutex;
   std::condition_variable changed;
@@ -91,12 +91,12 @@ TEST(Replay, PerceptionAndMapperRunOnARecordingOfTheSimulatorOnItsClock) {
 
   // Phase 1: record the simulator's lidar clouds and vehicle states (Fast DDS sim, Cyclone recorder).
   {
-    harness::Harness h(216);
+    harness::Harness h;
     h.startReady({.name = "sim", .command = "ddsnav-sim", .params = {{"scenario", kScenario}}, .dds = "fastdds"});
     h.start({.name = "record",
              .command = "ddsnav-record",
              .args = {"-o", recording, "--topics", "sensors/points,vehicle/state", "--duration", "4", "--compression", "none",
-                      "--domain", "216"},
+                      "--domain", std::to_string(h.domain())},
              .dds = "cyclonedds"});
     const int status = waitForExit(h, "record", 20s);
     ASSERT_TRUE(exitedWith(status, 0)) << status << "\n" << h.log("record");
@@ -112,7 +112,7 @@ TEST(Replay, PerceptionAndMapperRunOnARecordingOfTheSimulatorOnItsClock) {
   ASSERT_GT(recorded_to, recorded_from);
 
   // Phase 2: the launch file replays it into perception and the mapper; nothing simulates anything.
-  harness::Harness h(217);
+  harness::Harness h;
   Observed seen;
   auto obstacles = h.bus().subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [&](const msg::ObstacleArray& a) {
     std::lock_guard lock(seen.mutex);
@@ -132,7 +132,7 @@ TEST(Replay, PerceptionAndMapperRunOnARecordingOfTheSimulatorOnItsClock) {
   const std::string out = (dir / "out").string();
   h.start({.name = "launcher",
            .command = "ddsnav-launch",
-           .args = {kLaunchFile, "--set", "recording=" + recording, "--set", "out=" + out, "--domain", "217"}});
+           .args = {kLaunchFile, "--set", "recording=" + recording, "--set", "out=" + out, "--domain", std::to_string(h.domain())}});
   {
     std::unique_lock lock(seen.mutex);
     const bool both = seen.changed.wait_for(lock, 30s, [&] {

@@ -8,6 +8,7 @@
 #include <ddsnav/record/mcap.hpp>
 #include <ddsnav/record/schemas.hpp>
 
+#include <ddsnav/testing/domain.hpp>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -18,7 +19,8 @@ namespace fs = std::filesystem;
 namespace {
 
 TEST(ClockFollowing, ComponentStampsFollowTheReplayedTime) {
-  constexpr int kDomain = 197;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   const fs::path dir = fs::temp_directory_path() / ("ddsnav_record_clock_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const fs::path file = dir / "past.mcap";

@@ -11,6 +11,7 @@
 #include <ddsnav/record/recorder.hpp>
 #include <ddsnav/record/schemas.hpp>
 
+#include <ddsnav/testing/domain.hpp>
 #include <gtest/gtest.h>
 
 #include <sys/resource.h>
@@ -56,7 +57,8 @@ std::vector<std::int64_t> stamps(const record::McapReader& r) {
 }
 
 TEST(RecorderSplit, BySizeAndByDurationIntoCompleteNumberedFiles) {
-  constexpr int kDomain = 224;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "split-pub"});
   bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "split-rec"});
   auto pub = pub_side.publisher<msg::VelocityCommand>("control/cmd_vel", bus::Qos::commands(100));
@@ -124,7 +126,8 @@ TEST(RecorderSplit, BySizeAndByDurationIntoCompleteNumberedFiles) {
 }
 
 TEST(RecorderSnapshot, KeepsTheLastSecondsAndWritesThemOnRequest) {
-  constexpr int kDomain = 225;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "snap-pub"});
   bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "snap-rec"});
   auto pub = pub_side.publisher<msg::VelocityCommand>("control/cmd_vel", bus::Qos::commands(100));
@@ -168,7 +171,8 @@ TEST(RecorderSnapshot, KeepsTheLastSecondsAndWritesThemOnRequest) {
 }
 
 TEST(RecorderSnapshot, SigusrAndControlTopicTriggerSnapshotsFromTheCommandLine) {
-  constexpr int kDomain = 226;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   const fs::path base = scratch("cli_snap.mcap");
   bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "clisnap-pub"});
   auto pub = pub_side.publisher<msg::VelocityCommand>("control/cmd_vel", bus::Qos::commands(100));
@@ -232,7 +236,8 @@ TEST(RecordCommandLine, BadFolderAndZeroLimitsAreRefusedWithAClearMessage) {
 
 TEST(RecorderSplit, DiskFullMidSplitKeepsTheEarlierFilesComplete) {
   // A file size limit stands in for a full disk (SIGXFSZ ignored); this test runs in its own process.
-  constexpr int kDomain = 227;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   const fs::path base = scratch("fullsplit.mcap");
   ::signal(SIGXFSZ, SIG_IGN);
   rlimit old{};
@@ -377,7 +382,8 @@ TEST(Player, DamagedChunkIsSkippedWithAWarningAndPlayContinues) {
 }
 
 TEST(Player, StartEndAndRemapSelectWhatIsPublishedWhere) {
-  constexpr int kDomain = 228;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   const fs::path file = stateRecording("window.mcap", 100, 10);  // 0 .. 0.99 s
   bus::Participant sub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "remap-sub"});
   bus::Participant play_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "remap-play"});
@@ -423,7 +429,8 @@ namespace {
 TEST(RecordCommandLine, FoxgloveAddsTheDerivedViewsToTheFinishedFile) {
   // `ddsnav record --foxglove`: the file holds the recorded vehicle/state unchanged and, beside it, the
   // Foxglove views of it (foxglove/tf: one FrameTransform per sample; foxglove/vehicle/state: the scene).
-  constexpr int kDomain = 229;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   const fs::path file = scratch("foxglove.mcap");
   bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "fox-pub"});
   auto pub = pub_side.publisher<msg::VehicleState>("vehicle/state", bus::Qos::commands(100));

@@ -9,6 +9,7 @@
 #include <ddsnav/record/recorder.hpp>
 #include <ddsnav/record/schemas.hpp>
 
+#include <ddsnav/testing/domain.hpp>
 #include <gtest/gtest.h>
 
 #include <sys/resource.h>
@@ -55,7 +56,8 @@ TEST(RecordQos, TableFollowsTheTopicsIntent) {
 }
 
 TEST(Recorder, TinyQueueCountsDropsPerTopic) {
-  constexpr int kDomain = 194;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   constexpr int kCount = 100;
   const fs::path file = tempFile("drops.mcap");
   bus::Participant pub_side({.vendor = bus::Vendor::FastDDS, .domain_id = kDomain, .name = "drops-pub"});
@@ -111,7 +113,8 @@ TEST(Recorder, TinyQueueCountsDropsPerTopic) {
 }
 
 TEST(Recorder, UnknownBestEffortTopicFallsBackToBestEffort) {
-  constexpr int kDomain = 196;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   const fs::path file = tempFile("fallback.mcap");
   bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "fb-pub"});
   bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "fb-rec"});
@@ -142,7 +145,8 @@ TEST(Recorder, UnknownBestEffortTopicFallsBackToBestEffort) {
 TEST(Recorder, FullDiskStopsWritingAndCountsTheRestAsDropped) {
   // A file size limit stands in for a full disk: writes past it fail with EFBIG (SIGXFSZ ignored).
   // Each test runs in its own process under ctest, so the limit touches nothing else.
-  constexpr int kDomain = 198;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   const fs::path file = tempFile("full.mcap");
   ::signal(SIGXFSZ, SIG_IGN);
   rlimit old{};
@@ -186,7 +190,8 @@ TEST(Recorder, FullDiskStopsWritingAndCountsTheRestAsDropped) {
 }
 
 TEST(Recorder, KilledRecorderLeavesAReadableFile) {
-  constexpr int kDomain = 195;
+  const ddsnav::testing::DomainLease domain_lease;  // the allocator's id, held for this test
+  const int kDomain = domain_lease.id();
   const fs::path file = tempFile("killed.mcap");
   fs::remove(file);
   bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kDomain, .name = "killed-pub"});

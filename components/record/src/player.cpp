@@ -1,4 +1,5 @@
 #include <ddsnav/msg/messages.hpp>
+#include <ddsnav/msg/registry.hpp>
 #include <ddsnav/record/recorder.hpp>
 
 #include <fmt/format.h>
@@ -93,6 +94,12 @@ PlaybackProgress play(bus::Participant& bus, const McapReader& file, const Playe
       continue;
     }
     const msg::TypeSupport* known = msg::find_type_support(type);
+    if (!known)
+      throw std::invalid_argument(file.path() + ": topic " + channel.topic + " carries type " + type +
+                               ", which this build does not know; if it is a ddsnav_add_messages() type, list its "
+                               "library in " + msg::kMessageLibrariesVariable +
+                               " (e.g. " + msg::kMessageLibrariesVariable + "=/path/libmy_msgs.so), or leave the "
+                               "topic out with --topics");
     const bool keyed = meta("keyed").empty() ? (known && known->keyed) : meta("keyed") == "true";
     try {
       // QoS by the recorded topic's profile: a remapped topic keeps the QoS it was recorded with.

@@ -1,5 +1,7 @@
 #include <ddsnav/record/schemas.hpp>
 
+#include <ddsnav/msg/registry.hpp>
+
 #include <map>
 #include <regex>
 #include <sstream>
@@ -46,7 +48,12 @@ void collect(const IdlFile& file, std::vector<const IdlFile*>& order) {
 std::optional<std::string> idlSchemaFor(std::string_view type_name) {
   // Every ddsnav type lives in module ddsnav::msg; the struct name is the last component.
   constexpr std::string_view prefix = "ddsnav::msg::";
-  if (!type_name.starts_with(prefix)) return std::nullopt;
+  if (!type_name.starts_with(prefix)) {
+    // A ddsnav_add_messages() type carries its own schema (linked, or loaded from DDSNAV_MESSAGE_LIBRARIES).
+    const std::string_view schema = msg::registeredSchema(type_name);
+    if (schema.empty()) return std::nullopt;
+    return std::string(schema);
+  }
   const std::string name(type_name.substr(prefix.size()));
   const std::regex declares("struct\\s+" + name + "\\s*\\{");
   for (std::size_t i = 0; i < kIdlFileCount; ++i) {
