@@ -1,6 +1,6 @@
 // ddsnav-planner: planning/request -> planning/path. Plans on the newest world it has heard of:
-// perception/obstacles (ellipse/ellipsoid world, the default), map/octomap (OctoMap world) or the
-// scenario's exact geometry (ground truth, for comparisons). Bounds, robot radius and vehicle limits come
+// perception/obstacles (the default), map/octomap, both fused (the demo's choice), or the scenario's exact
+// geometry (ground truth, for comparisons). Bounds, robot radius and vehicle limits come
 // from the scenario file.
 
 #include "ddsnav/nodes/convert.hpp"
@@ -20,7 +20,8 @@ using nodes::sleepFor;
 int main(int argc, char** argv) {
   return runtime::runComponent("planner", argc, argv, [](runtime::Context& ctx) {
     const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
-    const auto kind = nodes::parseWorldKind(ctx.params().declare<std::string>("world", "obstacles"));
+    const auto world_params = nodes::declareWorldParameters(ctx.params());
+    const auto kind = world_params.kind;
     const bool kinodynamic = ctx.params().declare<bool>("kinodynamic", scenario.vehicle.has_value());
     const double max_budget = ctx.params().declare<double>("max_time_budget_s", 30.0);
     if (!(max_budget > 0) || !std::isfinite(max_budget))
@@ -37,7 +38,7 @@ int main(int argc, char** argv) {
       }
     }
 
-    nodes::WorldSource world_source(ctx.bus(), kind, scenario);
+    nodes::WorldSource world_source(ctx.bus(), world_params, scenario);
     auto paths = ctx.bus().publisher<msg::Path>("planning/path", bus::Qos::state());
 
     auto answer = [&](const msg::PlanRequest& request) {
@@ -72,7 +73,10 @@ int main(int argc, char** argv) {
       } catch (const std::exception& e) {
         return fail(std::string("cannot build the world: ") + e.what());
       }
-      if (!world) return fail(kind == nodes::WorldKind::Map ? "no map/octomap received yet" : "no perception/obstacles received yet");
+      if (!world)
+        return fail(kind == nodes::WorldKind::Map     ? "no map/octomap received yet"
+                    : kind == nodes::WorldKind::Fused ? "no map/octomap and perception/obstacles received yet"
+                                                      : "no perception/obstacles received yet");
       planner::PlanProblem problem;
       problem.world = world.get();
       problem.start = nodes::fromMsg(request.start());

@@ -1,8 +1,10 @@
 // ddsnav-tracker: drives the vehicle to the scenario's goal. Asks for a plan (planning/request), smooths
 // the answer into a trajectory (control/trajectory), follows it with the trajectory controller
-// (control/cmd_vel, control/tracking), and asks again from the current state when the vehicle
-// deviates or newly perceived obstacles block the rest of the trajectory. The mission's decisions (when to
-// ask, retry, give up, when the goal is reached) are tracker::Mission's; this file carries them out.
+// (control/cmd_vel, control/tracking), and asks again when the vehicle deviates or newly perceived
+// obstacles truly block the rest of the trajectory within the horizon (tracker::ReplanGate: hysteresis,
+// and a start predicted along the trajectory, which the vehicle keeps flying meanwhile). The mission's
+// decisions (when to ask, retry, give up, when the goal is reached) are tracker::Mission's; this file
+// carries them out.
 
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
@@ -10,11 +12,13 @@
 #include "ddsnav/nodes/world_source.hpp"
 
 #include <ddsnav/tracker/mission.hpp>
+#include <ddsnav/tracker/replan.hpp>
 #include <ddsnav/tracker/smoother.hpp>
 #include <ddsnav/tracker/tracker.hpp>
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <optional>
@@ -34,7 +38,17 @@ int main(int argc, char** argv) {
     const std::int64_t max_attempts = ctx.params().declare<std::int64_t>("max_plan_attempts", 10);
     const double retry_delay = ctx.params().declare<double>("plan_retry_delay_s", 1.0);
     const bool wait_for_world = ctx.params().declare<bool>("wait_for_world", true);
-    const double replan_check_period = ctx.params().declare<double>("replan_check_period_s", 0.5);
+    const double replan_check_period = ctx.params().declare<double>("replan_check_period_s", 0.1);
+    tracker::ReplanPolicy replan_policy;
+    replan_policy.confirm_checks = static_cast<int>(ctx.params().declare<std::int64_t>("replan_confirm_checks", replan_policy.confirm_checks));
+    replan_policy.block_margin = ctx.params().declare<double>("replan_block_margin", replan_policy.block_margin);
+    replan_policy.stop_margin_s = ctx.params().declare<double>("replan_stop_margin_s", replan_policy.stop_margin_s);
+    replan_policy.planning_time_s = ctx.params().declare<double>("expected_planning_time_s", replan_policy.planning_time_s);
+    try {
+      replan_policy.validate();
+    } catch (const std::invalid_argument& e) {
+      throw runtime::ParameterError(std::string("parameters replan_*, expected_planning_time_s: ") + e.what());
+    }
     tracker::TrackerConfig tracker_config;
     tracker_config.replan_deviation = ctx.params().declare<double>("replan_deviation", tracker_config.replan_deviation);
     tracker_config.replan_horizon = ctx.params().declare<double>("replan_horizon_s", 8.0);
@@ -77,7 +91,7 @@ int main(int argc, char** argv) {
     auto statuses = ctx.bus().publisher<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData());
 
     // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
-    nodes::WorldSource world_source(ctx.bus(), nodes::parseWorldKind(ctx.params().declare<std::string>("world", "obstacles")), scenario);
+    nodes::WorldSource world_source(ctx.bus(), nodes::declareWorldParameters(ctx.params()), scenario);
     // nullptr (logged) when there is none yet or it cannot be built: the tracker keeps running either way.
     auto currentWorld = [&](const Eigen::Vector3d& position) -> std::unique_ptr<planner::CollisionWorld> {
       try {
@@ -97,9 +111,23 @@ int main(int argc, char** argv) {
     mission_config.replan_check_period_s = replan_check_period;
     mission_config.wait_for_world = wait_for_world;
     tracker::Mission mission(mission_config);
+    tracker::ReplanGate replan_gate(replan_policy);
+    std::int64_t requested_at_ns = 0;     // the current request's time, for the gate's planning-time estimate
+    double request_heading = 0.0;         // its start heading: the new trajectory starts there
 
     auto stop = [&] { commands.publish(nodes::toMsg(tracker::VehicleCommand{}, ctx.clock().nowNs())); };
     std::optional<tracker::TrajectoryTracker> follower;
+    // A replan from a predicted start: the new trajectory waits until the vehicle's reference on the current
+    // one reaches that start (switch_at, s of the current trajectory), so a plan ready early is not flown
+    // from behind its start; a late one is switched to at once.
+    std::optional<double> switch_at;
+    std::optional<tracker::Trajectory> next_trajectory;
+    std::int64_t next_since_ns = 0;
+    auto switchTrajectory = [&](tracker::Trajectory trajectory, std::uint32_t request_id) {
+      trajectories.publish(nodes::toMsg(trajectory, request_id, ctx.clock().nowNs()));
+      follower.emplace(std::move(trajectory), limits, tracker_config);
+      replan_gate.reset();
+    };
     msg::TrackingStatus last_status;
     // Carries out what the mission decided; returns whether the vehicle should be driven this period.
     auto act = [&](const tracker::MissionDecision& d) {
@@ -120,6 +148,10 @@ int main(int argc, char** argv) {
           request.seed(seed + d.request_id - 1);
           request.reason(d.reason);
           spdlog::info("requesting plan {} with {} ({})", d.request_id, planner_name, d.reason);
+          requested_at_ns = ctx.clock().nowNs();
+          request_heading = d.from.heading;
+          switch_at.reset();  // set again by a replan ahead, after this
+          next_trajectory.reset();
           requests.publish(request);
           return false;
         }
@@ -134,13 +166,23 @@ int main(int argc, char** argv) {
       try {
         auto world = currentWorld(state.position);
         if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
-        smoother_config.initial_heading = state.heading;
+        smoother_config.initial_heading = request_heading;
+        const auto smooth_started = std::chrono::steady_clock::now();
         auto trajectory = tracker::smoothPath(nodes::statesOf(path), *world, limits, smoother_config);
-        spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m", path.request_id(),
-                     trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
-                     trajectory.report.min_clearance);
-        trajectories.publish(nodes::toMsg(trajectory, path.request_id(), ctx.clock().nowNs()));
-        follower.emplace(std::move(trajectory), limits, tracker_config);
+        if (const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - smooth_started).count(); took > 0.25)
+          spdlog::warn("smoothing plan {} took {:.3f} s: the vehicle held its last command meanwhile", path.request_id(), took);
+        const double latency = static_cast<double>(ctx.clock().nowNs() - requested_at_ns) * 1e-9;
+        spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, ready {:.3f} s after its request",
+                     path.request_id(), trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
+                     trajectory.report.min_clearance, latency);
+        replan_gate.planReady(latency);
+        if (follower && switch_at && follower->status().reference_time < *switch_at) {
+          next_trajectory = std::move(trajectory);
+          next_since_ns = ctx.clock().nowNs();
+        } else {
+          switchTrajectory(std::move(trajectory), path.request_id());
+          switch_at.reset();
+        }
         return true;
       } catch (const std::exception& e) {
         spdlog::warn("cannot smooth plan {}: {}", path.request_id(), e.what());
@@ -152,9 +194,16 @@ int main(int argc, char** argv) {
     // launcher can start whoever waits for us.
     ctx.ready();
     if (!requests.waitForSubscribers(1, std::chrono::seconds(20))) spdlog::warn("no planner subscribed to planning/request yet");
-    const double dt = 1.0 / control_rate;
+    // The reference advances by the clock's time between two control steps, not by the nominal period: on
+    // a loaded machine the loop runs late, and a fixed step would slow the reference (and the vehicle,
+    // which the controller holds to it) in proportion. Capped, so one stall is not one jump.
+    const double nominal_dt = 1.0 / control_rate;
+    std::int64_t last_step_ns = ctx.clock().nowNs();
     const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / control_rate));
     while (sleepFor(ctx, period)) {
+      const std::int64_t step_ns = ctx.clock().nowNs();
+      const double dt = std::clamp(static_cast<double>(step_ns - last_step_ns) * 1e-9, 0.2 * nominal_dt, 5.0 * nominal_dt);
+      last_step_ns = step_ns;
       std::optional<tracker::VehicleState> state;
       std::optional<msg::Path> path;
       {
@@ -181,6 +230,12 @@ int main(int argc, char** argv) {
         decision = mission.pathSmoothed(ctx.clock().nowNs(), *state, smooth(*path, *state));
       if (!act(decision)) continue;
 
+      if (next_trajectory && (follower->status().reference_time >= *switch_at ||
+                              static_cast<double>(ctx.clock().nowNs() - next_since_ns) * 1e-9 > 2.0)) {
+        switchTrajectory(std::move(*next_trajectory), mission.requestId());
+        next_trajectory.reset();
+        switch_at.reset();
+      }
       const auto command = follower->update(*state, dt);
       const auto& status = follower->status();
       commands.publish(nodes::toMsg(command, ctx.clock().nowNs()));
@@ -206,13 +261,29 @@ int main(int argc, char** argv) {
         stop();
         follower.reset();
         act(next);
-      } else if (next.action == tracker::MissionAction::CheckReplan) {
+      } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory) {
+        const auto check_started = std::chrono::steady_clock::now();
         const auto world = currentWorld(state->position);
         const auto replan = world ? follower->checkReplan(*world) : tracker::ReplanDecision{};
-        if (replan.needed) {
+        if (const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - check_started).count(); took > 0.25)
+          spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check): the vehicle held its last command meanwhile", took);
+        const auto verdict = replan_gate.check(replan, follower->trajectory(), follower->status().reference_time);
+        if (verdict.action == tracker::ReplanAction::StopAndReplan) {
           stop();
           follower.reset();
-          act(mission.replan(ctx.clock().nowNs(), *state, replan.message));
+          switch_at.reset();
+          if (mission.awaitingPlan()) {  // a plan is on its way already: wait for it here
+            spdlog::warn("stopping to wait for plan {}: {}", mission.requestId(), verdict.reason);
+            mission.hold();
+          } else {
+            act(mission.replan(ctx.clock().nowNs(), *state, verdict.reason));
+          }
+        } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission.awaitingPlan()) {
+          tracker::VehicleState from = *state;
+          from.position = verdict.start.position;
+          from.heading = tracker::wrapAngle(verdict.start.heading);
+          act(mission.replanAhead(ctx.clock().nowNs(), from, verdict.reason));
+          switch_at = verdict.start.time;
         }
       }
     }

@@ -12,12 +12,26 @@ namespace ddsnav::nodes {
 WorldKind parseWorldKind(const std::string& text, const std::string& param) {
   if (text == "obstacles") return WorldKind::Obstacles;
   if (text == "map") return WorldKind::Map;
+  if (text == "fused") return WorldKind::Fused;
   if (text == "scenario") return WorldKind::Scenario;
-  throw runtime::ParameterError("parameter " + param + ": expected one of obstacles, map, scenario, got '" + text + "'");
+  throw runtime::ParameterError("parameter " + param + ": expected one of obstacles, map, fused, scenario, got '" + text + "'");
 }
 
-WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario)
-    : kind_(kind), scenario_(scenario) {
+WorldParameters declareWorldParameters(runtime::Parameters& params) {
+  WorldParameters out;
+  out.kind = parseWorldKind(params.declare<std::string>("world", "obstacles", "obstacles | map | fused | scenario"));
+  const auto unknown = params.declare<std::string>("unknown_space", "optimistic", "optimistic | conservative (map, fused)");
+  try {
+    out.unknown = planner::parseUnknownSpace(unknown);
+  } catch (const std::invalid_argument& e) {
+    throw runtime::ParameterError(std::string("parameter unknown_space: ") + e.what());
+  }
+  return out;
+}
+
+WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario,
+                         planner::UnknownSpace unknown)
+    : kind_(kind), scenario_(scenario), unknown_(unknown) {
   obstacles_sub_ = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [this](const msg::ObstacleArray& a) {
     const auto error = checkObstacleArray(a, kWorldFrame);
     std::lock_guard lock(mutex_);
@@ -30,7 +44,7 @@ WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::S
     }
     obstacles_ = a;
   });
-  if (kind_ == WorldKind::Map) {
+  if (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) {
     map_sub_ = bus.subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [this](const msg::OccupancyMap& m) {
       // Parsed outside the lock: a large octree takes a while, and snapshot() must not wait for it.
       const auto error = checkOccupancyMap(m, kWorldFrame, scenario_);
@@ -42,6 +56,7 @@ WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::S
         return;
       }
       map_ = m;
+      structure_stale_ = true;
     });
   }
 }
@@ -52,6 +67,9 @@ bool WorldSource::available() const {
     case WorldKind::Scenario: return true;
     case WorldKind::Obstacles: return obstacles_.has_value();
     case WorldKind::Map: return map_.has_value();
+    // No map yet is all unknown space: free under the optimistic policy (the obstacles alone), blocked
+    // under the conservative one (nothing to plan in until the first map).
+    case WorldKind::Fused: return obstacles_.has_value() && (map_.has_value() || unknown_ == planner::UnknownSpace::Optimistic);
   }
   return false;
 }
@@ -71,22 +89,40 @@ std::size_t WorldSource::droppedMaps() const {
   return dropped_maps_;
 }
 
+std::shared_ptr<const planner::CollisionWorld> WorldSource::structureLocked() const {
+  if (structure_stale_ && map_) {
+    planner::OctoMapWorldOptions options;
+    options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
+    const auto& s = scenario_;
+    structure_ = planner::makeOctoMapWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, map_->octree(), options);
+    structure_stale_ = false;
+  }
+  return structure_;
+}
+
 std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Vec3& robot_position) const {
   const auto& s = scenario_;
   std::lock_guard lock(mutex_);
   switch (kind_) {
     case WorldKind::Scenario:
       return planner::makeScenarioWorld(s);
-    case WorldKind::Obstacles: {
+    case WorldKind::Obstacles:
+    case WorldKind::Fused: {
       if (!obstacles_) return nullptr;
+      if (kind_ == WorldKind::Fused && !map_ && unknown_ == planner::UnknownSpace::Conservative) return nullptr;
       auto ellipses = toEllipsoidObstacles(*obstacles_);
       if (const auto cleared = clearFootprint(ellipses, robot_position, s.robot_radius, s.dimensions))
         spdlog::debug("ignoring {} obstacle ellipse(s) that cover the robot", cleared);
-      return planner::makeEllipsoidWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, std::move(ellipses));
+      auto obstacles = planner::makeEllipsoidWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, std::move(ellipses));
+      if (kind_ == WorldKind::Obstacles || !map_) return obstacles;
+      return planner::makeFusedWorld(structureLocked(), std::move(obstacles));
     }
-    case WorldKind::Map:
+    case WorldKind::Map: {
       if (!map_) return nullptr;
-      return planner::makeOctoMapWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, map_->octree());
+      planner::OctoMapWorldOptions options;
+      options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
+      return planner::makeOctoMapWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, map_->octree(), options);
+    }
   }
   return nullptr;
 }

@@ -1,6 +1,8 @@
 #pragma once
 // The collision world a component plans or checks against, kept current from the bus: perception's
-// ellipses (perception/obstacles), the mapper's octree (map/octomap) or the scenario's exact geometry.
+// ellipses (perception/obstacles), the mapper's octree (map/octomap), both fused into one world (the
+// octree for structure and unknown space, the ellipses for discrete obstacles; docs/world-model.md) or the
+// scenario's exact geometry.
 // The planner and the tracker use the same one, so a trajectory is checked against the world it was
 // planned in. Every message is checked when it arrives (see validate.hpp): a malformed one is dropped with
 // a warning naming the topic and what is wrong, and the last good one stays in use.
@@ -17,16 +19,32 @@
 
 namespace ddsnav::nodes {
 
-enum class WorldKind { Obstacles, Map, Scenario };
+enum class WorldKind { Obstacles, Map, Fused, Scenario };
 
-// "obstacles" | "map" | "scenario"; throws runtime::ParameterError naming the parameter `param` (exit status 2).
+// "obstacles" | "map" | "fused" | "scenario"; throws runtime::ParameterError naming the parameter `param` (exit status 2).
 WorldKind parseWorldKind(const std::string& text, const std::string& param = "world");
+
+// The world parameters every component on a WorldSource declares: `world` (default "fused") and
+// `unknown_space` ("optimistic", the default, or "conservative"), both checked here with their names.
+// The components default to "obstacles"; the demo launch file picks "fused".
+struct WorldParameters {
+  WorldKind kind = WorldKind::Obstacles;
+  planner::UnknownSpace unknown = planner::UnknownSpace::Optimistic;
+};
+WorldParameters declareWorldParameters(runtime::Parameters& params);
 
 class WorldSource {
  public:
-  WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario);
+  // `unknown`: how the map's never-observed space counts (map and fused worlds).
+  WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario,
+              planner::UnknownSpace unknown = planner::UnknownSpace::Optimistic);
+  WorldSource(bus::Participant& bus, const WorldParameters& world, const planner::Scenario& scenario)
+      : WorldSource(bus, world.kind, scenario, world.unknown) {}
+  WorldKind kind() const { return kind_; }
 
-  // False until the world's input has arrived (always true for the scenario world).
+  // False until the world's input has arrived (always true for the scenario world; for the fused one the
+  // obstacles, and the map too under the conservative policy: before the first map, everything is unknown,
+  // which the optimistic policy plans through on the obstacles alone).
   bool available() const;
   // A snapshot of the newest world, seen from a robot at `robot_position`: obstacle ellipses that would
   // cover the robot there are left out (see clearFootprint). nullptr when not available(). Inputs are
@@ -39,9 +57,15 @@ class WorldSource {
   std::size_t droppedMaps() const;
 
  private:
+  std::shared_ptr<const planner::CollisionWorld> structureLocked() const;
+
   WorldKind kind_;
   const planner::Scenario& scenario_;
+  planner::UnknownSpace unknown_;
   mutable std::mutex mutex_;
+  // The fused world's structure, built from map_ once per map (not per snapshot: a 3-D map takes a while).
+  mutable std::shared_ptr<const planner::CollisionWorld> structure_;
+  mutable bool structure_stale_ = true;
   std::optional<msg::ObstacleArray> obstacles_;
   std::optional<msg::OccupancyMap> map_;
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;
