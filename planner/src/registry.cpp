@@ -1,5 +1,5 @@
-// Planner names -> factories. A planner whose source file is not in the tree yet is simply not listed
-// (see planners.hpp), so the library always links.
+// Planner names -> factories. Every planner is listed here: a missing factory is a link error, never a
+// planner (and its tests) quietly gone.
 #include "ddsnav/planner/planners.hpp"
 
 #include <cerrno>
@@ -19,33 +19,15 @@ using Factory = std::unique_ptr<Planner> (*)();
 
 const std::vector<std::pair<std::string, Factory>>& registry() {
   static const std::vector<std::pair<std::string, Factory>> planners = {
-#ifdef DDSNAV_HAVE_RRT
       {"rrt", &makeRrtPlanner},
-#endif
-#ifdef DDSNAV_HAVE_RRTCONTROLS
       {"rrt-controls", &makeRrtControlsPlanner},
-#endif
-#ifdef DDSNAV_HAVE_RRTSTAR
       {"rrtstar", &makeRrtStarPlanner},
-#endif
-#ifdef DDSNAV_HAVE_LIRRT
       {"lirrt", &makeLiRrtPlanner},
-#endif
-#ifdef DDSNAV_HAVE_GART
       {"gart", &makeGartPlanner},
-#endif
-#ifdef DDSNAV_HAVE_GARTLAZY
       {"gart-lazy", &makeGartLazyPlanner},
-#endif
-#ifdef DDSNAV_HAVE_APGDRRTSTAR
       {"apgd-rrtstar", &makeApgdRrtStarPlanner},
-#endif
-#ifdef DDSNAV_HAVE_RRRT
       {"rrrt", &makeRrrtPlanner},
-#endif
-#ifdef DDSNAV_HAVE_DDRRT
       {"ddrrt", &makeDdrrtPlanner},
-#endif
   };
   return planners;
 }

@@ -1,10 +1,7 @@
 #pragma once
 // Factories of the individual planners; makePlanner() (registry.cpp) maps names to them.
-// Each factory is defined in the planner's own file (rrt.cpp, rrtstar.cpp, lirrt*.cpp, gart*.cpp, ...).
-// planner/CMakeLists.txt scans planner/src/*.cpp for a definition starting a line exactly as
-//   std::unique_ptr<Planner> makeGartPlanner() {
-// and only then lets the registry call that factory (DDSNAV_HAVE_<NAME>), so the library links while a
-// planner is still being written. Define the factory at namespace scope in that form.
+// Each factory is defined in the planner's own file (rrt.cpp, rrtstar.cpp, lirrt*.cpp, gart*.cpp, ...) and
+// listed by name in registry.cpp; a new planner adds its line there.
 
 #include "ddsnav/planner/planner.hpp"
 
