@@ -32,7 +32,9 @@ ReplanDecision blocked(double ahead, double overlap) {
 
 TEST(ReplanGate, AGrazingBlockNeedsConsecutiveChecks) {
   Straight s;
-  ReplanGate gate;  // confirm_checks 2, block_margin 0.2 m
+  ReplanPolicy policy;
+  policy.confirm_checks = 2;  // block_margin 0.2 m as by default
+  ReplanGate gate(policy);
   EXPECT_EQ(gate.check(blocked(20, 0.05), s.trajectory, 0).action, ReplanAction::Continue);
   EXPECT_EQ(gate.check({}, s.trajectory, 0.1).action, ReplanAction::Continue);  // it went away: start over
   EXPECT_EQ(gate.check(blocked(20, 0.05), s.trajectory, 0.2).action, ReplanAction::Continue);

@@ -29,7 +29,7 @@
 namespace ddsnav::tracker {
 
 struct ReplanPolicy {
-  int confirm_checks = 2;           // consecutive blocked checks that confirm a block (>= 1)
+  int confirm_checks = 5;           // consecutive blocked checks that confirm a block (>= 1); 0.5 s at 10 Hz
   double block_margin = 0.2;        // m of overlap that confirms a block at the first check
   double stop_margin_s = 1.5;       // s kept between the predicted start and the blocked sample
   double planning_time_s = 0.3;     // s, the least expected time from request to trajectory
