@@ -53,6 +53,10 @@ bool PlannerRun::nextIteration(bool stop_at_first) {
   if (s.iterations >= problem.max_iterations) return false;
   // The clock is read every iteration: cheap next to one collision check, and the limit stays tight.
   if (clock_.expired()) return false;
+  if (problem.stop.stop_requested()) {
+    result.stopped = true;
+    return false;
+  }
   ++s.iterations;
   if (problem.on_progress && (s.iterations & 1023) == 0) problem.on_progress(s.iterations);
   return true;

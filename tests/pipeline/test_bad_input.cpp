@@ -310,13 +310,13 @@ void badParametersEndTheComponentWithStatus2() {
   const std::vector<Case> cases = {
       {"mapper", {{"resolution", "0"}}, "'resolution'"},
       {"mapper", {{"prob_hit", "0.3"}}, "'prob_hit'"},
-      {"tracker", {{"scenario", kScenario}, {"max_plan_attempts", "0"}}, "parameter max_plan_attempts"},
-      {"tracker", {{"scenario", kScenario}, {"replan_deviation", "-1"}}, "parameter replan_deviation"},
-      {"planner", {{"scenario", kScenario}, {"max_time_budget_s", "0"}}, "parameter max_time_budget_s"},
-      {"planner", {{"scenario", kScenario}, {"world", "lidar"}}, "parameter world"},
-      {"sim", {{"scenario", kScenario}, {"beams", "0"}}, "parameter beams"},
-      {"sim", {{"scenario", kScenario}, {"command_timeout_s", "-1"}}, "parameter command_timeout_s"},
-      {"perception", {{"beam_spacing_rad", "0"}}, "parameter beam_spacing_rad"},
+      {"tracker", {{"scenario", kScenario}, {"max_plan_attempts", "0"}}, "parameter 'max_plan_attempts'"},
+      {"tracker", {{"scenario", kScenario}, {"replan_deviation", "-1"}}, "parameter 'replan_deviation'"},
+      {"planner", {{"scenario", kScenario}, {"max_time_budget_s", "0"}}, "parameter 'max_time_budget_s'"},
+      {"planner", {{"scenario", kScenario}, {"world", "lidar"}}, "parameter 'world'"},
+      {"sim", {{"scenario", kScenario}, {"beams", "0"}}, "parameter 'beams'"},
+      {"sim", {{"scenario", kScenario}, {"command_timeout_s", "-1"}}, "parameter 'command_timeout_s'"},
+      {"perception", {{"beam_spacing_rad", "0"}}, "parameter 'beam_spacing_rad'"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.component + ": " + c.named);

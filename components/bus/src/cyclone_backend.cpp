@@ -157,7 +157,7 @@ class CycloneReader : public ReaderImpl {
     std::size_t size = ddsi_serdata_size(sd);
     ddsrt_iovec_t iov;
     ddsi_serdata* ref = ddsi_serdata_to_ser_ref(sd, 0, size, &iov);
-    SampleInfo si{info.source_timestamp};
+    SampleInfo si{info.source_timestamp, info.publication_handle};
     if (typed_) {
       if (spec_.type->deserialize(iov.iov_base, iov.iov_len, sample_))
         invokeSafely(spec_.topic, [&] { typed_(sample_, si); });

@@ -35,6 +35,13 @@
 namespace ddsnav::bus::detail {
 namespace {
 
+// The writer's 16-byte instance handle (its GUID) folded to 64 bits with FNV-1a.
+std::uint64_t publicationHandle(const eprosima::fastdds::dds::InstanceHandle_t& handle) {
+  std::uint64_t h = 14695981039346656037ull;
+  for (std::size_t i = 0; i < 16; ++i) h = (h ^ handle.value[i]) * 1099511628211ull;
+  return h;
+}
+
 namespace dds = eprosima::fastdds::dds;
 namespace rtps = eprosima::fastrtps::rtps;
 using eprosima::fastrtps::types::ReturnCode_t;
@@ -260,7 +267,7 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
     // Fast DDS calls this once per reader at a time, so the one carrier (and its grown buffers) is reused.
     while (reader->take_next_sample(&carrier_, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;
-      SampleInfo si{info.source_timestamp.to_ns()};
+      SampleInfo si{info.source_timestamp.to_ns(), publicationHandle(info.publication_handle)};
       if (typed_) {
         invokeSafely(spec_.topic, [&] { typed_(carrier_.typed, si); });
       } else {

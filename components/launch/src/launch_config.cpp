@@ -1,5 +1,7 @@
 #include "ddsnav/launch/launch_config.hpp"
 
+#include <ddsnav/runtime/topic_names.hpp>
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -11,6 +13,8 @@
 
 namespace ddsnav::launch {
 namespace {
+
+using runtime::topicNameError;
 
 // Builds "file:line: key 'k': message" errors the way the scenario parser does.
 class Reader {
@@ -183,48 +187,15 @@ std::vector<ProcessSpec> orderByDependencies(std::vector<ProcessSpec> processes,
   return ordered;
 }
 
-}  // namespace
+LaunchConfig loadLaunchConfigAt(const std::string& path, const std::map<std::string, std::string>& overrides, const std::string& set_flag,
+                               const std::string& ns, int include_depth);
 
-RestartPolicy parseRestartPolicy(const std::string& text) {
-  if (text == "never" || text == "no") return RestartPolicy::Never;
-  if (text == "on-failure") return RestartPolicy::OnFailure;
-  if (text == "always") return RestartPolicy::Always;
-  throw LaunchError("unknown restart policy '" + text + "' (expected never, on-failure or always)");
-}
-
-std::string toString(RestartPolicy policy) {
-  switch (policy) {
-    case RestartPolicy::Never: return "never";
-    case RestartPolicy::OnFailure: return "on-failure";
-    case RestartPolicy::Always: return "always";
-  }
-  return "?";
-}
-
-LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& source_name,
-                               const std::map<std::string, std::string>& overrides) {
-  const Reader reader(source_name);
-  if (yaml_text.size() > kMaxLaunchFileBytes)
-    throw LaunchError(source_name + ": " + std::to_string(yaml_text.size()) + " bytes is larger than the limit of " +
-                      std::to_string(kMaxLaunchFileBytes) + " bytes for a launch file (kMaxLaunchFileBytes)");
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    throw LaunchError(source_name + ":" + std::to_string(e.mark.line + 1) + ": invalid YAML: " + e.msg);
-  }
-  if (!root.IsMap()) throw LaunchError(source_name + ": expected a mapping at the top level");
-  reader.allowOnly(root, {"name", "domain", "dds", "shutdown_timeout_s", "variables", "processes"}, "");
-
-  LaunchConfig config;
-  config.source = source_name;
-  config.name = root["name"] ? reader.scalar(root["name"], "name", true) : source_name;
-  if (root["domain"]) {
-    config.domain = reader.number<int>(root["domain"], "domain", 0);
-    if (*config.domain > 232) reader.fail(root["domain"], "domain", "must be in 0..232");
-  }
-  if (root["dds"]) config.dds = reader.scalar(root["dds"], "dds", true);
-  if (root["shutdown_timeout_s"]) config.shutdown_timeout_s = reader.duration(root["shutdown_timeout_s"], kShutdownTimeoutRange);
+// The `variables:` block with `overrides` applied and every ${...} resolved (launch_dir built in).
+std::map<std::string, std::string> resolveVariables(const YAML::Node& root, const Reader& reader, const std::string& source_name,
+                                                    const std::map<std::string, std::string>& overrides, const std::string& set_flag) {
+  struct {
+    std::map<std::string, std::string> variables;
+  } config;
   std::set<std::string> required_variables;
   if (const auto vars = root["variables"]) {
     if (!vars.IsMap()) reader.fail(vars, "variables", "expected a mapping of name: value");
@@ -248,14 +219,14 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
   }
   for (const auto& [key, value] : overrides) {
     if (!config.variables.count(key))
-      throw LaunchError(source_name + ": --set " + key + ": the launch file declares no variable '" + key + "'");
-    if (value.find('\0') != std::string::npos) throw LaunchError("--set " + key + ": the value contains a NUL byte");
+      throw LaunchError(source_name + ": " + set_flag + " " + key + ": the launch file declares no variable '" + key + "'");
+    if (value.find('\0') != std::string::npos) throw LaunchError(set_flag + " " + key + ": the value contains a NUL byte");
     config.variables[key] = value;
     required_variables.erase(key);
   }
   if (!required_variables.empty()) {
     const std::string& name = *required_variables.begin();
-    reader.fail(root["variables"][name], "variables." + name, "required: give it with --set " + name + "=VALUE");
+    reader.fail(root["variables"][name], "variables." + name, "required: give it with " + set_flag + " " + name + "=VALUE");
   }
 
   // Variables may use each other (and launch_dir): resolve each once, depth first, rejecting cycles,
@@ -292,33 +263,89 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
     config.variables = std::move(resolved);
   }
 
-  const auto list = root["processes"];
-  if (!list || !list.IsSequence() || list.size() == 0) reader.fail(root, "processes", "expected a non-empty list of processes");
-  if (list.size() > kMaxProcesses)
-    reader.fail(list, "processes", "more than " + std::to_string(kMaxProcesses) + " processes (kMaxProcesses)");
-  std::set<std::string> names;
-  std::vector<ProcessSpec> processes;
+  return config.variables;
+}
+
+std::string joinNamespace(const std::string& outer, const std::string& inner) {
+  if (outer.empty()) return inner;
+  if (inner.empty()) return outer;
+  return outer + "/" + inner;
+}
+
+LaunchConfig parseLaunchRoot(const std::string& yaml_text, const std::string& source_name, const std::map<std::string, std::string>& overrides,
+                             const std::string& set_flag, const std::string& ns, int include_depth);
+
+// One `processes:` list: processes, groups and includes, names prefixed with the namespace.
+void parseProcessList(const YAML::Node& list, const Reader& reader, const std::map<std::string, std::string>& variables,
+                      const std::string& ns, const std::string& source_name, int include_depth, std::vector<ProcessSpec>& processes) {
+  if (!list || !list.IsSequence() || list.size() == 0) reader.fail(list, "processes", "expected a non-empty list of processes");
+  // Short names of this list, so that `after:` may name them without the namespace.
+  std::set<std::string> local;
+  for (const auto& node : list)
+    if (node.IsMap() && node["name"] && node["name"].IsScalar()) local.insert(node["name"].Scalar());
+  const auto qualified = [&](const std::string& name) { return ns.empty() ? name : ns + "/" + name; };
+  const auto groupNamespace = [&](const YAML::Node& node) {
+    if (!node["namespace"]) return ns;
+    const std::string inner = substitute(reader.scalar(node["namespace"], "namespace", true), variables, reader, node["namespace"], "namespace");
+    if (const auto error = topicNameError(inner); !error.empty()) reader.fail(node["namespace"], "namespace", "'" + inner + "' " + error);
+    return joinNamespace(ns, inner);
+  };
   for (const auto& node : list) {
+    if (node.IsMap() && node["include"]) {
+      reader.allowOnly(node, {"include", "namespace", "variables"}, "processes");
+      if (include_depth >= kMaxIncludeDepth)
+        reader.fail(node["include"], "include", "includes nested more than " + std::to_string(kMaxIncludeDepth) + " deep (kMaxIncludeDepth)");
+      std::filesystem::path file = substitute(reader.scalar(node["include"], "include", true), variables, reader, node["include"], "include");
+      if (file.is_relative()) file = std::filesystem::path(variables.at("launch_dir")) / file;
+      std::map<std::string, std::string> given;
+      if (const auto vars = node["variables"]) {
+        if (!vars.IsMap()) reader.fail(vars, "variables", "expected a mapping of name: value");
+        reader.uniqueKeys(vars, "variables");
+        for (const auto& entry : vars) {
+          const auto name = reader.key(entry.first, "variables");
+          given[name] = substitute(reader.scalar(entry.second, "variables." + name), variables, reader, entry.second, "variables." + name);
+        }
+      }
+      LaunchConfig included;
+      try {
+        included = loadLaunchConfigAt(file.lexically_normal().string(), given, "include variables:", groupNamespace(node), include_depth + 1);
+      } catch (const LaunchError& e) {
+        reader.fail(node["include"], "include", e.what());
+      }
+      for (auto& p : included.processes) {
+        if (!p.dds && included.dds_given) p.dds = included.dds;  // the included file's default vendor
+        processes.push_back(std::move(p));
+      }
+      continue;
+    }
+    if (node.IsMap() && node["processes"]) {
+      reader.allowOnly(node, {"namespace", "processes"}, "processes");
+      parseProcessList(node["processes"], reader, variables, groupNamespace(node), source_name, include_depth, processes);
+      continue;
+    }
     reader.allowOnly(node,
                      {"name", "command", "args", "dds", "params", "after", "wait_ready", "restart", "max_restarts",
                       "restart_window_s", "restart_delay_s", "max_restart_delay_s", "ready_timeout_s",
-                      "liveness_timeout_s", "required"},
+                      "liveness_timeout_s", "required", "namespace", "remap"},
                      "processes");
     ProcessSpec spec;
     if (!node["name"]) reader.fail(node, "name", "every process needs a name");
     spec.name = reader.scalar(node["name"], "name", true);
     if (spec.name.empty() || spec.name.size() > kMaxNameBytes)
       reader.fail(node["name"], "name", "must be 1.." + std::to_string(kMaxNameBytes) + " bytes long");
-    if (!names.insert(spec.name).second) reader.fail(node["name"], "name", "duplicate process name '" + spec.name + "'");
+    spec.name = qualified(spec.name);
+    for (const auto& p : processes)
+      if (p.name == spec.name) reader.fail(node["name"], "name", "duplicate process name '" + spec.name + "'");
+    spec.ns = groupNamespace(node);
     if (!node["command"]) reader.fail(node, "command", "process '" + spec.name + "' needs a command");
-    spec.command = substitute(reader.scalar(node["command"], "command", true), config.variables, reader, node["command"], "command");
+    spec.command = substitute(reader.scalar(node["command"], "command", true), variables, reader, node["command"], "command");
     if (spec.command.empty()) reader.fail(node["command"], "command", "process '" + spec.name + "': the command is empty");
     for (const char c : spec.command)  // a variable's value may bring one in
       if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
         reader.fail(node["command"], "command", "process '" + spec.name + "': control character in the expanded command");
     if (node["args"])
       for (const auto& arg : reader.stringList(node["args"], "args"))
-        spec.args.push_back(substitute(arg, config.variables, reader, node["args"], "args"));
+        spec.args.push_back(substitute(arg, variables, reader, node["args"], "args"));
     if (node["dds"]) spec.dds = reader.scalar(node["dds"], "dds", true);
     if (const auto params = node["params"]) {
       if (!params.IsMap()) reader.fail(params, "params", "expected a mapping of parameter: value");
@@ -327,10 +354,23 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
         const auto key = reader.key(entry.first, "params");
         if (key.empty() || key.find('=') != std::string::npos || key.find('\0') != std::string::npos)
           reader.fail(entry.first, "params." + key, "a parameter name must be non-empty and contain no '=' or NUL");
-        spec.params[key] = substitute(reader.scalar(entry.second, key), config.variables, reader, entry.second, key);
+        spec.params[key] = substitute(reader.scalar(entry.second, key), variables, reader, entry.second, key);
       }
     }
-    if (node["after"]) spec.after = reader.stringList(node["after"], "after");
+    if (node["after"])
+      for (const auto& dep : reader.stringList(node["after"], "after")) spec.after.push_back(local.count(dep) ? qualified(dep) : dep);
+    if (const auto remap = node["remap"]) {
+      if (!remap.IsMap()) reader.fail(remap, "remap", "expected a mapping of from: to topic names");
+      reader.uniqueKeys(remap, "remap");
+      for (const auto& entry : remap) {
+        const auto from = reader.key(entry.first, "remap");
+        const auto to = substitute(reader.scalar(entry.second, "remap." + from, true), variables, reader, entry.second, "remap." + from);
+        for (const auto& n : {from, to.empty() || to.front() != '/' ? to : to.substr(1)})
+          if (const auto error = topicNameError(n); !error.empty()) reader.fail(entry.first, "remap." + from, "'" + n + "' " + error);
+        if (from == "system/status") reader.fail(entry.first, "remap." + from, "system/status is never remapped");
+        spec.remap[from] = to;
+      }
+    }
     if (node["wait_ready"]) spec.wait_ready = reader.boolean(node["wait_ready"], "wait_ready");
     if (node["restart"]) {
       try {
@@ -360,11 +400,79 @@ LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& 
     if (node["required"]) spec.required = reader.boolean(node["required"], "required");
     processes.push_back(std::move(spec));
   }
-  config.processes = orderByDependencies(std::move(processes), source_name);
+}
+
+}  // namespace
+
+RestartPolicy parseRestartPolicy(const std::string& text) {
+  if (text == "never" || text == "no") return RestartPolicy::Never;
+  if (text == "on-failure") return RestartPolicy::OnFailure;
+  if (text == "always") return RestartPolicy::Always;
+  throw LaunchError("unknown restart policy '" + text + "' (expected never, on-failure or always)");
+}
+
+std::string toString(RestartPolicy policy) {
+  switch (policy) {
+    case RestartPolicy::Never: return "never";
+    case RestartPolicy::OnFailure: return "on-failure";
+    case RestartPolicy::Always: return "always";
+  }
+  return "?";
+}
+
+namespace {
+
+LaunchConfig parseLaunchRoot(const std::string& yaml_text, const std::string& source_name, const std::map<std::string, std::string>& overrides,
+                             const std::string& set_flag, const std::string& ns, int include_depth) {
+  const Reader reader(source_name);
+  if (yaml_text.size() > kMaxLaunchFileBytes)
+    throw LaunchError(source_name + ": " + std::to_string(yaml_text.size()) + " bytes is larger than the limit of " +
+                      std::to_string(kMaxLaunchFileBytes) + " bytes for a launch file (kMaxLaunchFileBytes)");
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::ParserException& e) {
+    throw LaunchError(source_name + ":" + std::to_string(e.mark.line + 1) + ": invalid YAML: " + e.msg);
+  }
+  if (!root.IsMap()) throw LaunchError(source_name + ": expected a mapping at the top level");
+  reader.allowOnly(root, {"name", "domain", "dds", "shutdown_timeout_s", "variables", "processes"}, "");
+
+  LaunchConfig config;
+  config.source = source_name;
+  config.name = root["name"] ? reader.scalar(root["name"], "name", true) : source_name;
+  if (root["domain"]) {
+    config.domain = reader.number<int>(root["domain"], "domain", 0);
+    if (*config.domain > 232) reader.fail(root["domain"], "domain", "must be in 0..232");
+  }
+  if (root["dds"]) {
+    config.dds = reader.scalar(root["dds"], "dds", true);
+    config.dds_given = true;
+  }
+  if (root["shutdown_timeout_s"]) config.shutdown_timeout_s = reader.duration(root["shutdown_timeout_s"], kShutdownTimeoutRange);
+  config.variables = resolveVariables(root, reader, source_name, overrides, set_flag);
+  std::vector<ProcessSpec> processes;
+  parseProcessList(root["processes"], reader, config.variables, ns, source_name, include_depth, processes);
+  if (processes.size() > kMaxProcesses)
+    reader.fail(root["processes"], "processes", "more than " + std::to_string(kMaxProcesses) + " processes (kMaxProcesses)");
+  std::set<std::string> names;
+  for (const auto& p : processes)
+    if (!names.insert(p.name).second) throw LaunchError(source_name + ": duplicate process name '" + p.name + "'");
+  config.processes = std::move(processes);
   return config;
 }
 
-LaunchConfig loadLaunchConfig(const std::string& path, const std::map<std::string, std::string>& overrides) {
+}  // namespace
+
+LaunchConfig parseLaunchConfig(const std::string& yaml_text, const std::string& source_name,
+                               const std::map<std::string, std::string>& overrides) {
+  LaunchConfig config = parseLaunchRoot(yaml_text, source_name, overrides, "--set", "", 0);
+  config.processes = orderByDependencies(std::move(config.processes), source_name);
+  return config;
+}
+
+namespace {
+LaunchConfig loadLaunchConfigAt(const std::string& path, const std::map<std::string, std::string>& overrides, const std::string& set_flag,
+                               const std::string& ns, int include_depth) {
   // Size and kind first: a FIFO or device would block or never end, a huge file would be parsed whole.
   std::error_code error;
   const auto status = std::filesystem::status(path, error);
@@ -381,7 +489,15 @@ LaunchConfig loadLaunchConfig(const std::string& path, const std::map<std::strin
   in.read(text.data(), static_cast<std::streamsize>(text.size()));
   text.resize(static_cast<size_t>(in.gcount()));
   if (text.size() > kMaxLaunchFileBytes) throw LaunchError(path + ": grew past the launch file limit while being read");
-  return parseLaunchConfig(text, path, overrides);
+  return parseLaunchRoot(text, path, overrides, set_flag, ns, include_depth);
 }
+}  // namespace
+
+LaunchConfig loadLaunchConfig(const std::string& path, const std::map<std::string, std::string>& overrides) {
+  LaunchConfig config = loadLaunchConfigAt(path, overrides, "--set", "", 0);
+  config.processes = orderByDependencies(std::move(config.processes), path);
+  return config;
+}
+
 
 }  // namespace ddsnav::launch

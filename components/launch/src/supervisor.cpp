@@ -108,6 +108,8 @@ pid_t spawnComponent(const ProcessSpec& spec, const SpawnOptions& options) {
     argv_strings.push_back("--param");
     argv_strings.push_back(key + "=" + value);
   }
+  if (!spec.ns.empty()) argv_strings.insert(argv_strings.end(), {"--namespace", spec.ns});
+  for (const auto& [from, to] : spec.remap) argv_strings.insert(argv_strings.end(), {"--remap", from + "=" + to});
   // Everything the child needs is prepared before fork: after it, only async-signal-safe calls.
   std::vector<char*> argv;
   for (auto& s : argv_strings) argv.push_back(s.data());
@@ -313,6 +315,14 @@ struct Supervisor::Impl {
     const ProcessSpec& spec = *r.spec;
     const bool failed = !(WIFEXITED(status) && WEXITSTATUS(status) == 0);
     if (spec.required) {
+      // Several required processes (one monitor per vehicle): the set ends when the last one has ended
+      // cleanly, or at once when one fails.
+      if (!failed)
+        for (const auto& other : running)
+          if (&other != &r && !other.ended && other.spec->required) {
+            log(spec.name + " (required) ended cleanly; waiting for the other required processes");
+            return true;
+          }
       final_status = exitCodeOf(status);
       log(spec.name + " is required: tearing down");
       if (failed) announce(r, r.pid, false, why + "; required: tearing the set down");

@@ -51,7 +51,7 @@ processes:
 TEST(LaunchConfig, ErrorsNameFileLineAndKey) {
   EXPECT_EQ(errorOf("processes:\n  - name: a\n    command: x\n    colour: red\n"),
             "set.yaml:4: key 'colour': unknown key (expected one of: after, args, command, dds, liveness_timeout_s, "
-            "max_restart_delay_s, max_restarts, name, params, ready_timeout_s, required, restart, restart_delay_s, "
+            "max_restart_delay_s, max_restarts, name, namespace, params, ready_timeout_s, remap, required, restart, restart_delay_s, "
             "restart_window_s, wait_ready)");
   EXPECT_NE(errorOf("processes:\n  - name: a\n    command: x\n    restart: sometimes\n").find("set.yaml:4: key 'restart'"),
             std::string::npos);

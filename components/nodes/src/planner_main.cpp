@@ -2,6 +2,10 @@
 // perception/obstacles (the default), map/octomap, both fused (the demo's choice), or the scenario's exact
 // geometry (ground truth, for comparisons). Bounds, robot radius and vehicle limits come
 // from the scenario file.
+//
+// Requests are checked on the executor; the solve runs on the worker, so world updates keep arriving
+// meanwhile. A newer request from the same requester (the same DDS writer) supersedes the one queued or
+// solving: that one stops at its next iteration and is answered as superseded.
 
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
@@ -15,95 +19,130 @@
 #include <cmath>
 
 using namespace ddsnav;
-using nodes::sleepFor;
 
-int main(int argc, char** argv) {
-  return runtime::runComponent("planner", argc, argv, [](runtime::Context& ctx) {
-    const auto scenario = planner::loadScenario(ctx.params().require<std::string>("scenario"));
-    const auto world_params = nodes::declareWorldParameters(ctx.params());
-    const auto kind = world_params.kind;
-    const bool kinodynamic = ctx.params().declare<bool>("kinodynamic", scenario.vehicle.has_value());
-    const double max_budget = ctx.params().declare<double>("max_time_budget_s", 30.0);
-    if (!(max_budget > 0) || !std::isfinite(max_budget))
-      throw runtime::ParameterError(fmt::format("parameter max_time_budget_s: expected a positive finite number of seconds, got {}", max_budget));
-    if (kinodynamic && !scenario.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
-    // "planner.option=value" entries (docs/planners.md, "Options"), checked once here against each planner.
-    const auto planner_options = planner::parsePlannerOptions(
-        ctx.params().declare<std::vector<std::string>>("planner_options", {}, "planner.option=value entries"));
-    for (const auto& [name, assignments] : planner_options) {
+namespace {
+
+class PlannerComponent : public runtime::Component {
+ public:
+  struct Params {
+    std::string scenario;
+    nodes::WorldParameters world;  // world, unknown_space
+    std::optional<bool> kinodynamic;
+    double max_time_budget_s;
+    std::vector<std::string> planner_options;
+    explicit Params(runtime::Parameters& p)
+        : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: bounds, robot radius, vehicle limits"})),
+          world(p),
+          kinodynamic(p.declareOptional<bool>("kinodynamic", {.doc = "plan unicycle edges; default: whether the scenario has a vehicle block"})),
+          max_time_budget_s(p.declare<double>("max_time_budget_s", 30.0,
+                                              {.above = 0, .unit = "s", .doc = "cap on a request's time_budget_s"})),
+          planner_options(p.declare<std::vector<std::string>>("planner_options", {},
+                                                              {.doc = "planner.option=value entries (docs/planners.md, \"Options\")"})) {}
+  };
+
+  explicit PlannerComponent(runtime::Context& ctx)
+      : Component(ctx),
+        params_(ctx.params()),
+        scenario_(planner::loadScenario(params_.scenario)),
+        kind_(params_.world.kind),
+        kinodynamic_(params_.kinodynamic.value_or(scenario_.vehicle.has_value())),
+        // "planner.option=value" entries, checked once here against each planner.
+        planner_options_(planner::parsePlannerOptions(params_.planner_options)),
+        world_source_(ctx, params_.world, scenario_),
+        paths_(publisher(runtime::topics::path)) {
+    if (kinodynamic_ && !scenario_.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
+    for (const auto& [name, assignments] : planner_options_) {
       try {
         planner::applyOptions(*planner::makePlanner(name), assignments);
       } catch (const std::exception& e) {
         throw runtime::ParameterError(std::string("parameter planner_options: ") + e.what());
       }
     }
+    requests_ = subscribe(runtime::topics::plan_request, [this](const msg::PlanRequest& r, const bus::SampleInfo& info) { onRequest(r, info); });
+  }
 
-    nodes::WorldSource world_source(ctx.bus(), world_params, scenario);
-    auto paths = ctx.bus().publisher<msg::Path>("planning/path", bus::Qos::state());
+  void shutdown() override { worker_.stop(); }  // a solve in progress stops and is answered
 
-    auto answer = [&](const msg::PlanRequest& request) {
-      const auto fail = [&](const std::string& why) {
-        spdlog::warn("planning/request {}: {}", request.request_id(), why);
-        planner::PlanResult failed;
-        failed.planner = request.planner();
-        msg::Path path = nodes::toMsg(failed, request.request_id(), ctx.clock().nowNs());
-        path.failure(why);
-        paths.publish(path);
-      };
-      // Every number of the request is bounded here, once: coordinates inside the scenario's bounds (a planner
-      // would otherwise walk a 1e300 m segment), a positive finite budget, capped below. An empty frame_id
-      // is taken as the map frame.
-      const std::string frame = request.header().frame_id().empty() ? "" : nodes::kWorldFrame;
-      if (const auto error = nodes::checkPlanRequest(request, scenario, frame); !error.empty())
-        return fail("refused: " + error);
-      std::unique_ptr<planner::Planner> algorithm;
-      try {
-        algorithm = planner::makePlanner(request.planner());
-        if (auto it = planner_options.find(request.planner()); it != planner_options.end()) {
-          planner::applyOptions(*algorithm, it->second);
-        }
-      } catch (const std::exception& e) {
-        return fail(e.what());
-      }
-      // Every failure below is answered with an unsolved Path (the reason goes to the log): the requester
-      // must hear back, and a bad world must not escape this bus callback.
-      std::unique_ptr<planner::CollisionWorld> world;
-      try {
-        world = world_source.snapshot(nodes::fromMsg(request.start()).position);
-      } catch (const std::exception& e) {
-        return fail(std::string("cannot build the world: ") + e.what());
-      }
-      if (!world)
-        return fail(kind == nodes::WorldKind::Map     ? "no map/octomap received yet"
-                    : kind == nodes::WorldKind::Fused ? "no map/octomap and perception/obstacles received yet"
-                                                      : "no perception/obstacles received yet");
-      planner::PlanProblem problem;
-      problem.world = world.get();
-      problem.start = nodes::fromMsg(request.start());
-      problem.goal = nodes::fromMsg(request.goal()).position;
-      problem.goal_radius = request.goal_radius();
-      problem.vehicle = scenario.vehicle;
-      problem.kinodynamic = kinodynamic;
-      problem.seed = request.seed();
-      problem.time_limit_s = std::min(request.time_budget_s(), max_budget);
-      try {
-        const auto result = algorithm->solve(problem);
-        spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result.planner,
-                     result.solved ? "solved" : "failed", result.stats.time_s, result.stats.iterations, result.cost);
-        msg::Path path = nodes::toMsg(result, request.request_id(), ctx.clock().nowNs());
-        if (!result.solved) {
-          path.failure(fmt::format("no path within the time budget ({:.2f} s, {} iterations)", problem.time_limit_s,
-                                   result.stats.iterations));
-        }
-        paths.publish(path);
-      } catch (const std::exception& e) {
-        fail(e.what());
-      }
-    };
-    auto requests = ctx.bus().subscribe<msg::PlanRequest>("planning/request", bus::Qos::commands(), answer);
+ private:
+  void fail(const msg::PlanRequest& request, const std::string& why) {
+    spdlog::warn("planning/request {}: {}", request.request_id(), why);
+    planner::PlanResult failed;
+    failed.planner = request.planner();
+    msg::Path path = nodes::toMsg(failed, request.request_id(), clock().nowNs());
+    path.failure(why);
+    paths_.publish(path);
+  }
 
-    ctx.ready();
-    while (sleepFor(ctx, std::chrono::milliseconds(200))) {
+  // On the executor: the checks, then the solve handed to the worker.
+  void onRequest(const msg::PlanRequest& request, const bus::SampleInfo& info) {
+    // Every number of the request is bounded here, once: coordinates inside the scenario's bounds (a planner
+    // would otherwise walk a 1e300 m segment), a positive finite budget, capped below. An empty frame_id
+    // is taken as the map frame.
+    const std::string frame = request.header().frame_id().empty() ? "" : nodes::kWorldFrame;
+    if (const auto error = nodes::checkPlanRequest(request, scenario_, frame); !error.empty()) return fail(request, "refused: " + error);
+    std::shared_ptr<planner::Planner> algorithm;
+    try {
+      algorithm = planner::makePlanner(request.planner());
+      if (auto it = planner_options_.find(request.planner()); it != planner_options_.end()) planner::applyOptions(*algorithm, it->second);
+    } catch (const std::exception& e) {
+      return fail(request, e.what());
     }
-  });
-}
+    worker_.submit(info.publication_handle, [this, request, algorithm](std::stop_token stop) { solve(request, *algorithm, stop); });
+  }
+
+  // On the worker. Every failure is answered with an unsolved Path (the reason goes to the log): the
+  // requester must hear back, and a bad world must not end the planner.
+  void solve(const msg::PlanRequest& request, planner::Planner& algorithm, std::stop_token stop) {
+    const auto stopped = [&] {
+      fail(request, worker_.stopping() ? "the planner is shutting down" : "superseded by a newer request from the same requester");
+    };
+    if (stop.stop_requested()) return stopped();
+    std::unique_ptr<planner::CollisionWorld> world;
+    try {
+      world = world_source_.snapshot(nodes::fromMsg(request.start()).position);
+    } catch (const std::exception& e) {
+      return fail(request, std::string("cannot build the world: ") + e.what());
+    }
+    if (!world)
+      return fail(request, kind_ == nodes::WorldKind::Map     ? "no map/octomap received yet"
+                           : kind_ == nodes::WorldKind::Fused ? "no map/octomap and perception/obstacles received yet"
+                                                              : "no perception/obstacles received yet");
+    planner::PlanProblem problem;
+    problem.world = world.get();
+    problem.start = nodes::fromMsg(request.start());
+    problem.goal = nodes::fromMsg(request.goal()).position;
+    problem.goal_radius = request.goal_radius();
+    problem.vehicle = scenario_.vehicle;
+    problem.kinodynamic = kinodynamic_;
+    problem.seed = request.seed();
+    problem.time_limit_s = std::min(request.time_budget_s(), params_.max_time_budget_s);
+    problem.stop = stop;
+    try {
+      const auto result = algorithm.solve(problem);
+      if (result.stopped) return stopped();
+      spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result.planner,
+                   result.solved ? "solved" : "failed", result.stats.time_s, result.stats.iterations, result.cost);
+      msg::Path path = nodes::toMsg(result, request.request_id(), clock().nowNs());
+      if (!result.solved) {
+        path.failure(fmt::format("no path within the time budget ({:.2f} s, {} iterations)", problem.time_limit_s, result.stats.iterations));
+      }
+      paths_.publish(path);
+    } catch (const std::exception& e) {
+      fail(request, e.what());
+    }
+  }
+
+  const Params params_;
+  const planner::Scenario scenario_;
+  const nodes::WorldKind kind_;
+  const bool kinodynamic_;
+  const std::map<std::string, std::vector<std::string>> planner_options_;
+  nodes::WorldSource world_source_;
+  bus::Publisher<msg::Path> paths_;
+  runtime::Worker worker_{"planner"};  // after what its jobs use: stopped and joined before they go
+  bus::Subscription requests_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) { return runtime::runComponent<PlannerComponent>("planner", argc, argv); }

@@ -17,22 +17,20 @@ WorldKind parseWorldKind(const std::string& text, const std::string& param) {
   throw runtime::ParameterError("parameter " + param + ": expected one of obstacles, map, fused, scenario, got '" + text + "'");
 }
 
-WorldParameters declareWorldParameters(runtime::Parameters& params) {
-  WorldParameters out;
-  out.kind = parseWorldKind(params.declare<std::string>("world", "obstacles", "obstacles | map | fused | scenario"));
-  const auto unknown = params.declare<std::string>("unknown_space", "optimistic", "optimistic | conservative (map, fused)");
-  try {
-    out.unknown = planner::parseUnknownSpace(unknown);
-  } catch (const std::invalid_argument& e) {
-    throw runtime::ParameterError(std::string("parameter unknown_space: ") + e.what());
-  }
-  return out;
-}
+WorldParameters::WorldParameters(runtime::Parameters& params)
+    : kind(parseWorldKind(params.declare<std::string>(
+          "world", "obstacles",
+          {.doc = "what to plan or check on: perception/obstacles, map/octomap, both fused (docs/world-model.md) or the scenario's exact geometry",
+           .choices = {"obstacles", "map", "fused", "scenario"}}))),
+      unknown(planner::parseUnknownSpace(params.declare<std::string>(
+          "unknown_space", "optimistic",
+          {.doc = "how the map's never-observed space counts (map and fused worlds): free or occupied",
+           .choices = {"optimistic", "conservative"}}))) {}
 
-WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario,
-                         planner::UnknownSpace unknown)
-    : kind_(kind), scenario_(scenario), unknown_(unknown) {
-  obstacles_sub_ = bus.subscribe<msg::ObstacleArray>("perception/obstacles", bus::Qos::state(), [this](const msg::ObstacleArray& a) {
+WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario)
+    : kind_(world.kind), scenario_(scenario), unknown_(world.unknown) {
+  // On the component's executor: the arrays and maps are checked there, not on a DDS thread.
+  obstacles_sub_ = ctx.subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& a) {
     const auto error = checkObstacleArray(a, kWorldFrame);
     std::lock_guard lock(mutex_);
     if (!error.empty()) {
@@ -45,7 +43,7 @@ WorldSource::WorldSource(bus::Participant& bus, WorldKind kind, const planner::S
     obstacles_ = a;
   });
   if (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) {
-    map_sub_ = bus.subscribe<msg::OccupancyMap>("map/octomap", bus::Qos::state(), [this](const msg::OccupancyMap& m) {
+    map_sub_ = ctx.subscribe(runtime::topics::octomap, [this](const msg::OccupancyMap& m) {
       // Parsed outside the lock: a large octree takes a while, and snapshot() must not wait for it.
       const auto error = checkOccupancyMap(m, kWorldFrame, scenario_);
       std::lock_guard lock(mutex_);

@@ -5,6 +5,7 @@
 // (docs/visualize.md) to every file as soon as it is complete.
 #include <ddsnav/foxglove/export.hpp>
 #include <ddsnav/record/recorder.hpp>
+#include <ddsnav/runtime/component.hpp>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -65,232 +66,223 @@ bool addFoxgloveViews(const std::string& path, const std::optional<planner::Scen
   }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  // Blocked before any thread exists: only the main loop's sigtimedwait sees them.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGUSR1);  // snapshot
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-
-  CLI::App app{"Record DDS topics as raw payloads into an MCAP file (docs/record.md)."};
+// The command line beyond the runtime's options (--dds, --domain, --namespace, --remap, ...).
+struct RecordOptions {
   record::RecorderOptions options;
-  options.output = defaultName();
-  std::string dds;   // empty: DDSNAV_DDS, else fastdds
-  int domain = -1;   // unset: DDSNAV_DOMAIN, else 0
   bool all = false;
   double duration = 0;
   std::string compression = "zstd";
   double queue_mb = 256;
   std::size_t chunk_kb = 1024;
   long write_delay_us = 0;
-  app.add_option("-o,--output", options.output, "MCAP file to write");
-  app.add_option("--topics", options.topics, "topics to record (comma separated)")->delimiter(',');
-  app.add_flag("--all", all, "record every topic discovered (the default when --topics is not given)");
-  app.add_option("--duration", duration, "stop after this many seconds (0: until SIGINT/SIGTERM)")->check(CLI::NonNegativeNumber);
-  app.add_option("--max-messages", options.max_messages, "stop after writing this many messages (0: no limit)");
-  app.add_option("--domain", domain, "DDS domain id (env DDSNAV_DOMAIN)")->check(CLI::Range(0, bus::kMaxDomainId));
-  app.add_option("--dds", dds, "DDS vendor: fastdds | cyclonedds (env DDSNAV_DDS)");
-  app.add_option("--compression", compression, "chunk compression")->check(CLI::IsMember({"zstd", "none"}));
-  app.add_option("--chunk-kb", chunk_kb, "close a chunk at this many KB of messages (also after 1 s)")->check(CLI::Range(1, 1 << 20));
-  app.add_option("--queue-mb", queue_mb, "writer queue limit in MB; samples beyond it are dropped and counted")
-      ->check(CLI::PositiveNumber);
-  app.add_option("--queue-messages", options.queue_messages, "writer queue limit in samples")->check(CLI::PositiveNumber);
-  app.add_option("--write-delay-us", write_delay_us, "pause after each write (simulates a slow disk; tests)")
-      ->check(CLI::NonNegativeNumber);
-  app.add_option("--compression-threads", options.compression_threads, "chunk compression workers (default: one per core)")
-      ->check(CLI::Range(0, 64));
   double max_file_mb = 0, max_file_s = 0;
-  auto* max_file_mb_opt = app.add_option("--max-file-mb", max_file_mb, "start a new numbered file (NAME_0.mcap, NAME_1.mcap, ...) at this size");
-  auto* max_file_s_opt = app.add_option("--max-file-s", max_file_s, "start a new numbered file after this many seconds");
+  CLI::Option *max_file_mb_opt = nullptr, *max_file_s_opt = nullptr, *snapshot_s_opt = nullptr, *snapshot_mb_opt = nullptr;
   bool snapshot = false;
   double snapshot_s = 0, snapshot_mb = 0;
   std::string snapshot_topic;
-  app.add_flag("--snapshot", snapshot, "keep the newest messages in memory; write them (NAME_N.mcap) on SIGUSR1 or --snapshot-topic");
-  auto* snapshot_s_opt = app.add_option("--snapshot-s", snapshot_s, "snapshot mode: seconds of messages kept in memory");
-  auto* snapshot_mb_opt = app.add_option("--snapshot-mb", snapshot_mb, "snapshot mode: MB of messages kept in memory");
-  app.add_option("--snapshot-topic", snapshot_topic, "snapshot mode: any message on this topic (any type) writes a snapshot");
   bool with_foxglove = false;
   std::string scenario_file;
-  app.add_flag("--foxglove", with_foxglove, "add the Foxglove views (foxglove/* channels, as `ddsnav export --foxglove`) to each file once complete");
-  app.add_option("--scenario", scenario_file, "with --foxglove: scenario file whose true obstacles go on foxglove/scenario")
-      ->check(CLI::ExistingFile);
-  CLI11_PARSE(app, argc, argv);
-  if (!scenario_file.empty() && !with_foxglove) {
-    std::fprintf(stderr, "ddsnav record: --scenario needs --foxglove\n");
-    return 2;
+
+  void add(CLI::App& app) {
+    options.output = defaultName();
+    app.add_option("-o,--output", options.output, "MCAP file to write");
+    app.add_option("--topics", options.topics, "topics to record (comma separated)")->delimiter(',');
+    app.add_flag("--all", all, "record every topic discovered (the default when --topics is not given)");
+    app.add_option("--duration", duration, "stop after this many seconds (0: until SIGINT/SIGTERM)")->check(CLI::NonNegativeNumber);
+    app.add_option("--max-messages", options.max_messages, "stop after writing this many messages (0: no limit)");
+    app.add_option("--compression", compression, "chunk compression")->check(CLI::IsMember({"zstd", "none"}));
+    app.add_option("--chunk-kb", chunk_kb, "close a chunk at this many KB of messages (also after 1 s)")->check(CLI::Range(1, 1 << 20));
+    app.add_option("--queue-mb", queue_mb, "writer queue limit in MB; samples beyond it are dropped and counted")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--queue-messages", options.queue_messages, "writer queue limit in samples")->check(CLI::PositiveNumber);
+    app.add_option("--write-delay-us", write_delay_us, "pause after each write (simulates a slow disk; tests)")
+        ->check(CLI::NonNegativeNumber);
+    app.add_option("--compression-threads", options.compression_threads, "chunk compression workers (default: one per core)")
+        ->check(CLI::Range(0, 64));
+    max_file_mb_opt = app.add_option("--max-file-mb", max_file_mb, "start a new numbered file (NAME_0.mcap, NAME_1.mcap, ...) at this size");
+    max_file_s_opt = app.add_option("--max-file-s", max_file_s, "start a new numbered file after this many seconds");
+    app.add_flag("--snapshot", snapshot, "keep the newest messages in memory; write them (NAME_N.mcap) on SIGUSR1 or --snapshot-topic");
+    snapshot_s_opt = app.add_option("--snapshot-s", snapshot_s, "snapshot mode: seconds of messages kept in memory");
+    snapshot_mb_opt = app.add_option("--snapshot-mb", snapshot_mb, "snapshot mode: MB of messages kept in memory");
+    app.add_option("--snapshot-topic", snapshot_topic, "snapshot mode: any message on this topic (any type) writes a snapshot");
+    app.add_flag("--foxglove", with_foxglove, "add the Foxglove views (foxglove/* channels, as `ddsnav export --foxglove`) to each file once complete");
+    app.add_option("--scenario", scenario_file, "with --foxglove: scenario file whose true obstacles go on foxglove/scenario")
+        ->check(CLI::ExistingFile);
   }
+};
+
+// Bad combinations of options: exit status 2 with the message (runtime::ParameterError).
+void usageError(const std::string& message) { throw runtime::ParameterError("ddsnav record: " + message); }
+
+void runRecording(runtime::Context& ctx, RecordOptions& o, sigset_t snapshot_signal) {
+  auto& options = o.options;
+  const auto& snapshot = o.snapshot;
+  auto& snapshot_s = o.snapshot_s;
+  const auto& snapshot_mb = o.snapshot_mb;
+  const auto& snapshot_topic = o.snapshot_topic;
+  const auto& duration = o.duration;
+  if (!o.scenario_file.empty() && !o.with_foxglove) usageError("--scenario needs --foxglove");
   // Limits from the command line: a positive finite number or the option is an error (0 would mean
   // "a new file for every message" or "keep nothing" -- never what was meant).
   auto positive = [](CLI::Option* opt, double value, const char* what) {
-    if (opt->count() == 0 || (value > 0 && std::isfinite(value))) return true;
-    std::fprintf(stderr, "ddsnav record: %s %g: expected a positive number of %s (leave the option out for no limit)\n",
-                 opt->get_name().c_str(), value, what);
-    return false;
+    if (opt->count() == 0 || (value > 0 && std::isfinite(value))) return;
+    usageError(fmt::format("{} {:g}: expected a positive number of {} (leave the option out for no limit)", opt->get_name(), value, what));
   };
-  if (!positive(max_file_mb_opt, max_file_mb, "MB") || !positive(max_file_s_opt, max_file_s, "seconds") ||
-      !positive(snapshot_s_opt, snapshot_s, "seconds") || !positive(snapshot_mb_opt, snapshot_mb, "MB"))
-    return 2;
-  if (!snapshot && (snapshot_s_opt->count() || snapshot_mb_opt->count() || !snapshot_topic.empty())) {
-    std::fprintf(stderr, "ddsnav record: --snapshot-s, --snapshot-mb and --snapshot-topic need --snapshot\n");
-    return 2;
-  }
-  if (snapshot && (max_file_mb_opt->count() || max_file_s_opt->count())) {
-    std::fprintf(stderr, "ddsnav record: --snapshot writes one file per snapshot; it does not combine with --max-file-mb/-s\n");
-    return 2;
-  }
-  if (snapshot && snapshot_s_opt->count() == 0 && snapshot_mb_opt->count() == 0) snapshot_s = 10;  // default window
-  options.max_file_bytes = static_cast<std::uint64_t>(max_file_mb * 1e6);
-  options.max_file_duration = std::chrono::milliseconds(static_cast<std::int64_t>(max_file_s * 1000));
+  positive(o.max_file_mb_opt, o.max_file_mb, "MB");
+  positive(o.max_file_s_opt, o.max_file_s, "seconds");
+  positive(o.snapshot_s_opt, o.snapshot_s, "seconds");
+  positive(o.snapshot_mb_opt, o.snapshot_mb, "MB");
+  if (!snapshot && (o.snapshot_s_opt->count() || o.snapshot_mb_opt->count() || !snapshot_topic.empty()))
+    usageError("--snapshot-s, --snapshot-mb and --snapshot-topic need --snapshot");
+  if (snapshot && (o.max_file_mb_opt->count() || o.max_file_s_opt->count()))
+    usageError("--snapshot writes one file per snapshot; it does not combine with --max-file-mb/-s");
+  if (snapshot && o.snapshot_s_opt->count() == 0 && o.snapshot_mb_opt->count() == 0) snapshot_s = 10;  // default window
+  options.max_file_bytes = static_cast<std::uint64_t>(o.max_file_mb * 1e6);
+  options.max_file_duration = std::chrono::milliseconds(static_cast<std::int64_t>(o.max_file_s * 1000));
   options.snapshot = snapshot;
   options.snapshot_duration = std::chrono::milliseconds(static_cast<std::int64_t>(snapshot_s * 1000));
   options.snapshot_bytes = static_cast<std::uint64_t>(snapshot_mb * 1e6);
-  if (all && !options.topics.empty()) {
-    std::fprintf(stderr, "ddsnav record: give either --topics or --all, not both\n");
-    return 2;
+  if (o.all && !options.topics.empty()) usageError("give either --topics or --all, not both");
+  // The names asked for are the component's topics: --namespace and --remap apply to them.
+  for (auto& topic : options.topics) topic = ctx.topic(topic);
+
+  const int domain = ctx.bus().domainId();
+  options.mcap.compression = o.compression == "zstd" ? record::Compression::Zstd : record::Compression::None;
+  options.mcap.chunk_size = o.chunk_kb * 1024;
+  options.queue_bytes = static_cast<std::size_t>(o.queue_mb * (1 << 20));
+  options.write_delay = std::chrono::microseconds(o.write_delay_us);
+  options.domain_id = domain;
+  // The folder first: one clear message instead of a failure deep inside (snapshot mode opens its files
+  // only when triggered, so without this check a typo would show up at the first snapshot).
+  {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(options.output).parent_path().empty() ? fs::path(".") : fs::path(options.output).parent_path();
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec))
+      throw std::runtime_error(fmt::format("{}: the recording folder {} does not exist (or is not a folder)", options.output, dir.string()));
+    if (::access(dir.c_str(), W_OK | X_OK) != 0)
+      throw std::runtime_error(fmt::format("{}: the recording folder {} is not writable: {}", options.output, dir.string(), std::strerror(errno)));
   }
-  spdlog::set_pattern("[%H:%M:%S.%e] [record] [%^%l%$] %v");
-
-  try {
-    const bus::Vendor vendor = dds.empty() ? bus::vendorFromEnvironment() : bus::parseVendor(dds);
-    if (domain < 0) domain = bus::domainFromEnvironment(0);
-    options.mcap.compression = compression == "zstd" ? record::Compression::Zstd : record::Compression::None;
-    options.mcap.chunk_size = chunk_kb * 1024;
-    options.queue_bytes = static_cast<std::size_t>(queue_mb * (1 << 20));
-    options.write_delay = std::chrono::microseconds(write_delay_us);
-    options.domain_id = domain;
-    // The folder first: one clear message instead of a failure deep inside (snapshot mode opens its files
-    // only when triggered, so without this check a typo would show up at the first snapshot).
-    {
-      namespace fs = std::filesystem;
-      const fs::path dir = fs::path(options.output).parent_path().empty() ? fs::path(".") : fs::path(options.output).parent_path();
-      std::error_code ec;
-      if (!fs::is_directory(dir, ec)) {
-        spdlog::error("{}: the recording folder {} does not exist (or is not a folder)", options.output, dir.string());
-        return 1;
-      }
-      if (::access(dir.c_str(), W_OK | X_OK) != 0) {
-        spdlog::error("{}: the recording folder {} is not writable: {}", options.output, dir.string(), std::strerror(errno));
-        return 1;
-      }
-    }
-    std::optional<planner::Scenario> scenario;
-    if (!scenario_file.empty()) scenario = planner::loadScenario(scenario_file);  // errors name the file, before recording starts
-    bus::Participant participant({.vendor = vendor, .domain_id = domain, .name = "ddsnav-record"});
-    options.vendor_name = std::string(bus::vendorName(participant.vendor()));
-    record::Recorder recorder(participant, options);
-    std::size_t files_with_views = 0;
-    bool views_failed = false;
-    auto addViewsToCompletedFiles = [&] {
-      if (!with_foxglove) return;
-      const auto files = recorder.filesWritten();
-      for (; files_with_views < files.size(); ++files_with_views)
-        views_failed |= !addFoxgloveViews(files[files_with_views], scenario);
-    };
-    spdlog::info("recording {} to {} (domain {}, {})", options.topics.empty() ? std::string("every topic") : fmt::format("{}", fmt::join(options.topics, ",")),
-                 options.output, domain, options.vendor_name);
-
-    if (snapshot)
-      spdlog::info("snapshot mode: keeping the last {}{}{} in memory; kill -USR1 {}{} writes them", snapshot_s > 0 ? fmt::format("{:g} s", snapshot_s) : "",
-                   snapshot_s > 0 && snapshot_mb > 0 ? " / " : "", snapshot_mb > 0 ? fmt::format("{:g} MB", snapshot_mb) : "", ::getpid(),
-                   snapshot_topic.empty() ? "" : " (so does any message on " + snapshot_topic + ")");
-    // The snapshot control topic: whatever type its publisher uses, any sample is a trigger.
-    std::atomic<bool> snapshot_message{false};
-    bus::Subscription snapshot_trigger;
-
-    const bool tty = ::isatty(STDERR_FILENO);
-    const auto start = std::chrono::steady_clock::now();
-    auto last_line = start;
-    auto progress = [&](bool final) {
-      std::uint64_t received = 0, written = 0, dropped = 0, lost = 0;
-      const auto counts = recorder.counts();
-      for (const auto& c : counts) {
-        received += c.received;
-        written += c.written;
-        dropped += c.dropped;
-        lost += c.lost;
-      }
-      const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      const std::string buffered = snapshot ? fmt::format("  buffered {}", recorder.snapshotMessages()) : std::string();
-      std::fprintf(stderr, "%s%.1f s  %zu topics  received %llu  lost %llu  dropped %llu  written %llu  %.1f MB%s%s", tty ? "\r" : "", t,
-                   counts.size(), static_cast<unsigned long long>(received), static_cast<unsigned long long>(lost),
-                   static_cast<unsigned long long>(dropped), static_cast<unsigned long long>(written), recorder.bytesWritten() / 1e6,
-                   buffered.c_str(), tty && !final ? "   " : "\n");
-    };
-    const timespec tick{0, 100'000'000};
-    for (;;) {
-      const int sig = ::sigtimedwait(&signals, nullptr, &tick);
-      if (sig == SIGINT || sig == SIGTERM) {
-        if (tty) std::fprintf(stderr, "\n");
-        spdlog::info("{}: closing {}", strsignal(sig), options.output);
-        break;
-      }
-      if (sig == SIGUSR1 || snapshot_message.exchange(false)) {
-        if (snapshot)
-          recorder.requestSnapshot();
-        else
-          spdlog::warn("{}: ignored: not in snapshot mode (--snapshot)", sig == SIGUSR1 ? "SIGUSR1" : "snapshot message");
-      }
-      recorder.poll();
-      if (snapshot && !snapshot_topic.empty() && !snapshot_trigger) {
-        for (const bus::TopicInfo& t : participant.discoveredTopics())
-          if (t.topic == snapshot_topic) {
-            try {
-              // Best effort matches publishers of either reliability.
-              snapshot_trigger = participant.subscribeRaw(t, bus::Qos::sensorData(10), [&](const bus::RawSample&) { snapshot_message = true; });
-              spdlog::info("snapshot trigger: {} ({})", t.topic, t.type_name);
-            } catch (const std::exception& e) {
-              spdlog::warn("snapshot trigger {}: {}", t.topic, e.what());
-            }
-            break;
-          }
-      }
-      const auto now = std::chrono::steady_clock::now();
-      if (duration > 0 && now - start >= std::chrono::duration<double>(duration)) break;
-      if (recorder.reachedMaxMessages()) break;
-      if (recorder.failed()) break;
-      addViewsToCompletedFiles();  // split files and snapshots, as each one closes
-      if (now - last_line >= (tty ? std::chrono::milliseconds(500) : std::chrono::milliseconds(5000))) {
-        progress(false);
-        last_line = now;
-      }
-    }
-    snapshot_trigger = bus::Subscription();
-    try {
-      recorder.stop();
-    } catch (const std::exception& e) {
-      // The counts below still say what reached the disk; failed() makes the exit status 1.
-      spdlog::error("closing the recording: {}", e.what());
-    }
-    progress(true);
-    addViewsToCompletedFiles();
-    for (const auto& c : recorder.counts())
-      spdlog::info("{}: received {} lost {} dropped {} written {}", c.topic, c.received, c.lost, c.dropped, c.written);
+  std::optional<planner::Scenario> scenario;
+  if (!o.scenario_file.empty()) scenario = planner::loadScenario(o.scenario_file);  // errors name the file, before recording starts
+  bus::Participant& participant = ctx.bus();
+  options.vendor_name = std::string(bus::vendorName(participant.vendor()));
+  record::Recorder recorder(participant, options);
+  std::size_t files_with_views = 0;
+  bool views_failed = false;
+  auto addViewsToCompletedFiles = [&] {
+    if (!o.with_foxglove) return;
     const auto files = recorder.filesWritten();
-    if (files.size() > 1 || snapshot)
-      for (const auto& f : files) spdlog::info("file: {}", f);
-    for (const auto& s : recorder.skipped()) spdlog::warn("not recorded: {}", s);
-    // A topic asked for by name that never appeared is most often a typo: say so, by name.
-    for (const auto& topic : recorder.notDiscovered()) spdlog::warn("{}: no publisher discovered; nothing recorded", topic);
-    if (recorder.failed()) {
-      spdlog::error("recording stopped early: {}", recorder.error());
-      return 1;
+    for (; files_with_views < files.size(); ++files_with_views)
+      views_failed |= !addFoxgloveViews(files[files_with_views], scenario);
+  };
+  spdlog::info("recording {} to {} (domain {}, {})", options.topics.empty() ? std::string("every topic") : fmt::format("{}", fmt::join(options.topics, ",")),
+               options.output, domain, options.vendor_name);
+
+  if (snapshot)
+    spdlog::info("snapshot mode: keeping the last {}{}{} in memory; kill -USR1 {}{} writes them", snapshot_s > 0 ? fmt::format("{:g} s", snapshot_s) : "",
+                 snapshot_s > 0 && snapshot_mb > 0 ? " / " : "", snapshot_mb > 0 ? fmt::format("{:g} MB", snapshot_mb) : "", ::getpid(),
+                 snapshot_topic.empty() ? "" : " (so does any message on " + snapshot_topic + ")");
+  // The snapshot control topic: whatever type its publisher uses, any sample is a trigger.
+  std::atomic<bool> snapshot_message{false};
+  bus::Subscription snapshot_trigger;
+  ctx.ready();  // recording (what is discovered from now on): READY on system/status like every component
+
+  const bool tty = ::isatty(STDERR_FILENO);
+  const auto start = std::chrono::steady_clock::now();
+  auto last_line = start;
+  auto progress = [&](bool final) {
+    std::uint64_t received = 0, written = 0, dropped = 0, lost = 0;
+    const auto counts = recorder.counts();
+    for (const auto& c : counts) {
+      received += c.received;
+      written += c.written;
+      dropped += c.dropped;
+      lost += c.lost;
     }
-    if (views_failed) return 1;
-    if (snapshot) {
-      if (files.empty()) spdlog::warn("no snapshot was requested: nothing written");
-      return 0;
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const std::string buffered = snapshot ? fmt::format("  buffered {}", recorder.snapshotMessages()) : std::string();
+    std::fprintf(stderr, "%s%.1f s  %zu topics  received %llu  lost %llu  dropped %llu  written %llu  %.1f MB%s%s", tty ? "\r" : "", t,
+                 counts.size(), static_cast<unsigned long long>(received), static_cast<unsigned long long>(lost),
+                 static_cast<unsigned long long>(dropped), static_cast<unsigned long long>(written), recorder.bytesWritten() / 1e6,
+                 buffered.c_str(), tty && !final ? "   " : "\n");
+  };
+  const timespec tick{0, 100'000'000};
+  for (;;) {
+    // SIGINT/SIGTERM are the runtime's (shutdownRequested); SIGUSR1, blocked in every thread, is ours.
+    const int sig = ::sigtimedwait(&snapshot_signal, nullptr, &tick);
+    if (ctx.shutdownRequested()) {
+      if (tty) std::fprintf(stderr, "\n");
+      spdlog::info("closing {}", options.output);
+      break;
     }
-    if (recorder.messagesWritten() == 0) {
-      spdlog::error("nothing was recorded: {} holds no messages", files.empty() ? options.output : files.back());
-      return 1;
+    if (sig == SIGUSR1 || snapshot_message.exchange(false)) {
+      if (snapshot)
+        recorder.requestSnapshot();
+      else
+        spdlog::warn("{}: ignored: not in snapshot mode (--snapshot)", sig == SIGUSR1 ? "SIGUSR1" : "snapshot message");
     }
-  } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
-    return 1;
+    recorder.poll();
+    if (snapshot && !snapshot_topic.empty() && !snapshot_trigger) {
+      for (const bus::TopicInfo& t : participant.discoveredTopics())
+        if (t.topic == snapshot_topic) {
+          try {
+            // Best effort matches publishers of either reliability.
+            snapshot_trigger = participant.subscribeRaw(t, bus::Qos::sensorData(10), [&](const bus::RawSample&) { snapshot_message = true; });
+            spdlog::info("snapshot trigger: {} ({})", t.topic, t.type_name);
+          } catch (const std::exception& e) {
+            spdlog::warn("snapshot trigger {}: {}", t.topic, e.what());
+          }
+          break;
+        }
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (duration > 0 && now - start >= std::chrono::duration<double>(duration)) break;
+    if (recorder.reachedMaxMessages()) break;
+    if (recorder.failed()) break;
+    addViewsToCompletedFiles();  // split files and snapshots, as each one closes
+    if (now - last_line >= (tty ? std::chrono::milliseconds(500) : std::chrono::milliseconds(5000))) {
+      progress(false);
+      last_line = now;
+    }
   }
-  return 0;
+  snapshot_trigger = bus::Subscription();
+  try {
+    recorder.stop();
+  } catch (const std::exception& e) {
+    // The counts below still say what reached the disk; failed() makes the exit status 1.
+    spdlog::error("closing the recording: {}", e.what());
+  }
+  progress(true);
+  addViewsToCompletedFiles();
+  for (const auto& c : recorder.counts())
+    spdlog::info("{}: received {} lost {} dropped {} written {}", c.topic, c.received, c.lost, c.dropped, c.written);
+  const auto files = recorder.filesWritten();
+  if (files.size() > 1 || snapshot)
+    for (const auto& f : files) spdlog::info("file: {}", f);
+  for (const auto& s : recorder.skipped()) spdlog::warn("not recorded: {}", s);
+  // A topic asked for by name that never appeared is most often a typo: say so, by name.
+  for (const auto& topic : recorder.notDiscovered()) spdlog::warn("{}: no publisher discovered; nothing recorded", topic);
+  if (recorder.failed()) throw std::runtime_error("recording stopped early: " + recorder.error());
+  if (views_failed) throw std::runtime_error("adding the Foxglove views failed");
+  if (snapshot) {
+    if (files.empty()) spdlog::warn("no snapshot was requested: nothing written");
+    return;
+  }
+  if (recorder.messagesWritten() == 0)
+    throw std::runtime_error(fmt::format("nothing was recorded: {} holds no messages", files.empty() ? options.output : files.back()));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Blocked before any thread exists: only the recording loop's sigtimedwait sees it.
+  sigset_t snapshot_signal;
+  sigemptyset(&snapshot_signal);
+  sigaddset(&snapshot_signal, SIGUSR1);
+  pthread_sigmask(SIG_BLOCK, &snapshot_signal, nullptr);
+  RecordOptions options;
+  return runtime::runComponent(
+      runtime::ComponentInfo{"record", {}, [&](CLI::App& app) { options.add(app); }}, argc, argv,
+      [&](runtime::Context& ctx) { runRecording(ctx, options, snapshot_signal); });
 }

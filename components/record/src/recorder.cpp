@@ -1,5 +1,6 @@
 #include <ddsnav/record/recorder.hpp>
 #include <ddsnav/record/schemas.hpp>
+#include <ddsnav/runtime/topics.hpp>
 
 #include <spdlog/spdlog.h>
 
@@ -21,19 +22,12 @@ std::uint64_t nowNs() {
 }  // namespace
 
 TopicQos qosForTopic(const std::string& topic) {
-  // The profiles ddsnav's components publish with (idl/*.idl comments, docs/record.md). Readers must ask
-  // no more than the writer offers: a transient-local reader does not match a volatile writer, a reliable
-  // reader does not match a best-effort writer.
-  static const std::map<std::string, std::string> table = {
-      {"sensors/points", "sensorData"},        {"vehicle/state", "sensorData"},
-      {"system/clock", "sensorData"},          {"control/tracking", "sensorData"},
-      {"map/octomap", "state"},                {"perception/obstacles", "state"},
-      {"planning/path", "state"},              {"control/trajectory", "state"},
-      {"system/status", "state"},              {"planning/request", "commands"},
-      {"control/cmd_vel", "commands"},
-  };
-  const auto it = table.find(topic);
-  return qosForProfile(it == table.end() ? "default" : it->second, topic);
+  // The profiles ddsnav's components publish with: the stock topic table (runtime/topics.hpp), a
+  // namespaced name ("uav1/sensors/points") included. Readers must ask no more than the writer offers: a
+  // transient-local reader does not match a volatile writer, a reliable reader does not match a
+  // best-effort writer.
+  const runtime::TopicRow* row = runtime::findStockTopic(topic);
+  return qosForProfile(row ? row->profile : "default", topic);
 }
 
 TopicQos qosForProfile(const std::string& profile, const std::string& topic) {

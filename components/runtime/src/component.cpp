@@ -1,10 +1,12 @@
 #include <ddsnav/runtime/component.hpp>
+#include <ddsnav/runtime/topic_names.hpp>
 
 #include <ddsnav/msg/messages.hpp>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <fmt/format.h>
 
 #include <pthread.h>
 #include <signal.h>
@@ -12,8 +14,11 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <mutex>
+#include <set>
 #include <thread>
 
 namespace ddsnav::runtime {
@@ -88,6 +93,24 @@ class ContextImpl : public Context {
   ContextImpl(std::string name, Parameters params, std::shared_ptr<spdlog::logger> logger)
       : name_(std::move(name)), params_(std::move(params)), logger_(std::move(logger)) {}
 
+  // --namespace and --remap, checked before anything starts (ParameterError: exit status 2).
+  void setNames(const std::string& ns, const std::vector<std::string>& remaps) {
+    if (!ns.empty()) {
+      if (const auto error = topicNameError(ns); !error.empty()) throw ParameterError("--namespace '" + ns + "' " + error);
+    }
+    ns_ = ns;
+    for (const std::string& r : remaps) {
+      const auto eq = r.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == r.size())
+        throw ParameterError("--remap '" + r + "': expected FROM=TO, two topic names");
+      const std::string from = r.substr(0, eq), to = r.substr(eq + 1);
+      if (from == topics::status.name) throw ParameterError("--remap '" + r + "': system/status is never remapped");
+      for (const std::string& n : {from, to.front() == '/' ? to.substr(1) : to})
+        if (const auto error = topicNameError(n); !error.empty()) throw ParameterError("--remap '" + r + "': '" + n + "' " + error);
+      if (!remaps_.emplace(from, to).second) throw ParameterError("--remap: topic '" + from + "' remapped twice");
+    }
+  }
+
   ~ContextImpl() override { stopHeartbeat(); }
 
   void start(const bus::ParticipantOptions& options) {
@@ -95,14 +118,12 @@ class ContextImpl : public Context {
     status_pub_ = participant_->publisher<msg::ComponentStatus>("system/status", bus::Qos::state(1));
     status_open_ = true;
     publishState(msg::LIFECYCLE_STARTING);
-    const std::string clock = params_.declare<std::string>("clock", "system", "system | topic");
-    if (clock == "system")
+    runtime_params_ = RuntimeParams(params_);
+    if (runtime_params_.clock == "system")
       clock_ = std::make_unique<SystemClock>();
-    else if (clock == "topic")
-      clock_ = std::make_unique<TopicClock>(*participant_);
     else
-      throw ParameterError("parameter 'clock': expected 'system' or 'topic', got '" + clock + "'");
-    heartbeat_period_ = boundedSeconds("heartbeat_period_s", 1.0, kHeartbeatPeriodMaxS, "period of the system/status heartbeat, s");
+      clock_ = std::make_unique<TopicClock>(*participant_, topics::clock.name);
+    heartbeat_period_ = runtime_params_.heartbeat_period_s;
     heartbeat_ = std::thread([this] { heartbeatLoop(); });
     publishState(msg::LIFECYCLE_CONFIGURING);
   }
@@ -115,6 +136,16 @@ class ContextImpl : public Context {
 
   void ready() override {
     params_.rejectUndeclared();
+    {
+      std::lock_guard lock(names_mutex_);
+      for (const auto& [from, to] : remaps_) {
+        if (used_.count(from)) continue;
+        std::string known;
+        for (const auto& u : used_) known += (known.empty() ? "" : ", ") + u;
+        throw ParameterError("--remap " + from + "=" + to + ": " + name_ + " uses no topic '" + from + "'; it uses: " +
+                             (known.empty() ? "none" : known));
+      }
+    }
     publishState(msg::LIFECYCLE_READY);
     logger_->info("ready on {} domain {}", bus::vendorName(participant_->vendor()), participant_->domainId());
   }
@@ -147,11 +178,33 @@ class ContextImpl : public Context {
 
   void requestShutdown() override {
     if (shutdown_.exchange(true)) return;
+    executor_.stop();
     publishState(msg::LIFECYCLE_SHUTTING_DOWN);
     changed_.notify_all();
   }
 
+  std::string topic(const std::string& name) override {
+    if (name == topics::status.name) return name;
+    std::lock_guard lock(names_mutex_);
+    used_.insert(name);
+    std::string resolved = name;
+    if (auto it = remaps_.find(name); it != remaps_.end()) resolved = it->second;
+    if (resolved.front() == '/') return resolved.substr(1);  // absolute
+    if (ns_.empty() || resolved.rfind("system/", 0) == 0) return resolved;
+    return ns_ + "/" + resolved;
+  }
+  const std::string& ns() const override { return ns_; }
+
+  Executor& executor() override { return executor_; }
+  void runExecutor() override {
+    if (shutdown_) return;
+    executor_.run();
+  }
+
+  const RuntimeParams& runtimeParams() const { return runtime_params_; }
+
   void finish(msg::LifecycleState state, const std::string& detail) {
+    executor_.stop();
     if (!participant_) return;
     {
       std::lock_guard lock(mutex_);
@@ -167,16 +220,6 @@ class ContextImpl : public Context {
       clock_.reset();
     }
     participant_.reset();
-  }
-
-  // A duration parameter, bounded where it enters: (0, max_s], so NaN, inf and 1e300 never reach a
-  // std::chrono conversion (which would overflow).
-  double boundedSeconds(const std::string& key, double fallback, double max_s, const std::string& description) {
-    double v = params_.declare<double>(key, fallback, description);
-    if (!(v > 0 && v <= max_s))
-      throw ParameterError("parameter '" + key + "': expected a number of seconds in (0, " + std::to_string(static_cast<int>(max_s)) +
-                           "], got " + std::to_string(v));
-    return v;
   }
 
  private:
@@ -195,7 +238,7 @@ class ContextImpl : public Context {
       s.name(name_);
       s.state(state_);
       s.ready(state_ == msg::LIFECYCLE_READY);
-      s.detail(detail_);
+      s.detail(detail_ + dropSummary());
     }
     s.pid(static_cast<std::int32_t>(getpid()));
     std::lock_guard lock(publish_mutex_);
@@ -206,6 +249,14 @@ class ContextImpl : public Context {
     } catch (const bus::BusError& e) {
       logger_->warn("could not publish status: {}", e.what());
     }
+  }
+
+  // " [dropped oldest: sensors/points 3 of 120]" when a subscription queue overflowed, else empty.
+  std::string dropSummary() const {
+    std::string out;
+    for (const auto& q : executor_.queueStats())
+      if (q.dropped > 0) out += fmt::format("{}{} {} of {}", out.empty() ? "" : ", ", q.topic, q.dropped, q.received);
+    return out.empty() ? out : " [dropped oldest: " + out + "]";
   }
 
   void heartbeatLoop() {
@@ -243,6 +294,13 @@ class ContextImpl : public Context {
   std::string detail_;
   std::atomic<bool> shutdown_{false};
 
+  RuntimeParams runtime_params_;
+  Executor executor_;
+  std::mutex names_mutex_;
+  std::string ns_;
+  std::map<std::string, std::string> remaps_;
+  std::set<std::string> used_;
+
   double heartbeat_period_ = 1.0;
   std::thread heartbeat_;
   std::mutex heartbeat_mutex_;
@@ -252,19 +310,46 @@ class ContextImpl : public Context {
 
 }  // namespace
 
+RuntimeParams::RuntimeParams(Parameters& p)
+    : clock(p.declare<std::string>("clock", "system",
+                                   {.doc = "where now comes from: the system clock, or msg::Clock samples on system/clock",
+                                    .choices = {"system", "topic"}})),
+      // Bounded where they enter, so NaN, inf and 1e300 never reach a std::chrono conversion.
+      heartbeat_period_s(p.declare<double>("heartbeat_period_s", 1.0,
+                                           {.above = 0, .max = kHeartbeatPeriodMaxS, .unit = "s", .doc = "period of the system/status heartbeat"})),
+      shutdown_timeout_s(p.declare<double>("shutdown_timeout_s", 5.0,
+                                           {.above = 0, .max = kShutdownTimeoutMaxS, .unit = "s",
+                                            .doc = "time allowed for a clean shutdown after SIGINT/SIGTERM; then exit status 3"})) {}
+
+std::string describeComponent(const std::string& name, const std::function<void(Parameters&)>& declare) {
+  Parameters component = Parameters::describing(), runtime = Parameters::describing();
+  if (declare) declare(component);
+  const RuntimeParams declared(runtime);
+  (void)declared;
+  std::string out = "### " + name + "\n\n";
+  out += component.descriptions().empty() ? "No parameters of its own.\n" : component.describeTable();
+  out += "\nand the runtime's (every component):\n\n" + runtime.describeTable();
+  return out;
+}
+
 int runComponent(const std::string& name, int argc, char** argv, const std::function<void(Context&)>& body,
                  const OptionsHook& options) {
+  return runComponent(ComponentInfo{name, {}, options}, argc, argv, body);
+}
+
+int runComponent(const ComponentInfo& info, int argc, char** argv, const std::function<void(Context&)>& body) {
+  const std::string& name = info.name;
   // Before any thread exists, so that every thread (DDS ones included) inherits the blocked mask.
   sigset_t signals = shutdownSignals();
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   CLI::App app{"ddsnav component " + name};
-  std::string dds, config, log_level = "info";
+  std::string dds, config, log_level = "info", ns;
   // The launcher names each process it starts; a process started by hand is named after its component.
   const char* launched_as = std::getenv("DDSNAV_COMPONENT_NAME");
   std::string instance = launched_as && *launched_as ? launched_as : name;
   std::optional<int> domain;
-  std::vector<std::string> overrides;
+  std::vector<std::string> overrides, remaps;
   app.add_option("--dds", dds, "DDS vendor: fastdds | cyclonedds (default: $DDSNAV_DDS, else fastdds)");
   app.add_option("--domain", domain, "DDS domain id 0..232 (default: $DDSNAV_DOMAIN, else 0)");
   app.add_option("--config", config, "YAML parameter file")->check(CLI::ExistingFile);
@@ -272,7 +357,17 @@ int runComponent(const std::string& name, int argc, char** argv, const std::func
   app.add_option("--log-level", log_level, "trace | debug | info | warn | error | off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
   app.add_option("--name", instance, "instance name in system/status (default: $DDSNAV_COMPONENT_NAME, else " + name + ")");
-  if (options) options(app);
+  app.add_option("--namespace", ns, "prefix of every topic but system/...: NS/sensors/points");
+  app.add_option("--remap", remaps, "use topic TO where the component uses FROM (FROM=TO, repeatable; TO=/name: no namespace)");
+  // Like --help: before the other options' requirements are checked (a required file argument, say).
+  app.add_flag_callback(
+      "--describe",
+      [&] {
+        std::fputs(describeComponent(name, info.declare).c_str(), stdout);
+        throw CLI::Success();
+      },
+      "print every parameter (default, range, unit, description) and exit");
+  if (info.options) info.options(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -295,6 +390,7 @@ int runComponent(const std::string& name, int argc, char** argv, const std::func
                           std::to_string(bus::kMaxDomainId));
     bus_options.name = instance;
     ctx = std::make_unique<ContextImpl>(instance, Parameters::load(config, overrides), logger);
+    ctx->setNames(ns, remaps);
   } catch (const std::exception& e) {
     logger->error("{}", e.what());
     return kExitUsage;
@@ -303,7 +399,7 @@ int runComponent(const std::string& name, int argc, char** argv, const std::func
   int rc = kExitOk;
   try {
     ctx->start(bus_options);
-    double bound_s = ctx->boundedSeconds("shutdown_timeout_s", 5.0, kShutdownTimeoutMaxS, "time allowed for a clean shutdown, s");
+    const double bound_s = ctx->runtimeParams().shutdown_timeout_s;
     SignalWatcher watcher([&ctx] { ctx->requestShutdown(); },
                           std::chrono::milliseconds(static_cast<long>(bound_s * 1000)));
     try {

@@ -1,5 +1,7 @@
 #include <ddsnav/runtime/parameters.hpp>
 
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 
 namespace ddsnav::runtime {
@@ -80,6 +82,53 @@ std::string Parameters::text(const YAML::Node& node) {
 std::string Parameters::where(const std::string& key) const {
   auto it = sources_.find(key);
   return "parameter '" + key + "'" + (it == sources_.end() ? "" : " (from " + it->second + ")");
+}
+
+}  // namespace ddsnav::runtime
+
+namespace ddsnav::runtime {
+
+std::string Parameters::formatValue(double v) {
+  // The shortest text that reads back as the same double (0.1, not 0.10000000000000001).
+  char buffer[32];
+  for (int precision = 6; precision <= 17; ++precision) {
+    std::snprintf(buffer, sizeof buffer, "%.*g", precision, v);
+    if (std::strtod(buffer, nullptr) == v) break;
+  }
+  return buffer;
+}
+
+std::string Parameters::rangeText(const ParamSpec& spec) {
+  if (!spec.choices.empty()) {
+    std::string out = "one of: ";
+    for (std::size_t i = 0; i < spec.choices.size(); ++i) out += (i ? ", " : "") + spec.choices[i];
+    return out;
+  }
+  const bool has_low = spec.min || spec.above, has_high = spec.max || spec.below;
+  const std::string unit = spec.unit.empty() ? "" : " " + spec.unit;
+  const auto low = [&] { return formatValue(spec.min ? *spec.min : *spec.above); };
+  const auto high = [&] { return formatValue(spec.max ? *spec.max : *spec.below); };
+  if (has_low && has_high)
+    return std::string(spec.min ? "[" : "(") + low() + ", " + high() + (spec.max ? "]" : ")") + unit;
+  if (has_low) return std::string(spec.min ? ">= " : "> ") + low() + unit;
+  if (has_high) return std::string(spec.max ? "<= " : "< ") + high() + unit;
+  return "";
+}
+
+std::string Parameters::describeTable() const {
+  std::string out = "| parameter | type | default | range | unit | description |\n|---|---|---|---|---|---|\n";
+  for (const auto& d : descriptions_) {
+    std::string range = rangeText(d.spec);
+    // The unit has its own column: keep the range to the bounds.
+    if (!d.spec.unit.empty() && range.size() > d.spec.unit.size() + 1 &&
+        range.compare(range.size() - d.spec.unit.size() - 1, std::string::npos, " " + d.spec.unit) == 0)
+      range.resize(range.size() - d.spec.unit.size() - 1);
+    std::string doc = d.spec.doc;
+    for (auto& c : doc)
+      if (c == '|') c = '/';
+    out += "| `" + d.key + "` | " + d.type + " | " + d.default_text + " | " + range + " | " + d.spec.unit + " | " + doc + " |\n";
+  }
+  return out;
 }
 
 }  // namespace ddsnav::runtime

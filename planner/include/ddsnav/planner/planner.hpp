@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <stop_token>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,10 @@ struct PlanProblem {
   // (a metric not finished in time is reported as unknown: -1).
   bool tree_metrics = false;
   std::function<void(std::uint64_t iterations)> on_progress;  // called now and then, may be empty
+  // A stop request ends the search at the next iteration, like the time limit (the result says `stopped`):
+  // a component cancels a plan that a newer request superseded. Checked once per iteration (one atomic
+  // load), so the same problem gives the same plan whether a token is given or not.
+  std::stop_token stop;
 };
 
 // One tree edge, for pictures.
@@ -67,6 +72,7 @@ struct PlanResult {
   bool solved = false;
   bool exact = false;        // last state within goal_radius of the goal
   bool kinodynamic = false;  // every edge respects the forward extending region
+  bool stopped = false;      // the search ended on problem.stop, not on a limit or a solution
   std::vector<State> path;   // start to goal, joined by straight edges
   double cost = std::numeric_limits<double>::infinity();  // path length, m
   PlanStats stats;

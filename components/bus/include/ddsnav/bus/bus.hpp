@@ -101,6 +101,9 @@ struct ParticipantOptions {
 // What a subscriber learns besides the sample itself.
 struct SampleInfo {
   std::int64_t source_timestamp_ns = 0;  // writer's clock when the sample was written
+  // Which writer sent it: equal for the samples of one writer, different between writers of one reader
+  // (the vendor's publication handle, folded to 64 bits on Fast DDS). Tells requesters apart.
+  std::uint64_t publication_handle = 0;
 };
 
 // One serialized sample as carried on the wire.

@@ -21,6 +21,7 @@ inline constexpr int kMaxVariableDepth = 16;                    // ${a} -> ${b} 
 inline constexpr std::size_t kMaxProcesses = 256;
 inline constexpr std::size_t kMaxNameBytes = 128;               // process names (system/status keys)
 inline constexpr int kMaxRestartsLimit = 10000;                 // bound of max_restarts itself
+inline constexpr int kMaxIncludeDepth = 8;                      // include: of include: of ...
 
 // The valid range of every duration key, in seconds (see docs/launch.md).
 struct DurationRange {
@@ -41,6 +42,8 @@ struct ProcessSpec {
   std::vector<std::string> args;
   std::optional<std::string> dds;           // vendor override for this process
   std::map<std::string, std::string> params;  // passed as --param key=value
+  std::string ns;                            // passed as --namespace (a group's and the process's, joined by '/')
+  std::map<std::string, std::string> remap;  // passed as --remap from=to
   std::vector<std::string> after;           // start only once these report ready
   bool wait_ready = true;                   // false: a plain program that never reports readiness
   RestartPolicy restart = RestartPolicy::Never;
@@ -58,6 +61,7 @@ struct LaunchConfig {
   std::string source;                        // file it was read from
   std::optional<int> domain;
   std::string dds = "fastdds";
+  bool dds_given = false;                    // `dds:` was in the file (an included file's default for its processes)
   double shutdown_timeout_s = 5.0;
   std::map<std::string, std::string> variables;  // ${name} substitutions, overridable from the CLI
   std::vector<ProcessSpec> processes;          // in an order where every `after` comes first
@@ -68,6 +72,15 @@ class LaunchError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Groups and includes (docs/launch.md): an entry of `processes:` may be a group
+//   - namespace: uav1            # prefixes the group's topics (--namespace) and process names ("uav1/sim")
+//     processes: [...]
+// or an include of another launch file, with its own variables and a namespace:
+//   - include: pipeline.yaml     # relative to this file's folder
+//     namespace: uav2
+//     variables: {scenario: ...}
+// Inside a group, `after:` names the group's own processes by their short names.
+//
 // Reads and validates a launch file; `overrides` replace entries of its `variables:` block.
 // Errors name the file, the line and the key.
 LaunchConfig loadLaunchConfig(const std::string& path, const std::map<std::string, std::string>& overrides = {});

@@ -10,7 +10,7 @@
 #include <ddsnav/bus/bus.hpp>
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/collision_world.hpp>
-#include <ddsnav/runtime/parameters.hpp>
+#include <ddsnav/runtime/component.hpp>
 
 #include <memory>
 #include <mutex>
@@ -24,22 +24,21 @@ enum class WorldKind { Obstacles, Map, Fused, Scenario };
 // "obstacles" | "map" | "fused" | "scenario"; throws runtime::ParameterError naming the parameter `param` (exit status 2).
 WorldKind parseWorldKind(const std::string& text, const std::string& param = "world");
 
-// The world parameters every component on a WorldSource declares: `world` (default "fused") and
-// `unknown_space` ("optimistic", the default, or "conservative"), both checked here with their names.
-// The components default to "obstacles"; the demo launch file picks "fused".
+// The world parameters every component on a WorldSource declares (a member of its Params): `world`
+// ("obstacles", the default; the demo launch file picks "fused") and `unknown_space` ("optimistic", the
+// default, or "conservative"), declared with their descriptors (choices checked by the runtime).
 struct WorldParameters {
   WorldKind kind = WorldKind::Obstacles;
   planner::UnknownSpace unknown = planner::UnknownSpace::Optimistic;
+  WorldParameters() = default;
+  explicit WorldParameters(runtime::Parameters& params);
 };
-WorldParameters declareWorldParameters(runtime::Parameters& params);
 
 class WorldSource {
  public:
-  // `unknown`: how the map's never-observed space counts (map and fused worlds).
-  WorldSource(bus::Participant& bus, WorldKind kind, const planner::Scenario& scenario,
-              planner::UnknownSpace unknown = planner::UnknownSpace::Optimistic);
-  WorldSource(bus::Participant& bus, const WorldParameters& world, const planner::Scenario& scenario)
-      : WorldSource(bus, world.kind, scenario, world.unknown) {}
+  // Subscribes through ctx (its executor, its topic names). `world.unknown`: how the map's never-observed
+  // space counts (map and fused worlds).
+  WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario);
   WorldKind kind() const { return kind_; }
 
   // False until the world's input has arrived (always true for the scenario world; for the fused one the
@@ -48,8 +47,8 @@ class WorldSource {
   bool available() const;
   // A snapshot of the newest world, seen from a robot at `robot_position`: obstacle ellipses that would
   // cover the robot there are left out (see clearFootprint). nullptr when not available(). Inputs are
-  // checked on arrival, so this throws only for a world the scenario itself cannot hold; callers on the
-  // bus's threads still catch, so nothing that reaches here can end the process.
+  // checked on arrival, so this throws only for a world the scenario itself cannot hold; callers still
+  // catch, so nothing that reaches here can end the process.
   std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position) const;
   bool hasObstacles() const;  // perception/obstacles received (whatever the kind)
   // Messages dropped as malformed so far, per topic.

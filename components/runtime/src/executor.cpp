@@ -1,0 +1,190 @@
+#include <ddsnav/runtime/executor.hpp>
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+
+namespace ddsnav::runtime {
+namespace detail {
+
+using namespace std::chrono_literals;
+
+void ExecutorCore::post(std::function<void()> task) {
+  {
+    std::lock_guard lock(mutex_);
+    ready_.push_back({nullptr, std::move(task)});
+  }
+  changed_.notify_one();
+}
+
+void ExecutorCore::sampleReady(std::shared_ptr<SampleQueue> queue) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stop_) return;
+    ready_.push_back({std::move(queue), {}});
+  }
+  changed_.notify_one();
+}
+
+void ExecutorCore::registerQueue(const std::shared_ptr<SampleQueue>& queue) {
+  std::lock_guard lock(mutex_);
+  std::erase_if(queues_, [](const std::weak_ptr<SampleQueue>& q) { return q.expired(); });
+  queues_.push_back(queue);
+}
+
+std::uint64_t ExecutorCore::addTimer(std::chrono::nanoseconds period, std::function<void()> fn) {
+  if (period <= 0ns) throw std::invalid_argument("executor timer: the period must be positive");
+  std::uint64_t id;
+  {
+    std::lock_guard lock(mutex_);
+    id = next_timer_id_++;
+    timers_.emplace(id, Timer{period, Clock::now() + period, std::move(fn)});
+  }
+  changed_.notify_one();
+  return id;
+}
+
+void ExecutorCore::cancelTimer(std::uint64_t id) {
+  std::lock_guard lock(mutex_);
+  timers_.erase(id);
+}
+
+std::thread::id ExecutorCore::threadId() const {
+  std::lock_guard lock(mutex_);
+  return thread_;
+}
+
+std::vector<QueueStats> ExecutorCore::queueStats() const {
+  std::vector<std::shared_ptr<SampleQueue>> queues;
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& q : queues_)
+      if (auto s = q.lock()) queues.push_back(std::move(s));
+  }
+  std::vector<QueueStats> out;
+  for (const auto& q : queues) out.push_back(q->stats());
+  return out;
+}
+
+void ExecutorCore::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  changed_.notify_all();
+}
+
+void ExecutorCore::run() {
+  {
+    std::lock_guard lock(mutex_);
+    thread_ = std::this_thread::get_id();
+  }
+  running_ = true;
+  struct Finally {
+    ExecutorCore& core;
+    ~Finally() {
+      std::lock_guard lock(core.mutex_);
+      core.ready_.clear();
+      core.thread_ = {};
+      core.running_ = false;
+    }
+  } finally{*this};
+
+  std::unique_lock lock(mutex_);
+  while (!stop_) {
+    // A due timer first (they are few and short), then the oldest sample or posted task.
+    const auto now = Clock::now();
+    auto due = timers_.end();
+    for (auto it = timers_.begin(); it != timers_.end(); ++it)
+      if (it->second.next <= now && (due == timers_.end() || it->second.next < due->second.next)) due = it;
+    if (due != timers_.end()) {
+      Timer& t = due->second;
+      t.next += t.period;
+      if (now - t.next > std::max<std::chrono::nanoseconds>(t.period, 500ms)) t.next = now + t.period;  // do not catch up after a stall
+      auto fn = t.fn;  // the timer may be cancelled by its own callback
+      lock.unlock();
+      fn();  // an exception ends run(): see the header
+      lock.lock();
+      continue;
+    }
+    if (!ready_.empty()) {
+      Ready item = std::move(ready_.front());
+      ready_.pop_front();
+      lock.unlock();
+      if (item.task) {
+        item.task();  // an exception ends run()
+      } else {
+        try {
+          item.queue->runOne();
+        } catch (const std::exception& e) {
+          spdlog::warn("{}: callback failed, sample skipped: {}", item.queue->topic(), e.what());
+        }
+      }
+      item = {};
+      lock.lock();
+      continue;
+    }
+    auto next = Clock::time_point::max();
+    for (const auto& [id, t] : timers_) next = std::min(next, t.next);
+    if (next == Clock::time_point::max())
+      changed_.wait(lock);
+    else
+      changed_.wait_until(lock, next);
+  }
+}
+
+}  // namespace detail
+
+Worker::Worker(std::string name) : name_(std::move(name)), thread_([this] { loop(); }) {}
+
+Worker::~Worker() { stop(); }
+
+void Worker::submit(std::uint64_t key, Job job) {
+  {
+    std::lock_guard lock(mutex_);
+    if (finished_) throw std::logic_error(name_ + ": submit after stop");
+    for (auto& e : queue_)
+      if (e->key == key) e->stop.request_stop();
+    if (running_ && running_->key == key) running_->stop.request_stop();
+    auto entry = std::make_shared<Entry>();
+    entry->key = key;
+    entry->job = std::move(job);
+    if (stopping_) entry->stop.request_stop();
+    queue_.push_back(std::move(entry));
+  }
+  changed_.notify_one();
+}
+
+void Worker::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    if (finished_) return;
+    stopping_ = true;
+    for (auto& e : queue_) e->stop.request_stop();
+    if (running_) running_->stop.request_stop();
+    finished_ = true;
+  }
+  changed_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void Worker::loop() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    changed_.wait(lock, [&] { return finished_ || !queue_.empty(); });
+    if (queue_.empty()) return;  // finished, and every queued job has run
+    running_ = std::move(queue_.front());
+    queue_.pop_front();
+    auto entry = running_;
+    lock.unlock();
+    try {
+      entry->job(entry->stop.get_token());
+    } catch (const std::exception& e) {
+      spdlog::error("{}: a job failed: {}", name_, e.what());
+    }
+    lock.lock();
+    running_.reset();
+  }
+}
+
+}  // namespace ddsnav::runtime
