@@ -111,7 +111,6 @@ MissionDecision Mission::afterAnswer(std::int64_t now_ns, const VehicleState& st
     retry_at_ns_.reset();
     return request(now_ns, state, "retrying");
   }
-  if (driving_) return just(MissionAction::Drive);
   // A request may be lost while the planner restarts: ask again after the answer timeout. Unanswered
   // requests count as attempts, so a missing planner ends the mission instead of being asked forever.
   if (pending_since_ns_ && static_cast<double>(now_ns - *pending_since_ns_) * 1e-9 > config_.answerTimeoutS()) {
@@ -123,6 +122,9 @@ MissionDecision Mission::afterAnswer(std::int64_t now_ns, const VehicleState& st
     d.warning = std::move(warning);
     return d;
   }
+  // Checked after the lost-answer timeout: a vehicle flying the rest of its trajectory while a replan is
+  // planned must not wait for an answer that never comes.
+  if (driving_) return just(MissionAction::Drive);
   return just(MissionAction::Wait);
 }
 
@@ -155,6 +157,10 @@ MissionDecision Mission::tracked(std::int64_t now_ns, const VehicleState& state,
 MissionDecision Mission::replan(std::int64_t now_ns, const VehicleState& state, const std::string& why) {
   driving_ = false;
   return request(now_ns, state, why);
+}
+
+MissionDecision Mission::replanAhead(std::int64_t now_ns, const VehicleState& predicted, const std::string& why) {
+  return request(now_ns, predicted, why);
 }
 
 MissionDecision Mission::request(std::int64_t now_ns, const VehicleState& from, std::string reason) {

@@ -198,6 +198,13 @@ ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& wor
     m << "trajectory sample at t=" << s[i].time << " s (" << s[i].position.x() << ", " << s[i].position.y()
       << ", " << s[i].position.z() << ") is no longer collision free";
     out = {true, ReplanReason::TrajectoryBlocked, m.str(), s[i].position};
+    out.time_ahead = std::max(0.0, s[i].time - status_.reference_time);
+    // The first blocked sample only touches the obstacle (the one before it was free): the overlap that
+    // tells a graze from a real block is the deepest along the blocked run that follows.
+    for (std::size_t k = i; k < s.size() && s[k].time <= until && !world.isFree(s[k].position); ++k) {
+      const double clearance = world.clearance(s[k].position);
+      if (std::isfinite(clearance)) out.penetration = std::max(out.penetration, -clearance);  // bounds only: 0
+    }
     return out;
   }
   return out;

@@ -1,6 +1,9 @@
 // ddsnav-perception: sensors/points -> perception/obstacles. Each cloud is clustered into obstacle
 // ellipses/ellipsoids holding the obstacle with probability p, fused with the obstacles already tracked,
-// and the whole tracked set is published (transient local, so a late planner gets it).
+// and the tracked set is published (transient local, so a late planner gets it). With structure_extent_m > 0,
+// clusters larger than that (terrain, walls: the mapper's octree holds them for the fused world) are no
+// obstacles, and tracks of them are dropped from what is published; at most max_obstacles are published,
+// the nearest to the sensor (docs/world-model.md).
 
 #include "ddsnav/nodes/convert.hpp"
 #include <ddsnav/bus/printable.hpp>
@@ -14,6 +17,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
+#include <vector>
 
 using namespace ddsnav;
 
@@ -24,6 +29,7 @@ class PerceptionComponent : public runtime::Component {
   struct Params {
     perception::DetectorParams detector;
     std::string frame;
+    std::int64_t max_obstacles;
     explicit Params(runtime::Parameters& p) {
       const perception::DetectorParams d;
       detector.voxel_size = p.declare<double>("voxel_size", d.voxel_size, {.above = 0, .unit = "m", .doc = "voxel grid leaf size"});
@@ -40,6 +46,10 @@ class PerceptionComponent : public runtime::Component {
       detector.beam_spacing = p.declare<double>("beam_spacing_rad", 2.0 * M_PI / 720.0, {.above = 0, .below = 1, .unit = "rad", .doc = "the sensor's azimuth step"});
       detector.max_segment_length =
           p.declare<double>("max_segment_length", d.max_segment_length, {.min = 0, .unit = "m", .doc = "longest piece one ellipse may cover (0: never cut)"});
+      detector.structure_extent = p.declare<double>(
+          "structure_extent_m", 0.0,
+          {.min = 0, .max = 1e6, .unit = "m", .doc = "clusters with a longer box diagonal are structure, not obstacles (0: none)"});
+      max_obstacles = p.declare<std::int64_t>("max_obstacles", 1500, {.min = 1, .max = 1000000, .doc = "most obstacles published per array"});
       frame = p.declare<std::string>("frame", nodes::kWorldFrame, {.doc = "frame_id clouds must carry"});
     }
   };
@@ -54,7 +64,27 @@ class PerceptionComponent : public runtime::Component {
         obstacles_(publisher(runtime::topics::obstacles)),
         clouds_(subscribe(runtime::topics::points, [this](const msg::PointCloud& c) { onCloud(c); })) {}
 
+  // After the last callback: the per-cloud timing of the whole run.
+  void shutdown() override {
+    if (cloud_ms_.empty()) return;
+    auto at = [](std::vector<double>& v, double q) {
+      std::sort(v.begin(), v.end());
+      return v[std::min(v.size() - 1, static_cast<std::size_t>(q * double(v.size())))];
+    };
+    spdlog::info("{} clouds: detect + track wall median {:.1f} ms, p99 {:.1f} ms (CPU median {:.1f} ms, p99 {:.1f} ms); "
+                 "{} tracks, {} published at most",
+                 cloud_ms_.size(), at(cloud_ms_, 0.5), at(cloud_ms_, 0.99), at(cloud_cpu_ms_, 0.5), at(cloud_cpu_ms_, 0.99),
+                 obstacle_tracker_.obstacles().size(), most_published_);
+  }
+
  private:
+  // This thread's CPU time: a loaded machine inflates the wall time, not this.
+  static double threadCpuMs() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+  }
+
   static perception::TrackerParams validated(const perception::DetectorParams& detector) {
     const auto tracker = perception::TrackerParams::matching(detector);
     try {
@@ -82,16 +112,25 @@ class PerceptionComponent : public runtime::Component {
     }
     try {
       const auto points = nodes::pointsOf(cloud);
+      const auto started = std::chrono::steady_clock::now();
+      const double started_cpu = threadCpuMs();
       const auto detections = detector_.detect(points, origin);
       const auto& tracked = obstacle_tracker_.update(detections);
+      const bool planar = tracked.empty() ? nodes::isPlanarCloud(points) : tracked.front().dimensions == 2;
+      if (!detector_.structure().empty()) obstacle_tracker_.markStructure(detector_.structure(), planar ? 2 : 3);
+      const auto published = obstacle_tracker_.discreteObstacles(origin, static_cast<std::size_t>(params_.max_obstacles));
+      cloud_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());
+      cloud_cpu_ms_.push_back(threadCpuMs() - started_cpu);
+      most_published_ = std::max(most_published_, published.size());
       msg::ObstacleArray out;
       out.header(cloud.header());
-      out.planar(tracked.empty() ? nodes::isPlanarCloud(points) : tracked.front().dimensions == 2);
-      for (const auto& o : tracked) out.obstacles().push_back(nodes::toMsg(o));
+      out.planar(planar);
+      for (const std::size_t i : published) out.obstacles().push_back(nodes::toMsg(tracked[i]));
       obstacles_.publish(out);
       const auto& stats = detector_.stats();
-      spdlog::debug("cloud: {} points, {} dropped, {} voxels, {} detections, {} tracked ({} new)", stats.input_points, stats.dropped_invalid,
-                    stats.voxels, detections.size(), tracked.size(), obstacle_tracker_.lastUpdate().created);
+      spdlog::debug("cloud: {} points, {} dropped, {} voxels, {} detections, {} structure clusters, {} tracked ({} new), {} published",
+                    stats.input_points, stats.dropped_invalid, stats.voxels, detections.size(), stats.structure_clusters, tracked.size(),
+                    obstacle_tracker_.lastUpdate().created, published.size());
     } catch (const std::exception& e) {
       spdlog::warn("sensors/points: skipping a cloud: {}", e.what());
     }
@@ -102,6 +141,9 @@ class PerceptionComponent : public runtime::Component {
   perception::ObstacleDetector detector_;
   perception::ObstacleTracker obstacle_tracker_;
   bus::Publisher<msg::ObstacleArray> obstacles_;
+  // Per cloud: detect + track (+ structure marking) wall and CPU time, and the most obstacles published; logged at shutdown.
+  std::vector<double> cloud_ms_, cloud_cpu_ms_;
+  std::size_t most_published_ = 0;
   bus::Subscription clouds_;
 };
 

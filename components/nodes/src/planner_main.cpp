@@ -1,6 +1,6 @@
 // ddsnav-planner: planning/request -> planning/path. Plans on the newest world it has heard of:
-// perception/obstacles (ellipse/ellipsoid world, the default), map/octomap (OctoMap world) or the
-// scenario's exact geometry (ground truth, for comparisons). Bounds, robot radius and vehicle limits come
+// perception/obstacles (the default), map/octomap, both fused (the demo's choice), or the scenario's exact
+// geometry (ground truth, for comparisons). Bounds, robot radius and vehicle limits come
 // from the scenario file.
 //
 // Requests are checked on the executor; the solve runs on the worker, so world updates keep arriving
@@ -26,15 +26,13 @@ class PlannerComponent : public runtime::Component {
  public:
   struct Params {
     std::string scenario;
-    std::string world;
+    nodes::WorldParameters world;  // world, unknown_space
     std::optional<bool> kinodynamic;
     double max_time_budget_s;
     std::vector<std::string> planner_options;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: bounds, robot radius, vehicle limits"})),
-          world(p.declare<std::string>("world", "obstacles",
-                                       {.doc = "what to plan on: perception/obstacles, map/octomap or the scenario's exact geometry",
-                                        .choices = {"obstacles", "map", "scenario"}})),
+          world(p),
           kinodynamic(p.declareOptional<bool>("kinodynamic", {.doc = "plan unicycle edges; default: whether the scenario has a vehicle block"})),
           max_time_budget_s(p.declare<double>("max_time_budget_s", 30.0,
                                               {.above = 0, .unit = "s", .doc = "cap on a request's time_budget_s"})),
@@ -46,11 +44,11 @@ class PlannerComponent : public runtime::Component {
       : Component(ctx),
         params_(ctx.params()),
         scenario_(planner::loadScenario(params_.scenario)),
-        kind_(nodes::parseWorldKind(params_.world)),
+        kind_(params_.world.kind),
         kinodynamic_(params_.kinodynamic.value_or(scenario_.vehicle.has_value())),
         // "planner.option=value" entries, checked once here against each planner.
         planner_options_(planner::parsePlannerOptions(params_.planner_options)),
-        world_source_(ctx, kind_, scenario_),
+        world_source_(ctx, params_.world, scenario_),
         paths_(publisher(runtime::topics::path)) {
     if (kinodynamic_ && !scenario_.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
     for (const auto& [name, assignments] : planner_options_) {
@@ -105,7 +103,10 @@ class PlannerComponent : public runtime::Component {
     } catch (const std::exception& e) {
       return fail(request, std::string("cannot build the world: ") + e.what());
     }
-    if (!world) return fail(request, kind_ == nodes::WorldKind::Map ? "no map/octomap received yet" : "no perception/obstacles received yet");
+    if (!world)
+      return fail(request, kind_ == nodes::WorldKind::Map     ? "no map/octomap received yet"
+                           : kind_ == nodes::WorldKind::Fused ? "no map/octomap and perception/obstacles received yet"
+                                                              : "no perception/obstacles received yet");
     planner::PlanProblem problem;
     problem.world = world.get();
     problem.start = nodes::fromMsg(request.start());

@@ -1,8 +1,10 @@
 // ddsnav-tracker: drives the vehicle to the scenario's goal. Asks for a plan (planning/request), smooths
 // the answer into a trajectory (control/trajectory), follows it with the trajectory controller
-// (control/cmd_vel, control/tracking), and asks again from the current state when the vehicle
-// deviates or newly perceived obstacles block the rest of the trajectory. The mission's decisions (when to
-// ask, retry, give up, when the goal is reached) are tracker::Mission's; this file carries them out.
+// (control/cmd_vel, control/tracking), and asks again when the vehicle deviates or newly perceived
+// obstacles truly block the rest of the trajectory within the horizon (tracker::ReplanGate: hysteresis,
+// and a start predicted along the trajectory, which the vehicle keeps flying meanwhile). The mission's
+// decisions (when to ask, retry, give up, when the goal is reached) are tracker::Mission's; this file
+// carries them out.
 
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
@@ -10,6 +12,7 @@
 #include "ddsnav/nodes/world_source.hpp"
 
 #include <ddsnav/tracker/mission.hpp>
+#include <ddsnav/tracker/replan.hpp>
 #include <ddsnav/tracker/smoother.hpp>
 #include <ddsnav/tracker/tracker.hpp>
 
@@ -26,26 +29,36 @@ namespace {
 class TrackerComponent : public runtime::Component {
  public:
   struct Params {
-    std::string scenario, planner, world;
+    std::string scenario, planner;
+    nodes::WorldParameters world;  // world, unknown_space: the planner's, to smooth and check against
     double control_rate_hz, time_budget_s;
     std::int64_t seed, max_plan_attempts;
     double plan_retry_delay_s;
     bool wait_for_world;
     double replan_check_period_s;
+    tracker::ReplanPolicy replan;
     tracker::TrackerConfig tracker;
     tracker::SmootherConfig smoother;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
           planner(p.declare<std::string>("planner", "gart", {.doc = "planner asked for in each request (docs/planners.md)"})),
-          world(p.declare<std::string>("world", "obstacles", {.doc = "the planner's world, to smooth and check against",
-                                                              .choices = {"obstacles", "map", "scenario"}})),
+          world(p),
           control_rate_hz(p.declare<double>("control_rate_hz", 20.0, {.above = 0, .max = 1000, .unit = "Hz", .doc = "controller rate"})),
           time_budget_s(p.declare<double>("time_budget_s", 5.0, {.above = 0, .unit = "s", .doc = "time budget of each plan request"})),
           seed(p.declare<std::int64_t>("seed", 1, {.doc = "seed of the first request (the n-th asks seed + n - 1)"})),
           max_plan_attempts(p.declare<std::int64_t>("max_plan_attempts", 10, {.min = 1, .doc = "failed plans in a row before giving up"})),
           plan_retry_delay_s(p.declare<double>("plan_retry_delay_s", 1.0, {.min = 0, .unit = "s", .doc = "pause before asking again"})),
           wait_for_world(p.declare<bool>("wait_for_world", true, {.doc = "the first request waits for the planner's world"})),
-          replan_check_period_s(p.declare<double>("replan_check_period_s", 0.5, {.above = 0, .unit = "s", .doc = "how often the rest of the trajectory is checked"})) {
+          replan_check_period_s(p.declare<double>("replan_check_period_s", 0.1, {.above = 0, .unit = "s", .doc = "how often the rest of the trajectory is checked"})) {
+      replan.confirm_checks = static_cast<int>(p.declare<std::int64_t>(
+          "replan_confirm_checks", replan.confirm_checks,
+          {.min = 1, .max = 1000, .doc = "consecutive blocked checks that confirm a block (hysteresis; docs/tracking.md, \"Replanning\")"}));
+      replan.block_margin = p.declare<double>("replan_block_margin", replan.block_margin,
+                                              {.min = 0, .max = 100, .unit = "m", .doc = "overlap with an obstacle that confirms a block at the first check"});
+      replan.stop_margin_s = p.declare<double>("replan_stop_margin_s", replan.stop_margin_s,
+                                               {.min = 0, .max = 600, .unit = "s", .doc = "time kept between a predicted replan start and the blocked sample"});
+      replan.planning_time_s = p.declare<double>("expected_planning_time_s", replan.planning_time_s,
+                                                 {.min = 0, .max = 600, .unit = "s", .doc = "least expected time from a request to its trajectory"});
       tracker.replan_deviation = p.declare<double>("replan_deviation", tracker.replan_deviation,
                                                    {.above = 0, .unit = "m", .doc = "ask again when the vehicle is this far off the trajectory"});
       tracker.replan_horizon = p.declare<double>("replan_horizon_s", 8.0, {.above = 0, .unit = "s", .doc = "how far ahead obstacles are checked"});
@@ -65,8 +78,9 @@ class TrackerComponent : public runtime::Component {
         commands_(publisher(runtime::topics::cmd_vel)),
         statuses_(publisher(runtime::topics::tracking)),
         // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
-        world_source_(ctx, nodes::parseWorldKind(params_.world), scenario_),
-        mission_(missionConfig()) {
+        world_source_(ctx, params_.world, scenario_),
+        mission_(missionConfig()),
+        replan_gate_(params_.replan) {
     // A state with a non-finite number would reach the controller (and its commands the vehicle): drop it
     // here, once, and keep following the last good one.
     state_sub_ = subscribe(runtime::topics::vehicle_state, [this](const msg::VehicleState& s) {
@@ -75,6 +89,7 @@ class TrackerComponent : public runtime::Component {
     });
     path_sub_ = subscribe(runtime::topics::path, [this](const msg::Path& p) { new_path_ = p; });
     started_ = std::chrono::steady_clock::now();
+    last_step_ns_ = clock().nowNs();
     control_ = every(std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / params_.control_rate_hz)), [this] { control(); });
   }
 
@@ -129,6 +144,10 @@ class TrackerComponent : public runtime::Component {
         request.seed(static_cast<std::uint64_t>(params_.seed) + d.request_id - 1);
         request.reason(d.reason);
         spdlog::info("requesting plan {} with {} ({})", d.request_id, params_.planner, d.reason);
+        requested_at_ns_ = clock().nowNs();
+        request_heading_ = d.from.heading;
+        switch_at_.reset();  // set again by a replan ahead, after this
+        next_trajectory_.reset();
         requests_.publish(request);
         return false;
       }
@@ -144,12 +163,23 @@ class TrackerComponent : public runtime::Component {
     try {
       auto world = currentWorld(state.position);
       if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
-      smoother_config_.initial_heading = state.heading;
+      smoother_config_.initial_heading = request_heading_;
+      const auto smooth_started = std::chrono::steady_clock::now();
       auto trajectory = tracker::smoothPath(nodes::statesOf(path), *world, limits_, smoother_config_);
-      spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m", path.request_id(),
-                   trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature, trajectory.report.min_clearance);
-      trajectories_.publish(nodes::toMsg(trajectory, path.request_id(), clock().nowNs()));
-      follower_.emplace(std::move(trajectory), limits_, params_.tracker);
+      if (const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - smooth_started).count(); took > 0.25)
+        spdlog::warn("smoothing plan {} took {:.3f} s: the vehicle held its last command meanwhile", path.request_id(), took);
+      const double latency = static_cast<double>(clock().nowNs() - requested_at_ns_) * 1e-9;
+      spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, ready {:.3f} s after its request",
+                   path.request_id(), trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
+                   trajectory.report.min_clearance, latency);
+      replan_gate_.planReady(latency);
+      if (follower_ && switch_at_ && follower_->status().reference_time < *switch_at_) {
+        next_trajectory_ = std::move(trajectory);
+        next_since_ns_ = clock().nowNs();
+      } else {
+        switchTrajectory(std::move(trajectory), path.request_id());
+        switch_at_.reset();
+      }
       return true;
     } catch (const std::exception& e) {
       spdlog::warn("cannot smooth plan {}: {}", path.request_id(), e.what());
@@ -157,19 +187,26 @@ class TrackerComponent : public runtime::Component {
     }
   }
 
+  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id) {
+    trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
+    follower_.emplace(std::move(trajectory), limits_, params_.tracker);
+    replan_gate_.reset();
+  }
+
   void control() {
+    // The reference advances by the clock's time between two control steps, not by the nominal period: on
+    // a loaded machine the timer fires late, and a fixed step would slow the reference (and the vehicle,
+    // which the controller holds to it) in proportion. Capped, so one stall is not one jump.
+    const double nominal_dt = 1.0 / params_.control_rate_hz;
+    const std::int64_t step_ns = clock().nowNs();
+    const double dt = std::clamp(static_cast<double>(step_ns - last_step_ns_) * 1e-9, 0.2 * nominal_dt, 5.0 * nominal_dt);
+    last_step_ns_ = step_ns;
     // Readiness first (so the launcher can start whoever waits for us), then wait up to 20 s for a planner.
     if (!planner_seen_) {
       if (requests_.matchedSubscribers() == 0 && std::chrono::steady_clock::now() - started_ < std::chrono::seconds(20)) return;
       if (requests_.matchedSubscribers() == 0) spdlog::warn("no planner subscribed to planning/request yet");
       planner_seen_ = true;
     }
-    // The reference advances by the time that passed on the component's clock (the simulator's, sped up),
-    // not by the nominal period: a loop that overran must not let the trajectory fall behind the vehicle.
-    const double nominal_dt = 1.0 / params_.control_rate_hz;
-    const std::int64_t tick_ns = clock().nowNs();
-    const double dt = last_tick_ns_ ? std::clamp((tick_ns - last_tick_ns_) * 1e-9, 0.1 * nominal_dt, 10.0 * nominal_dt) : nominal_dt;
-    last_tick_ns_ = tick_ns;
     const std::optional<tracker::VehicleState> state = vehicle_;
     std::optional<msg::Path> path;
     path.swap(new_path_);
@@ -191,6 +228,12 @@ class TrackerComponent : public runtime::Component {
     if (decision.action == tracker::MissionAction::SmoothPath) decision = mission_.pathSmoothed(clock().nowNs(), *state, smooth(*path, *state));
     if (!act(decision)) return;
 
+    if (next_trajectory_ && (follower_->status().reference_time >= *switch_at_ ||
+                             static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > 2.0)) {
+      switchTrajectory(std::move(*next_trajectory_), mission_.requestId());
+      next_trajectory_.reset();
+      switch_at_.reset();
+    }
     const auto command = follower_->update(*state, dt);
     const auto& status = follower_->status();
     commands_.publish(nodes::toMsg(command, clock().nowNs()));
@@ -215,13 +258,29 @@ class TrackerComponent : public runtime::Component {
       stop();
       follower_.reset();
       act(next);
-    } else if (next.action == tracker::MissionAction::CheckReplan) {
+    } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory_) {
+      const auto check_started = std::chrono::steady_clock::now();
       const auto world = currentWorld(state->position);
       const auto replan = world ? follower_->checkReplan(*world) : tracker::ReplanDecision{};
-      if (replan.needed) {
+      if (const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - check_started).count(); took > 0.25)
+        spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check): the vehicle held its last command meanwhile", took);
+      const auto verdict = replan_gate_.check(replan, follower_->trajectory(), follower_->status().reference_time);
+      if (verdict.action == tracker::ReplanAction::StopAndReplan) {
         stop();
         follower_.reset();
-        act(mission_.replan(clock().nowNs(), *state, replan.message));
+        switch_at_.reset();
+        if (mission_.awaitingPlan()) {  // a plan is on its way already: wait for it here
+          spdlog::warn("stopping to wait for plan {}: {}", mission_.requestId(), verdict.reason);
+          mission_.hold();
+        } else {
+          act(mission_.replan(clock().nowNs(), *state, verdict.reason));
+        }
+      } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan()) {
+        tracker::VehicleState from = *state;
+        from.position = verdict.start.position;
+        from.heading = tracker::wrapAngle(verdict.start.heading);
+        act(mission_.replanAhead(clock().nowNs(), from, verdict.reason));
+        switch_at_ = verdict.start.time;
       }
     }
   }
@@ -239,12 +298,21 @@ class TrackerComponent : public runtime::Component {
   bus::Publisher<msg::TrackingStatus> statuses_;
   nodes::WorldSource world_source_;
   tracker::Mission mission_;
+  tracker::ReplanGate replan_gate_;
+  std::int64_t requested_at_ns_ = 0;  // the current request's time, for the gate's planning-time estimate
+  double request_heading_ = 0.0;      // its start heading: the new trajectory starts there
   std::optional<tracker::TrajectoryTracker> follower_;
+  // A replan from a predicted start: the new trajectory waits until the vehicle's reference on the current
+  // one reaches that start (switch_at_, s of the current trajectory), so a plan ready early is not flown
+  // from behind its start; a late one is switched to at once.
+  std::optional<double> switch_at_;
+  std::optional<tracker::Trajectory> next_trajectory_;
+  std::int64_t next_since_ns_ = 0;
+  std::int64_t last_step_ns_ = 0;
   msg::TrackingStatus last_status_;
   std::chrono::steady_clock::time_point started_;
   bool planner_seen_ = false;
   bus::Subscription state_sub_, path_sub_;
-  std::int64_t last_tick_ns_ = 0;
   runtime::Timer control_;
 };
 

@@ -53,6 +53,7 @@ void DetectorParams::validate() const {
   require(probability > 0.0 && probability < 1.0, "probability", "in (0, 1)");
   require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
   require(max_points >= 1 && max_points < (std::size_t{1} << 31), "max_points", "in [1, 2^31)");
+  require(std::isfinite(structure_extent) && structure_extent >= 0.0, "structure_extent", "finite and >= 0 m (0: no structure)");
 }
 
 ObstacleDetector::ObstacleDetector(const DetectorParams& params)
@@ -104,6 +105,8 @@ std::vector<ObstacleEllipsoid> ObstacleDetector::detect(std::span<const Eigen::V
   clusterer_.extract(voxels_, clusters_);
   stats_.clusters = clusters_.size();
   stats_.clustered_points = clusters_.indices.size();
+  structure_.clear();
+  if (params_.structure_extent > 0.0) separateStructure();
   stats_.ms_cluster = timer.lap();
 
   // 5. Split at see-through gaps.
@@ -142,6 +145,29 @@ std::vector<ObstacleEllipsoid> ObstacleDetector::detect(std::span<const Eigen::V
   stats_.obstacles = obstacles.size();
   stats_.ms_fit = timer.lap();
   return obstacles;
+}
+
+// Clusters larger than structure_extent (box diagonal) leave clusters_ for structure_: one hill flank or
+// one wall seen in a scan is one connected cluster, a discrete obstacle is a small one.
+void ObstacleDetector::separateStructure() {
+  obstacle_clusters_.clear();
+  const double limit2 = params_.structure_extent * params_.structure_extent;
+  for (std::size_t c = 0; c < clusters_.size(); ++c) {
+    const auto cluster = clusters_[c];
+    Eigen::Vector3f lo = voxels_[static_cast<std::size_t>(cluster[0])], hi = lo;
+    for (int i : cluster) {
+      lo = lo.cwiseMin(voxels_[static_cast<std::size_t>(i)]);
+      hi = hi.cwiseMax(voxels_[static_cast<std::size_t>(i)]);
+    }
+    if (static_cast<double>((hi - lo).squaredNorm()) > limit2) {
+      ++stats_.structure_clusters;
+      for (int i : cluster) structure_.push_back(voxels_[static_cast<std::size_t>(i)]);
+      continue;
+    }
+    obstacle_clusters_.indices.insert(obstacle_clusters_.indices.end(), cluster.begin(), cluster.end());
+    obstacle_clusters_.offsets.push_back(static_cast<int>(obstacle_clusters_.indices.size()));
+  }
+  std::swap(clusters_, obstacle_clusters_);
 }
 
 // The paper counts an obstacle per continuous edge seen by the sensor: a cluster whose points,

@@ -195,6 +195,7 @@ struct ObstacleTracker::Evidence {
     Eigen::Matrix3d fit_inverse = Eigen::Matrix3d::Zero();
     double quantile = 0.0;
     bool fitted = false;
+    bool structure = false;                // markStructure: part of a hill or wall, not an obstacle
     bool must_refit = false;               // grew, or a refreshed voxel left the ellipse: refit this update
     std::uint64_t stale_since = kNever;    // update of the first refresh not yet in the ellipse
     static constexpr std::uint64_t kNever = std::numeric_limits<std::uint64_t>::max();
@@ -304,6 +305,55 @@ const std::vector<ObstacleEllipsoid>& ObstacleTracker::refitDeferred() {
   ev.stale.clear();
   last_.deferred = 0;
   return tracks_;
+}
+
+std::size_t ObstacleTracker::markStructure(std::span<const Eigen::Vector3f> voxels, int dims) {
+  auto& ev = *evidence_;
+  if ((dims != 2 && dims != 3) || ev.tracks.empty()) return 0;
+  const double tol = params_.association_distance;
+  std::size_t marked = 0;
+  // One visit per association cell of the structure (a surface scan puts dozens of voxels in each); the
+  // tracks listed in it and its neighbours (within ~1-2 association distances: a sparse far-range glimpse of
+  // the same surface rarely lands in the very voxel cells a later scan hits) become structure.
+  CellMap<bool> visited;
+  std::array<std::uint32_t, 27> heads;
+  for (Eigen::Vector3f v : voxels) {
+    if (dims == 2) v.z() = 0.0f;
+    CellKey coarse, cell;
+    // Most structure lies where no track is: one probe of the coarse grid skips it.
+    if (!cellOf(v, Evidence::kCoarseCell, dims, coarse) || !ev.coarse.contains(coarse)) continue;
+    if (!cellOf(v, tol, dims, cell) || visited.contains(cell)) continue;
+    visited.emplace(cell, true);
+    const int n = ev.nearby.neighbourhood(cell, heads);
+    for (int k = 0; k < n; ++k)
+      for (std::uint32_t node = heads[k]; node != kNone; node = ev.nodes[node].next_nearby) {
+        auto& track = ev.tracks[ev.nodes[node].track];
+        if (track.structure) continue;
+        track.structure = true;
+        ++marked;
+      }
+  }
+  return marked;
+}
+
+bool ObstacleTracker::isStructure(std::size_t index) const { return evidence_->tracks.at(index).structure; }
+
+std::vector<std::size_t> ObstacleTracker::discreteObstacles(const Eigen::Vector3d& from, std::size_t max_count) const {
+  std::vector<std::size_t> out;
+  const auto& tracks = evidence_->tracks;
+  for (std::size_t i = 0; i < tracks.size(); ++i)
+    if (!tracks[i].structure) out.push_back(i);
+  if (out.size() <= max_count) return out;
+  auto distance2 = [&](std::size_t i) {
+    Eigen::Vector3d d = tracks_[i].center - from;
+    if (tracks_[i].dimensions == 2) d.z() = 0.0;
+    return d.squaredNorm();
+  };
+  std::nth_element(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(max_count), out.end(),
+                   [&](std::size_t a, std::size_t b) { return distance2(a) < distance2(b) || (distance2(a) == distance2(b) && a < b); });
+  out.resize(max_count);
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 std::span<const SupportPoint> ObstacleTracker::evidence(std::size_t index) const {

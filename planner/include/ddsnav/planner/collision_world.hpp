@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace ddsnav::planner {
@@ -100,5 +101,28 @@ struct OctoMapWorldOptions {
 std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
                                                  double robot_radius, const std::vector<std::uint8_t>& octree_binary,
                                                  const OctoMapWorldOptions& options);
+
+}  // namespace ddsnav::planner
+
+namespace ddsnav::planner {
+
+// One world from two sources (`world: fused`, docs/world-model.md): static structure and the known/unknown
+// split from the mapper's OctoMap (`structure`, built once per map and shared between snapshots), and the
+// discrete obstacles perception tracks as probability-p ellipses/ellipsoids (`obstacles`, one per snapshot).
+// A state is free only when both say so; clearance is the smaller of the two; obstaclesNear merges both
+// lists, nearest first, with ids kept distinct (2k for the structure's id k, 2k + 1 for obstacle id k);
+// from an OctoMap structure it takes the nearest voxel per 8x8x8-voxel brick, not every voxel.
+// How unknown space counts is the structure's policy (UnknownSpace below, applied when it is built).
+// Both must have the same dimensions, bounds and robot radius (std::invalid_argument otherwise).
+enum class UnknownSpace {
+  Optimistic,    // never-observed voxels are free: plan through them, replan when they are seen occupied
+  Conservative,  // never-observed voxels are occupied: only observed free space is used
+};
+// "optimistic" | "conservative"; std::invalid_argument naming the accepted values otherwise.
+UnknownSpace parseUnknownSpace(const std::string& text);
+const char* toString(UnknownSpace policy);
+
+std::unique_ptr<CollisionWorld> makeFusedWorld(std::shared_ptr<const CollisionWorld> structure,
+                                               std::unique_ptr<CollisionWorld> obstacles);
 
 }  // namespace ddsnav::planner

@@ -92,6 +92,14 @@ class Mission {
 
   // The replan check said a new plan is needed: stop following and ask from `state`.
   MissionDecision replan(std::int64_t now_ns, const VehicleState& state, const std::string& why);
+  // A new plan from `predicted`, where the vehicle will be on its trajectory when the plan is ready
+  // (ReplanGate): the vehicle keeps driving the current trajectory (Drive) until the answer is smoothed
+  // (SmoothPath, then pathSmoothed() switches to it). A lost or failed answer is retried as usual.
+  MissionDecision replanAhead(std::int64_t now_ns, const VehicleState& predicted, const std::string& why);
+  // Stop driving, keep waiting for the current request (the block came too close while it was planned).
+  void hold() { driving_ = false; }
+  // A request is unanswered or a retry is due: no new replan is asked for meanwhile.
+  bool awaitingPlan() const { return pending_since_ns_.has_value() || retry_at_ns_.has_value(); }
 
   // checkGoal for the mission's goal region.
   GoalCheck goalCheck(const VehicleState& state) const;

@@ -61,6 +61,9 @@ struct ReplanDecision {
   ReplanReason reason = ReplanReason::None;
   std::string message;         // human-readable, names the numbers
   Vec3 blocked_at = Vec3::Zero();  // first blocked sample, for TrajectoryBlocked
+  double time_ahead = 0.0;         // TrajectoryBlocked: s of trajectory from the reference to that sample
+  double penetration = 0.0;        // TrajectoryBlocked: m the robot overlaps the obstacle (-clearance), the
+                                   // deepest along the blocked run from that sample (within the horizon)
 };
 
 class TrajectoryTracker {

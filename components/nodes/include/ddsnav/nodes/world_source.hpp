@@ -1,6 +1,8 @@
 #pragma once
 // The collision world a component plans or checks against, kept current from the bus: perception's
-// ellipses (perception/obstacles), the mapper's octree (map/octomap) or the scenario's exact geometry.
+// ellipses (perception/obstacles), the mapper's octree (map/octomap), both fused into one world (the
+// octree for structure and unknown space, the ellipses for discrete obstacles; docs/world-model.md) or the
+// scenario's exact geometry.
 // The planner and the tracker use the same one, so a trajectory is checked against the world it was
 // planned in. Every message is checked when it arrives (see validate.hpp): a malformed one is dropped with
 // a warning naming the topic and what is wrong, and the last good one stays in use.
@@ -17,17 +19,31 @@
 
 namespace ddsnav::nodes {
 
-enum class WorldKind { Obstacles, Map, Scenario };
+enum class WorldKind { Obstacles, Map, Fused, Scenario };
 
-// "obstacles" | "map" | "scenario"; throws runtime::ParameterError naming the parameter `param` (exit status 2).
+// "obstacles" | "map" | "fused" | "scenario"; throws runtime::ParameterError naming the parameter `param` (exit status 2).
 WorldKind parseWorldKind(const std::string& text, const std::string& param = "world");
+
+// The world parameters every component on a WorldSource declares (a member of its Params): `world`
+// ("obstacles", the default; the demo launch file picks "fused") and `unknown_space` ("optimistic", the
+// default, or "conservative"), declared with their descriptors (choices checked by the runtime).
+struct WorldParameters {
+  WorldKind kind = WorldKind::Obstacles;
+  planner::UnknownSpace unknown = planner::UnknownSpace::Optimistic;
+  WorldParameters() = default;
+  explicit WorldParameters(runtime::Parameters& params);
+};
 
 class WorldSource {
  public:
-  // Subscribes through ctx (its executor, its topic names).
-  WorldSource(runtime::Context& ctx, WorldKind kind, const planner::Scenario& scenario);
+  // Subscribes through ctx (its executor, its topic names). `world.unknown`: how the map's never-observed
+  // space counts (map and fused worlds).
+  WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario);
+  WorldKind kind() const { return kind_; }
 
-  // False until the world's input has arrived (always true for the scenario world).
+  // False until the world's input has arrived (always true for the scenario world; for the fused one the
+  // obstacles, and the map too under the conservative policy: before the first map, everything is unknown,
+  // which the optimistic policy plans through on the obstacles alone).
   bool available() const;
   // A snapshot of the newest world, seen from a robot at `robot_position`: obstacle ellipses that would
   // cover the robot there are left out (see clearFootprint). nullptr when not available(). Inputs are
@@ -40,9 +56,15 @@ class WorldSource {
   std::size_t droppedMaps() const;
 
  private:
+  std::shared_ptr<const planner::CollisionWorld> structureLocked() const;
+
   WorldKind kind_;
   const planner::Scenario& scenario_;
+  planner::UnknownSpace unknown_;
   mutable std::mutex mutex_;
+  // The fused world's structure, built from map_ once per map (not per snapshot: a 3-D map takes a while).
+  mutable std::shared_ptr<const planner::CollisionWorld> structure_;
+  mutable bool structure_stale_ = true;
   std::optional<msg::ObstacleArray> obstacles_;
   std::optional<msg::OccupancyMap> map_;
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;

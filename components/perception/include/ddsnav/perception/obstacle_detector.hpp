@@ -10,7 +10,9 @@
 //   2. voxel-grid downsample (centroid per voxel_size cube)
 //   3. 3-D only: drop ground, i.e. voxel centroids with z <= ground_z
 //   4. Euclidean clustering (PCL EuclideanClusterExtraction semantics, cluster_tolerance,
-//      min/max_cluster_size)
+//      min/max_cluster_size); with structure_extent > 0, a cluster whose bounding box diagonal is
+//      longer than that is static structure (terrain, walls — the map's job, not an obstacle):
+//      its voxels go to structure() instead of on to the next steps
 //   5. split clusters whose points are not contiguous as seen from the sensor (an azimuth gap the
 //      beams passed through makes two obstacles, as in the paper's obstacle counting)
 //   6. cut a part longer than max_segment_length (or thicker than max_segment_width) into
@@ -50,6 +52,7 @@ struct DetectorParams {
   double range_noise_sigma = 0.02;     // m, the sensor's range noise
   bool enclose_points = true;          // see EllipsoidFitParams::enclose_points
   std::size_t max_points = 20000000;   // larger clouds are rejected (std::invalid_argument)
+  double structure_extent = 0.0;       // m; clusters with a longer box diagonal are structure (step 4); 0: none
 
   // Throws std::invalid_argument naming the first bad parameter.
   void validate() const;
@@ -63,6 +66,7 @@ struct DetectionStats {
   std::size_t ground_voxels = 0;
   std::size_t clusters = 0;          // Euclidean clusters (before gap splitting)
   std::size_t clustered_points = 0;  // voxels in those clusters
+  std::size_t structure_clusters = 0;  // clusters taken as structure (not obstacles)
   std::size_t parts = 0;             // after the gap split (before the length cut)
   std::size_t obstacles = 0;         // ellipsoids reported (pieces)
   double ms_filter = 0, ms_voxel = 0, ms_cluster = 0, ms_split = 0, ms_fit = 0;
@@ -83,16 +87,19 @@ class ObstacleDetector {
   // clusters over them (before gap splitting) — the stage the PCL pipeline is compared on.
   const std::vector<Eigen::Vector3f>& voxels() const { return voxels_; }
   const Clusters& clusters() const { return clusters_; }
+  // The voxels of the last detect()'s structure clusters (step 4), for ObstacleTracker::markStructure.
+  const std::vector<Eigen::Vector3f>& structure() const { return structure_; }
   const DetectorParams& params() const { return params_; }
 
  private:
   void splitGaps(const Eigen::Vector3d& origin);
+  void separateStructure();
 
   DetectorParams params_;
   VoxelGrid voxel_grid_;
   EuclideanClusterer clusterer_;
-  std::vector<Eigen::Vector3f> finite_, voxels_;
-  Clusters clusters_, parts_, pieces_;
+  std::vector<Eigen::Vector3f> finite_, voxels_, structure_;
+  Clusters clusters_, parts_, pieces_, obstacle_clusters_;
   DetectionStats stats_;
   struct Bearing {
     float azimuth, range;

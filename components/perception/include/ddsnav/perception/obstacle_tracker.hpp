@@ -83,6 +83,18 @@ class ObstacleTracker {
   const std::vector<ObstacleEllipsoid>& update(std::span<const ObstacleEllipsoid> detections);
 
   const std::vector<ObstacleEllipsoid>& obstacles() const { return tracks_; }
+
+  // Marks as structure every track with evidence in or next to the association cell of one of `voxels` (the detector's
+  // structure(): clusters too large to be an obstacle). A track started on a glimpse of a hill or a wall
+  // becomes structure once a scan shows the whole of it. Structure tracks keep their evidence (nothing is
+  // forgotten) but are no obstacles any more: discreteObstacles() leaves them out. Returns how many
+  // tracks were newly marked.
+  std::size_t markStructure(std::span<const Eigen::Vector3f> voxels, int dimensions);
+  bool isStructure(std::size_t index) const;
+  // What perception publishes: indices into obstacles() of the tracks not marked as structure, in
+  // creation order; when there are more than max_count, the max_count whose centres are nearest to
+  // `from` (the sensor) — a hard bound on the published set however large the world grows.
+  std::vector<std::size_t> discreteObstacles(const Eigen::Vector3d& from, std::size_t max_count) const;
   // Refits every track whose refit is deferred, so obstacles() is exactly the reference's now.
   const std::vector<ObstacleEllipsoid>& refitDeferred();
   // The current evidence of obstacles()[index] (its `support` is the evidence of its last refit).

@@ -1,0 +1,101 @@
+// The fused world (OctoMap structure + obstacle ellipsoids): blocked where either source blocks, unknown
+// space as the structure's policy says, merged contact lists with distinct ids.
+#include "ddsnav/planner/collision_world.hpp"
+
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <sstream>
+
+namespace ddsnav::planner {
+namespace {
+
+const Vec3 kMin(0, 0, 0), kMax(20, 20, 10);
+constexpr double kRadius = 0.5;
+
+std::vector<std::uint8_t> toBytes(const octomap::OcTree& tree) {
+  std::ostringstream s;
+  tree.writeBinaryConst(s);
+  const std::string str = s.str();
+  return {str.begin(), str.end()};
+}
+
+// A wall at x = 10 (y 0..8, z 0..4) seen from (2, 4, 2): the space between the sensor and the wall is
+// observed free, the rest of the box (e.g. behind the wall, or y > 12) is unknown.
+std::vector<std::uint8_t> wallMap() {
+  octomap::OcTree tree(0.2);
+  octomap::Pointcloud cloud;
+  for (double y = 0.1; y < 8.0; y += 0.1)
+    for (double z = 0.1; z < 4.0; z += 0.1) cloud.push_back(10.05f, float(y), float(z));
+  tree.insertPointCloud(cloud, octomap::point3d(2.0f, 4.0f, 2.0f));
+  return toBytes(tree);
+}
+
+std::unique_ptr<CollisionWorld> fused(UnknownSpace policy, std::vector<EllipsoidObstacle> obstacles) {
+  OctoMapWorldOptions options;
+  options.unknown_is_occupied = policy == UnknownSpace::Conservative;
+  std::shared_ptr<const CollisionWorld> structure = makeOctoMapWorld(3, kMin, kMax, kRadius, wallMap(), options);
+  return makeFusedWorld(structure, makeEllipsoidWorld(3, kMin, kMax, kRadius, std::move(obstacles)));
+}
+
+EllipsoidObstacle ball(int id, const Vec3& center, double r) {
+  EllipsoidObstacle o;
+  o.id = id;
+  o.center = center;
+  o.semi_axes = Vec3::Constant(r);
+  return o;
+}
+
+TEST(FusedWorld, BlockedWhenEitherSourceSaysSo) {
+  const auto world = fused(UnknownSpace::Optimistic, {ball(7, {5, 4, 2}, 1.0)});
+  EXPECT_TRUE(world->isFree({3, 4, 2}));       // observed free, away from both
+  EXPECT_FALSE(world->isFree({5, 4, 2}));      // inside the obstacle ellipsoid only (the map saw free space)
+  EXPECT_FALSE(world->isFree({5, 5.4, 2}));    // the ball of the robot touches the ellipsoid
+  EXPECT_FALSE(world->isFree({10.0, 4, 2}));   // in the mapped wall only
+  EXPECT_FALSE(world->isFree({9.6, 4, 2}));    // the robot's ball touches the wall
+  EXPECT_FALSE(world->isSegmentFree({3, 4, 2}, {7, 4, 2}));  // through the ellipsoid
+  EXPECT_FALSE(world->isSegmentFree({8, 6, 3}, {12, 6, 3}));  // through the wall
+  EXPECT_TRUE(world->isSegmentFree({3, 1, 1}, {8, 1, 1}));
+  // Clearance is the nearer of the two: the ellipsoid's surface is 1.5 m from (2.5, 4, 2), minus the radius.
+  EXPECT_NEAR(world->clearance({2.5, 4, 2}), 1.0, 1e-6);
+  EXPECT_NEAR(world->clearance({8.5, 1, 2}), 1.5 - kRadius, 0.25);  // the wall's voxels start at x = 10
+}
+
+TEST(FusedWorld, UnknownSpaceFollowsThePolicy) {
+  const Vec3 behind_wall(15, 4, 2), unseen_side(5, 16, 8), seen(6, 4, 2);
+  const auto optimistic = fused(UnknownSpace::Optimistic, {});
+  const auto conservative = fused(UnknownSpace::Conservative, {});
+  EXPECT_TRUE(optimistic->isFree(behind_wall));
+  EXPECT_TRUE(optimistic->isFree(unseen_side));
+  EXPECT_FALSE(conservative->isFree(behind_wall));
+  EXPECT_FALSE(conservative->isFree(unseen_side));
+  EXPECT_TRUE(conservative->isFree(seen));  // observed free space is free under both
+  EXPECT_TRUE(optimistic->isFree(seen));
+  // An obstacle in unknown space blocks under both policies.
+  EXPECT_FALSE(fused(UnknownSpace::Optimistic, {ball(1, behind_wall, 1.0)})->isFree(behind_wall));
+}
+
+TEST(FusedWorld, ContactListsMergeNearestFirstWithDistinctIds) {
+  const auto world = fused(UnknownSpace::Optimistic, {ball(3, {8, 4, 2}, 0.5)});
+  const auto near = world->obstaclesNear({7, 4, 2}, 3.5);
+  ASSERT_FALSE(near.empty());
+  EXPECT_EQ(near.front().id, 2 * 3 + 1);  // the ellipsoid (0.5 m away) before the wall (3 m away)
+  EXPECT_NEAR(near.front().distance, 0.5, 1e-6);
+  bool any_voxel = false;
+  for (std::size_t i = 0; i < near.size(); ++i) {
+    if (i > 0) EXPECT_LE(near[i - 1].distance, near[i].distance);
+    if (near[i].id % 2 == 0) any_voxel = true;
+  }
+  EXPECT_TRUE(any_voxel);
+}
+
+TEST(FusedWorld, RefusesMismatchedSources) {
+  std::shared_ptr<const CollisionWorld> structure = makeOctoMapWorld(3, kMin, kMax, kRadius, wallMap());
+  EXPECT_THROW(makeFusedWorld(structure, makeEllipsoidWorld(3, kMin, kMax, 0.3, {})), std::invalid_argument);
+  EXPECT_THROW(makeFusedWorld(nullptr, makeEllipsoidWorld(3, kMin, kMax, kRadius, {})), std::invalid_argument);
+  EXPECT_EQ(parseUnknownSpace("conservative"), UnknownSpace::Conservative);
+  EXPECT_THROW(parseUnknownSpace("maybe"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace ddsnav::planner

@@ -1,0 +1,68 @@
+#pragma once
+// When a blocked trajectory is worth a new plan, and where that plan should start (docs/tracking.md,
+// "Replanning"). Pure logic over TrajectoryTracker::checkReplan results; the tracker component feeds it
+// every check and carries out its verdict.
+//
+//   ReplanGate gate(policy);
+//   auto verdict = gate.check(tracker.checkReplan(world), tracker.trajectory(), tracker.status().reference_time);
+//   switch (verdict.action) { Continue: drive on; ReplanAhead: request from verdict.start, keep driving;
+//                             StopAndReplan: stop, request from the vehicle's state; }
+//   gate.planReady(seconds from request to trajectory);   // refines the expected planning time
+//
+// Rules:
+//   - Deviation (cross-track error beyond the threshold): StopAndReplan at once.
+//   - A blocked sample within the horizon counts only when it is blocked in confirm_checks consecutive
+//     checks (hysteresis against a grazing ellipsoid refit or a noisy voxel), or at once when the robot
+//     there would overlap the obstacle by more than block_margin (a real obstacle, not a graze).
+//   - A confirmed block far enough ahead (more than the expected planning time + stop_margin) is replanned
+//     from where the vehicle will be when the plan is ready: the trajectory's sample at reference time +
+//     expected planning time. The vehicle keeps flying the still-valid part meanwhile. Closer than that, it
+//     stops and replans from where it is.
+//   - Expected planning time: max(planning_time_s, 1.25 x the longest of the last 8 measured ones).
+
+#include "ddsnav/tracker/tracker.hpp"
+#include "ddsnav/tracker/trajectory.hpp"
+
+#include <deque>
+#include <string>
+
+namespace ddsnav::tracker {
+
+struct ReplanPolicy {
+  int confirm_checks = 5;           // consecutive blocked checks that confirm a block (>= 1); 0.5 s at 10 Hz
+  double block_margin = 0.2;        // m of overlap that confirms a block at the first check
+  double stop_margin_s = 1.5;       // s kept between the predicted start and the blocked sample
+  double planning_time_s = 0.3;     // s, the least expected time from request to trajectory
+
+  void validate() const;  // std::invalid_argument naming the field
+};
+
+enum class ReplanAction { Continue, ReplanAhead, StopAndReplan };
+const char* toString(ReplanAction action);
+
+struct ReplanVerdict {
+  ReplanAction action = ReplanAction::Continue;
+  TrajectorySample start;   // ReplanAhead: the predicted start (on the current trajectory)
+  std::string reason;       // ReplanAhead / StopAndReplan: "<deviation|trajectory_blocked>: ..."
+};
+
+class ReplanGate {
+ public:
+  explicit ReplanGate(const ReplanPolicy& policy = {});
+
+  // One check of the trajectory being flown; `reference_time` is the tracker's (status().reference_time).
+  ReplanVerdict check(const ReplanDecision& decision, const Trajectory& trajectory, double reference_time);
+  // A new trajectory is being flown: the hysteresis starts over.
+  void reset() { blocked_checks_ = 0; }
+  // Seconds from a request to its trajectory (planning + smoothing), measured by the caller.
+  void planReady(double seconds);
+  double expectedPlanningTime() const;
+  int blockedChecks() const { return blocked_checks_; }
+
+ private:
+  ReplanPolicy policy_;
+  int blocked_checks_ = 0;
+  std::deque<double> latencies_;
+};
+
+}  // namespace ddsnav::tracker

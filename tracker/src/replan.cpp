@@ -1,0 +1,73 @@
+#include "ddsnav/tracker/replan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace ddsnav::tracker {
+
+const char* toString(ReplanAction action) {
+  switch (action) {
+    case ReplanAction::Continue: return "continue";
+    case ReplanAction::ReplanAhead: return "replan ahead";
+    case ReplanAction::StopAndReplan: return "stop and replan";
+  }
+  return "?";
+}
+
+void ReplanPolicy::validate() const {
+  auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("replan policy: ") + what);
+  };
+  require(confirm_checks >= 1, "confirm_checks must be at least 1");
+  require(std::isfinite(block_margin) && block_margin >= 0, "block_margin must be a finite number of metres >= 0");
+  require(std::isfinite(stop_margin_s) && stop_margin_s >= 0, "stop_margin_s must be a finite number of seconds >= 0");
+  require(std::isfinite(planning_time_s) && planning_time_s >= 0, "planning_time_s must be a finite number of seconds >= 0");
+}
+
+ReplanGate::ReplanGate(const ReplanPolicy& policy) : policy_(policy) { policy_.validate(); }
+
+void ReplanGate::planReady(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return;
+  latencies_.push_back(seconds);
+  if (latencies_.size() > 8) latencies_.pop_front();
+}
+
+double ReplanGate::expectedPlanningTime() const {
+  const double longest = latencies_.empty() ? 0.0 : *std::max_element(latencies_.begin(), latencies_.end());
+  return std::max(policy_.planning_time_s, 1.25 * longest);
+}
+
+ReplanVerdict ReplanGate::check(const ReplanDecision& decision, const Trajectory& trajectory, double reference_time) {
+  ReplanVerdict out;
+  if (!decision.needed) {
+    blocked_checks_ = 0;
+    return out;
+  }
+  if (decision.reason == ReplanReason::Deviation) {
+    blocked_checks_ = 0;
+    out.action = ReplanAction::StopAndReplan;
+    out.reason = std::string(toString(decision.reason)) + ": " + decision.message;
+    return out;
+  }
+  ++blocked_checks_;
+  const bool deep = decision.penetration > policy_.block_margin;
+  if (blocked_checks_ < policy_.confirm_checks && !deep) return out;
+  char why[160];
+  std::snprintf(why, sizeof why, " (%s; %.2f s ahead, overlap %.2f m)",
+                deep ? "overlap beyond the margin" : (std::to_string(blocked_checks_) + " consecutive checks").c_str(),
+                decision.time_ahead, decision.penetration);
+  out.reason = std::string(toString(decision.reason)) + ": " + decision.message + why;
+  blocked_checks_ = 0;
+  const double lead = expectedPlanningTime();
+  if (decision.time_ahead > lead + policy_.stop_margin_s && reference_time + lead < trajectory.duration()) {
+    out.action = ReplanAction::ReplanAhead;
+    out.start = trajectory.at(reference_time + lead);
+  } else {
+    out.action = ReplanAction::StopAndReplan;
+  }
+  return out;
+}
+
+}  // namespace ddsnav::tracker

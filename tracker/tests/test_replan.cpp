@@ -1,0 +1,152 @@
+// The replan decision: hysteresis (consecutive checks or an overlap margin), the horizon, the start
+// predicted along the trajectory by the expected planning time, and the mission flying on meanwhile.
+#include "ddsnav/tracker/mission.hpp"
+#include "ddsnav/tracker/replan.hpp"
+#include "ddsnav/tracker/smoother.hpp"
+#include "test_worlds.hpp"
+
+#include <gtest/gtest.h>
+
+namespace ddsnav::tracker {
+namespace {
+
+using testing::pathOf;
+using testing::scenario2d;
+
+struct Straight {
+  planner::Scenario sc = scenario2d(60, 0.3, "");
+  std::unique_ptr<planner::CollisionWorld> world = planner::makeScenarioWorld(sc);
+  Trajectory trajectory = smoothPath(pathOf({{1, 5, 0}, {55, 5, 0}}), *world, *sc.vehicle);
+};
+
+// A check result as TrajectoryTracker::checkReplan gives it for a sample `ahead` s away overlapping by `overlap` m.
+ReplanDecision blocked(double ahead, double overlap) {
+  ReplanDecision d;
+  d.needed = true;
+  d.reason = ReplanReason::TrajectoryBlocked;
+  d.message = "sample blocked";
+  d.time_ahead = ahead;
+  d.penetration = overlap;
+  return d;
+}
+
+TEST(ReplanGate, AGrazingBlockNeedsConsecutiveChecks) {
+  Straight s;
+  ReplanPolicy policy;
+  policy.confirm_checks = 2;  // block_margin 0.2 m as by default
+  ReplanGate gate(policy);
+  EXPECT_EQ(gate.check(blocked(20, 0.05), s.trajectory, 0).action, ReplanAction::Continue);
+  EXPECT_EQ(gate.check({}, s.trajectory, 0.1).action, ReplanAction::Continue);  // it went away: start over
+  EXPECT_EQ(gate.check(blocked(20, 0.05), s.trajectory, 0.2).action, ReplanAction::Continue);
+  const auto v = gate.check(blocked(20, 0.05), s.trajectory, 0.3);
+  EXPECT_EQ(v.action, ReplanAction::ReplanAhead);
+  EXPECT_NE(v.reason.find("trajectory_blocked"), std::string::npos);
+  EXPECT_NE(v.reason.find("2 consecutive checks"), std::string::npos);
+}
+
+TEST(ReplanGate, ADeepOverlapIsConfirmedAtOnce) {
+  Straight s;
+  ReplanGate gate;
+  const auto v = gate.check(blocked(20, 0.5), s.trajectory, 0);
+  EXPECT_EQ(v.action, ReplanAction::ReplanAhead);
+  EXPECT_NE(v.reason.find("overlap beyond the margin"), std::string::npos);
+}
+
+TEST(ReplanGate, StartIsPredictedByTheExpectedPlanningTime) {
+  Straight s;
+  ReplanPolicy policy;
+  policy.planning_time_s = 0.5;
+  ReplanGate gate(policy);
+  EXPECT_DOUBLE_EQ(gate.expectedPlanningTime(), 0.5);
+  auto v = gate.check(blocked(20, 1.0), s.trajectory, 3.0);
+  ASSERT_EQ(v.action, ReplanAction::ReplanAhead);
+  EXPECT_NEAR(v.start.time, 3.5, 0.06);
+  EXPECT_NEAR((v.start.position - s.trajectory.at(3.5).position).norm(), 0.0, 1e-9);
+  // Slow plans move the prediction: 1.25 x the longest of the recent ones.
+  gate.planReady(2.0);
+  gate.planReady(0.4);
+  EXPECT_DOUBLE_EQ(gate.expectedPlanningTime(), 2.5);
+  v = gate.check(blocked(20, 1.0), s.trajectory, 3.0);
+  ASSERT_EQ(v.action, ReplanAction::ReplanAhead);
+  EXPECT_NEAR(v.start.time, 5.5, 0.06);
+}
+
+TEST(ReplanGate, ABlockTooCloseStopsTheVehicle) {
+  Straight s;
+  ReplanGate gate;  // 0.3 s planning + 1.5 s margin
+  EXPECT_EQ(gate.check(blocked(1.0, 1.0), s.trajectory, 0).action, ReplanAction::StopAndReplan);
+  ReplanDecision deviation;
+  deviation.needed = true;
+  deviation.reason = ReplanReason::Deviation;
+  deviation.message = "cross-track error 1.2 m";
+  const auto v = gate.check(deviation, s.trajectory, 0);
+  EXPECT_EQ(v.action, ReplanAction::StopAndReplan);
+  EXPECT_EQ(v.reason.rfind("deviation: ", 0), 0u);
+}
+
+TEST(ReplanGate, OnlyTheHorizonIsChecked) {
+  // An obstacle 12 s ahead on the trajectory: outside a 5 s horizon nothing is blocked, inside 20 s it is.
+  Straight s;
+  const auto block = planner::makeScenarioWorld(scenario2d(60, 0.3, "  - {type: sphere, center: [13, 5], radius: 1}\n"));
+  const double t_block = [&] {
+    for (const auto& sample : s.trajectory.samples)
+      if (!block->isFree(sample.position)) return sample.time;
+    return -1.0;
+  }();
+  ASSERT_GT(t_block, 5.5);
+  TrackerConfig near_config;
+  near_config.replan_horizon = 5.0;
+  TrajectoryTracker near(s.trajectory, *s.sc.vehicle, near_config);
+  EXPECT_FALSE(near.checkReplan(*block).needed);
+  TrackerConfig far_config;
+  far_config.replan_horizon = 20.0;
+  TrajectoryTracker far(s.trajectory, *s.sc.vehicle, far_config);
+  const auto d = far.checkReplan(*block);
+  ASSERT_TRUE(d.needed);
+  EXPECT_NEAR(d.time_ahead, t_block, 1e-9);
+  EXPECT_GT(d.penetration, 0.5);  // the sample is inside the 1 m sphere
+  ReplanGate gate;
+  EXPECT_EQ(gate.check(d, s.trajectory, 0).action, ReplanAction::ReplanAhead);
+}
+
+TEST(ReplanGate, RefusesBadPolicies) {
+  ReplanPolicy p;
+  p.confirm_checks = 0;
+  EXPECT_THROW(ReplanGate{p}, std::invalid_argument);
+  p = {};
+  p.stop_margin_s = -1;
+  EXPECT_THROW(ReplanGate{p}, std::invalid_argument);
+}
+
+TEST(Mission, KeepsDrivingWhileAReplanAheadIsPlanned) {
+  MissionConfig config;
+  config.goal = {50, 5, 0};
+  config.goal_radius = 1.0;
+  Mission mission(config);
+  VehicleState here;
+  here.position = {1, 5, 0};
+  auto d = mission.update(0, here, true, std::nullopt);
+  ASSERT_EQ(d.action, MissionAction::RequestPlan);
+  PlanAnswer answer{d.request_id, true, "", true, Vec3(50, 5, 0)};
+  ASSERT_EQ(mission.update(1'000'000, here, true, answer).action, MissionAction::SmoothPath);
+  ASSERT_EQ(mission.pathSmoothed(2'000'000, here, true).action, MissionAction::Drive);
+  VehicleState ahead = here;
+  ahead.position = {4, 5, 0};
+  d = mission.replanAhead(3'000'000, ahead, "trajectory_blocked: test");
+  ASSERT_EQ(d.action, MissionAction::RequestPlan);
+  EXPECT_EQ(d.reason, "trajectory_blocked: test");
+  EXPECT_EQ(d.from.position, ahead.position);
+  EXPECT_TRUE(mission.awaitingPlan());
+  // Until the answer comes, the vehicle drives on.
+  EXPECT_EQ(mission.update(4'000'000, here, true, std::nullopt).action, MissionAction::Drive);
+  PlanAnswer second{d.request_id, true, "", true, Vec3(50, 5, 0)};
+  EXPECT_EQ(mission.update(5'000'000, here, true, second).action, MissionAction::SmoothPath);
+  EXPECT_FALSE(mission.awaitingPlan());
+  // Held (the block came too close): no driving until the plan is there.
+  d = mission.replanAhead(6'000'000, ahead, "trajectory_blocked: again");
+  mission.hold();
+  EXPECT_EQ(mission.update(7'000'000, here, true, std::nullopt).action, MissionAction::Wait);
+}
+
+}  // namespace
+}  // namespace ddsnav::tracker
