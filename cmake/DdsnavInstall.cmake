@@ -52,7 +52,7 @@ set(ddsnav_programs ddsnav ddsnav-talker ddsnav-echo ddsnav-launch ddsnav-record
   ddsnav-bridge ddsnav-export ddsnav-plan ddsnav-bench ddsnav-bench-bus ddsnav-bench-record ddsnav-bench-bridge
   ddsnav-bench-mapper ddsnav-bench-perception ddsnav-bench-tracker
   ddsnav-sim ddsnav-perception ddsnav-mapper ddsnav-planner ddsnav-tracker ddsnav-monitor
-  ddsnav-test-with-domain)
+  ddsnav-security ddsnav-bench-roundtrip ddsnav-bench-mission ddsnav-test-with-domain)
 install(TARGETS ${ddsnav_programs} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 
 set(ddsnav_share ${CMAKE_INSTALL_DATADIR}/ddsnav)
