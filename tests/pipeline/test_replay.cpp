@@ -2,6 +2,7 @@
 // perception and the mapper on that recording instead of the simulator with
 // configs/launch/replay_perception.yaml (each phase on a domain of its own), following the recording's clock.
 
+#include <chrono>
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/collision_world.hpp>
 #include <ddsnav/planner/scenario.hpp>
@@ -110,6 +111,10 @@ TEST(Replay, PerceptionAndMapperRunOnARecordingOfTheSimulatorOnItsClock) {
   const auto recorded_from = info.value("start_time_ns", std::int64_t{0});
   const auto recorded_to = info.value("end_time_ns", std::int64_t{0});
   ASSERT_GT(recorded_to, recorded_from);
+  // The simulator's own clock (system/clock, simulated time) may run up to a step or so ahead of the
+  // receipt times the recording's end is measured in; a wall-clock stamp would lie after the replay's start.
+  const std::int64_t sim_clock_lead_ns = 2'000'000'000;
+  const std::int64_t replay_started = std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
 
   // Phase 2: the launch file replays it into perception and the mapper; nothing simulates anything.
   harness::Harness h;
@@ -157,7 +162,8 @@ TEST(Replay, PerceptionAndMapperRunOnARecordingOfTheSimulatorOnItsClock) {
     EXPECT_EQ(array.header().frame_id(), "map");
     EXPECT_TRUE(array.planar());
     EXPECT_GE(array.header().stamp_ns(), recorded_from - 100'000'000);  // a cloud's stamp precedes its receipt slightly
-    EXPECT_LE(array.header().stamp_ns(), recorded_to);
+    EXPECT_LE(array.header().stamp_ns(), recorded_to + sim_clock_lead_ns);
+    EXPECT_LT(array.header().stamp_ns(), replay_started);
     for (const auto& o : array.obstacles()) {
       ++ellipses;
       EXPECT_LT(distanceToScenarioObstacle(*world, o.centre().x(), o.centre().y()), 1.0) << "ellipse at " << o.centre().x() << ", " << o.centre().y();
@@ -172,7 +178,8 @@ TEST(Replay, PerceptionAndMapperRunOnARecordingOfTheSimulatorOnItsClock) {
     if (stamp == 0) continue;
     ++on_recorded_clock;
     EXPECT_GE(stamp, recorded_from) << name;
-    EXPECT_LE(stamp, recorded_to) << name;
+    EXPECT_LE(stamp, recorded_to + sim_clock_lead_ns) << name;
+    EXPECT_LT(stamp, replay_started) << name;
   }
   EXPECT_GE(on_recorded_clock, 2u) << "perception/mapper never published a status stamped by system/clock";
 

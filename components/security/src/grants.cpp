@@ -19,7 +19,7 @@ Grant withCommon(Grant g) {
 const std::vector<Grant>& stockGrants() {
   static const std::vector<Grant> grants = [] {
     std::vector<Grant> g = {
-        {"sim", {"sensors/points", "vehicle/state"}, {"control/cmd_vel"}},
+        {"sim", {"sensors/points", "vehicle/state", "system/clock"}, {"control/cmd_vel"}},  // system/clock: simulated time
         {"perception", {"perception/obstacles"}, {"sensors/points"}},
         {"mapper", {"map/octomap"}, {"sensors/points"}},
         {"planner", {"planning/path"}, {"planning/request", "perception/obstacles", "map/octomap"}},
@@ -28,7 +28,7 @@ const std::vector<Grant>& stockGrants() {
          {"vehicle/state", "planning/path", "perception/obstacles", "map/octomap"}},
         {"monitor",
          {},
-         {"vehicle/state", "perception/obstacles", "planning/path", "control/trajectory", "control/tracking",
+         {"vehicle/state", "perception/obstacles", "planning/request", "planning/path", "control/trajectory", "control/tracking",
           "map/octomap", "sensors/points", "system/status"}},
         {"launch", {}, {"system/status"}},
         // Tools that carry any topic: the recorder, bridge and echo read everything, the player writes it.
