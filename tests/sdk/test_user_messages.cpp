@@ -108,7 +108,8 @@ TEST_F(UserMessagesRecording, RecordedWithItsSchemaDecodedByFoxgloveAndReplayed)
 
   // ddsnav play puts the same samples back on the bus (Fast DDS this time).
   auto inbox = h.bus().inbox<Reading>("sdk/readings", bus::Qos::commands());
-  h.replay(file, {.clock = false, .dds = "fastdds"});
+  // Waits for the inbox to match before the first sample: published unmatched, a sample is gone.
+  h.replay(file, {.clock = false, .dds = "fastdds", .args = {"--wait-subscribers", "10", "--settle", "0.5"}});
   for (int i = 0; i < 5; ++i) {
     const auto got = inbox.wait(20s);
     ASSERT_TRUE(got) << "reading " << i << " not replayed; play:\n" << h.log("play");
