@@ -128,6 +128,12 @@ class ContextImpl : public Context {
     publishState(msg::LIFECYCLE_CONFIGURING);
   }
 
+  // The component's own name (the instance may be called otherwise): what the topic table lists.
+  void setComponent(const std::string& component) { component_ = component; }
+  void checkTopicUse(const std::string& name, TopicUse use) override {
+    if (const auto error = topicUseError(component_, name, use); !error.empty()) throw std::logic_error(error);
+  }
+
   const std::string& name() const override { return name_; }
   Parameters& params() override { return params_; }
   bus::Participant& bus() override { return *participant_; }
@@ -300,6 +306,7 @@ class ContextImpl : public Context {
   std::string ns_;
   std::map<std::string, std::string> remaps_;
   std::set<std::string> used_;
+  std::string component_;
 
   double heartbeat_period_ = 1.0;
   std::thread heartbeat_;
@@ -403,6 +410,7 @@ int runComponent(const ComponentInfo& info, int argc, char** argv, const std::fu
     else if (!peers.empty() || multicast)
       throw bus::BusError("--peers / --multicast need --network INTERFACE");
     ctx = std::make_unique<ContextImpl>(instance, Parameters::load(config, overrides), logger);
+    ctx->setComponent(name);
     ctx->setNames(ns, remaps);
   } catch (const std::exception& e) {
     logger->error("{}", e.what());
