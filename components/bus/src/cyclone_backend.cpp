@@ -15,6 +15,7 @@
 #include <map>
 #include <mutex>
 #include <set>
+#include <vector>
 
 namespace ddsnav::bus::detail {
 namespace {
@@ -132,8 +133,24 @@ class CycloneWriter : public WriterImpl {
  public:
   CycloneWriter(std::shared_ptr<CycloneCore> core, dds_entity_t writer, const ddsi_sertype* sertype,
                 const EndpointSpec& spec)
-      : core_(std::move(core)), writer_(writer), sertype_(sertype), spec_(spec) {}
+      : core_(std::move(core)), writer_(writer), sertype_(sertype), spec_(spec) {
+    dds_get_instance_handle(writer_, &handle_);
+  }
   ~CycloneWriter() override { dds_delete(writer_); }
+  std::uint64_t handle() const override { return handle_; }
+  bool matchedBeyond(const std::set<std::uint64_t>& readers) const override {
+    std::vector<dds_instance_handle_t> matched(16);
+    for (;;) {
+      const dds_return_t n = dds_get_matched_subscriptions(writer_, matched.data(), matched.size());
+      if (n < 0) return true;  // cannot tell: write
+      if (static_cast<std::size_t>(n) <= matched.size()) {
+        for (dds_return_t i = 0; i < n; ++i)
+          if (!readers.count(matched[static_cast<std::size_t>(i)])) return true;
+        return false;
+      }
+      matched.resize(static_cast<std::size_t>(n));
+    }
+  }
 
   void writeSample(const void* sample) override {
     // One serialization into a per-thread buffer that keeps its capacity (no 8 MB allocation per cloud).
@@ -171,6 +188,7 @@ class CycloneWriter : public WriterImpl {
   dds_entity_t writer_;
   const ddsi_sertype* sertype_;
   EndpointSpec spec_;
+  dds_instance_handle_t handle_ = 0;
 };
 
 class CycloneReader : public ReaderImpl {
@@ -184,7 +202,11 @@ class CycloneReader : public ReaderImpl {
     if (sample_ != nullptr) spec_.type->destroy(sample_);
   }
 
-  void attach(dds_entity_t reader) { reader_ = reader; }
+  void attach(dds_entity_t reader) {
+    reader_ = reader;
+    dds_get_instance_handle(reader_, &handle_);
+  }
+  std::uint64_t handle() const override { return handle_; }
 
   std::size_t matched() const override {
     dds_subscription_matched_status_t status{};
@@ -208,7 +230,8 @@ class CycloneReader : public ReaderImpl {
     ddsi_serdata* sd = nullptr;
     dds_sample_info_t info;
     while (dds_takecdr(reader, &sd, 1, &info, DDS_ANY_STATE) == 1) {
-      if (info.valid_data) deliver(sd, info);
+      // A sample of a writer of this process was delivered as an object already: dropped undecoded.
+      if (info.valid_data && !(spec_.ignore_writer && spec_.ignore_writer(info.publication_handle))) deliver(sd, info);
       ddsi_serdata_unref(sd);
     }
   }
@@ -239,6 +262,7 @@ class CycloneReader : public ReaderImpl {
   RawCallback raw_;
   void* sample_ = nullptr;
   dds_entity_t reader_ = 0;
+  dds_instance_handle_t handle_ = 0;
 };
 
 class CycloneCore : public std::enable_shared_from_this<CycloneCore> {

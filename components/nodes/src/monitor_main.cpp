@@ -259,4 +259,4 @@ class MonitorComponent : public runtime::Component {
 
 }  // namespace
 
-int main(int argc, char** argv) { return runtime::runComponent<MonitorComponent>("monitor", argc, argv); }
+DDSNAV_COMPONENT(MonitorComponent, "monitor")

@@ -318,4 +318,4 @@ class TrackerComponent : public runtime::Component {
 
 }  // namespace
 
-int main(int argc, char** argv) { return runtime::runComponent<TrackerComponent>("tracker", argc, argv); }
+DDSNAV_COMPONENT(TrackerComponent, "tracker")
