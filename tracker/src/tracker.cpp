@@ -180,6 +180,31 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
   return cmd;
 }
 
+double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {
+  if (!position.allFinite() || !(within_s > 0) || status_.updates > 0) return 0.0;
+  const auto& s = trajectory_.samples;
+  // The nearest point of the trajectory's first within_s seconds; a later part passing nearby (a loop
+  // back) is not considered.
+  double best_d = std::numeric_limits<double>::infinity();
+  double best_time = 0.0;
+  std::size_t best_segment = 0;
+  for (std::size_t i = 0; i + 1 < s.size() && s[i].time <= within_s; ++i) {
+    const Vec3 a = s[i].position, ab = s[i + 1].position - a;
+    const double len2 = ab.squaredNorm();
+    const double f = len2 > 0 ? std::clamp((position - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    const double d = (position - (a + f * ab)).norm();
+    if (d < best_d - 1e-9) {
+      best_d = d;
+      best_time = s[i].time + f * (s[i + 1].time - s[i].time);
+      best_segment = i;
+    }
+  }
+  if (best_time <= 0.0) return 0.0;
+  status_.reference_time = std::min(best_time, trajectory_.duration());
+  last_segment_ = best_segment;
+  return status_.reference_time;
+}
+
 ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& world) const {
   ReplanDecision out;
   if (status_.goal_reached) return out;

@@ -83,6 +83,12 @@ class TrajectoryTracker {
   // of the remaining trajectory (within replan_horizon) no longer free in `world` (new obstacles).
   ReplanDecision checkReplan(const planner::CollisionWorld& world) const;
 
+  // Moves the reference forward to the vehicle's projection on the first `within_s` seconds of the
+  // trajectory, when the vehicle is already past its start: a trajectory planned from a predicted start
+  // that arrives late would otherwise begin behind the vehicle, and the controller would pull it back (a
+  // deviation replan after every late switch). Returns the seconds skipped (0 when none).
+  double skipToVehicle(const Vec3& position, double within_s);
+
  private:
   struct Projection {
     std::size_t segment = 0;  // samples[segment] .. samples[segment + 1]
