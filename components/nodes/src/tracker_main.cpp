@@ -45,7 +45,7 @@ class TrackerComponent : public runtime::Component {
     tracker::SmootherConfig smoother;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
-          planner(p.declare<std::string>("planner", "gart", {.doc = "planner asked for in each request (docs/planners.md)"})),
+          planner(p.declare<std::string>("planner", "gart-lazy", {.doc = "planner asked for in each request (docs/planners.md)"})),
           world(p),
           control_rate_hz(p.declare<double>("control_rate_hz", 20.0, {.above = 0, .max = 1000, .unit = "Hz", .doc = "controller rate"})),
           time_budget_s(p.declare<double>("time_budget_s", 5.0, {.above = 0, .unit = "s", .doc = "time budget of each plan request"})),
@@ -219,6 +219,23 @@ class TrackerComponent : public runtime::Component {
     return true;
   }
 
+  static constexpr double kAtRest = 0.05;  // m/s: the vehicle has stopped
+
+  // The clock's speed (simulated seconds per wall second) over the last few seconds, for the mission's
+  // answer timeout: the planner's budget is wall time.
+  void measureClockSpeed() {
+    const auto wall = std::chrono::steady_clock::now();
+    const std::int64_t now = clock().nowNs();
+    if (speed_window_clock_ns_ == 0) {
+      speed_window_clock_ns_ = now, speed_window_wall_ = wall;
+      return;
+    }
+    const double wall_s = std::chrono::duration<double>(wall - speed_window_wall_).count();
+    if (wall_s < 3.0) return;
+    mission_.setClockSpeed(static_cast<double>(now - speed_window_clock_ns_) * 1e-9 / wall_s);
+    speed_window_clock_ns_ = now, speed_window_wall_ = wall;
+  }
+
   template <class T>
   static bool ready(const std::future<T>& f) {
     return f.valid() && f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
@@ -270,6 +287,15 @@ class TrackerComponent : public runtime::Component {
       planner_seen_ = true;
     }
     const std::optional<tracker::VehicleState> state = vehicle_;
+    measureClockSpeed();
+    if (stopping_for_ && state) {
+      stop();
+      const double stopping_s = static_cast<double>(clock().nowNs() - stopping_since_ns_) * 1e-9;
+      if (std::abs(state->v) > kAtRest && stopping_s < 10.0) return;
+      act(mission_.replan(clock().nowNs(), *state, *stopping_for_));
+      stopping_for_.reset();
+      return;
+    }
     std::optional<tracker::MissionDecision> decision;
     // A smoothing finished on the worker: the mission hears whether it gave a trajectory (a result for an
     // older request than the current one is stale and dropped).
@@ -359,15 +385,17 @@ class TrackerComponent : public runtime::Component {
       replan.time_ahead = std::max(0.0, replan.time_ahead - (follower_->status().reference_time - checked.reference_time));
       const auto verdict = replan_gate_.check(replan, follower_->trajectory(), follower_->status().reference_time);
       if (verdict.action == tracker::ReplanAction::StopAndReplan) {
+        // Stop, and ask from where the vehicle comes to rest: a plan from where it started braking would
+        // begin metres behind it (v^2 / 2a), and one still on its way from a predicted start ahead would
+        // begin where it never arrives. A newer request supersedes that one.
         stop();
         follower_.reset();
         switch_at_.reset();
-        if (mission_.awaitingPlan()) {  // a plan is on its way already: wait for it here
-          spdlog::warn("stopping to wait for plan {}: {}", mission_.requestId(), verdict.reason);
-          mission_.hold();
-        } else {
-          act(mission_.replan(clock().nowNs(), *state, verdict.reason));
-        }
+        next_trajectory_.reset();
+        mission_.hold();
+        if (mission_.awaitingPlan()) spdlog::warn("stopping; plan {} is superseded: {}", mission_.requestId(), verdict.reason);
+        stopping_for_ = verdict.reason;
+        stopping_since_ns_ = clock().nowNs();
       } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan()) {
         tracker::VehicleState from = *state;
         from.position = verdict.start.position;
@@ -404,6 +432,10 @@ class TrackerComponent : public runtime::Component {
   std::optional<double> switch_at_;
   std::optional<tracker::Trajectory> next_trajectory_;
   std::future<Smoothed> smoothing_;
+  std::optional<std::string> stopping_for_;  // a stop-and-replan's reason, until the vehicle is at rest
+  std::int64_t stopping_since_ns_ = 0;
+  std::int64_t speed_window_clock_ns_ = 0;
+  std::chrono::steady_clock::time_point speed_window_wall_;
   std::future<Checked> checking_;
   std::uint64_t trajectory_serial_ = 0;
   std::int64_t next_since_ns_ = 0;
