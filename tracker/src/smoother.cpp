@@ -367,7 +367,8 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
 
 // A start moving at `heading`: puts a point `length` ahead along it after the start, the longest of a few
 // candidates (halving down to 0.5 m) whose two new edges are collision free with `min_clearance` and
-// whose corner at the new point is at most a right angle. Returns the points unchanged when none is.
+// whose corner at the new point is no hairpin (at most ~150 degrees: a sharp corner slows
+// the vehicle down along the profile, which a start at rest would stop outright). Returns the points unchanged when none is.
 std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double length, const CollisionWorld& world,
                          double min_clearance) {
   if (points.size() < 2 || !(length > 0)) return points;
@@ -379,7 +380,7 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
     std::size_t next = 1;
     while (next + 1 < points.size() && (points[next] - start).dot(direction) <= l) ++next;
     const Vec3 onward = points[next] - ahead;
-    if (onward.norm() < 1e-6 || onward.dot(direction) < 0) continue;
+    if (onward.norm() < 1e-6 || onward.normalized().dot(direction) < -0.85) continue;  // no hairpin (> ~150 degrees)
     if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !world.isSegmentFree(ahead, points[next])) continue;
     const double need = std::min(min_clearance, world.clearance(start));
     if (!clearanceAtLeast(world, start, ahead, need) || !clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next]))))

@@ -307,7 +307,7 @@ TEST(Smoother, AMovingStartKeepsItsSpeedAndHeading) {
 
 // No room for a lead-in (a wall right ahead of the heading): the trajectory starts at rest and turns.
 TEST(Smoother, AMovingStartWithoutRoomStartsAtRest) {
-  const auto sc = scenario2d(60, 0.3, "  - {type: box, min: [6, 0], max: [7, 60]}\n");
+  const auto sc = scenario2d(60, 0.3, "  - {type: box, min: [5.6, 0], max: [7, 60]}\n");  // 0.3 m of room ahead
   const auto world = ddsnav::planner::makeScenarioWorld(sc);
   const auto l = limits(2.0, 0.5);
   SmootherConfig cfg;
