@@ -367,10 +367,10 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
 
 // A start moving at `heading`: puts a point `length` ahead along it after the start, the longest of a few
 // candidates (halving down to 0.5 m) whose two new edges are collision free with `min_clearance` and
-// whose corner at the new point is no hairpin (at most ~150 degrees: a sharp corner slows
-// the vehicle down along the profile, which a start at rest would stop outright). Returns the points unchanged when none is.
-std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double length, const CollisionWorld& world,
-                         double min_clearance) {
+// whose corner at the new point is at most a right angle and can be rounded at `turn_radius` (both edges
+// at least radius x tan(corner / 2) long: a tighter corner is a near stop, and the tracker then deviates). Returns the points unchanged when none is.
+std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double length, double turn_radius,
+                         const CollisionWorld& world, double min_clearance) {
   if (points.size() < 2 || !(length > 0)) return points;
   const Vec3 direction(std::cos(heading), std::sin(heading), 0.0);
   const Vec3& start = points.front();
@@ -380,7 +380,11 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
     std::size_t next = 1;
     while (next + 1 < points.size() && (points[next] - start).dot(direction) <= l) ++next;
     const Vec3 onward = points[next] - ahead;
-    if (onward.norm() < 1e-6 || onward.normalized().dot(direction) < -0.85) continue;  // no hairpin (> ~150 degrees)
+    if (onward.norm() < 1e-6) continue;
+    // The corner at the new point must be roundable at the turn radius: a tighter one is a near stop.
+    const double corner = std::acos(std::clamp(onward.normalized().dot(direction), -1.0, 1.0));
+    const double tangent = turn_radius * std::tan(0.5 * corner);
+    if (corner > 0.5 * std::numbers::pi || l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) continue;
     if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !world.isSegmentFree(ahead, points[next])) continue;
     const double need = std::min(min_clearance, world.clearance(start));
     if (!clearanceAtLeast(world, start, ahead, need) || !clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next]))))
@@ -580,7 +584,7 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   points = dropCollinear(points);
   const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
   if (config.initial_speed > 0 && config.initial_heading)
-    points = leadIn(points, *config.initial_heading, std::max(radius, 1.0), world, config.shortcut_clearance);
+    points = leadIn(points, *config.initial_heading, std::max(2 * radius, 1.0), radius, world, config.shortcut_clearance);
   traj.report.shortcut_waypoints = points.size();
 
   Corners corners = makeCorners(points, radius, world, config.clearance_target);

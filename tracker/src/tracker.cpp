@@ -205,7 +205,7 @@ double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {
   return status_.reference_time;
 }
 
-ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& world) const {
+ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& world, double min_horizon_s) const {
   ReplanDecision out;
   if (status_.goal_reached) return out;
   if (std::abs(status_.cross_track_error) > config_.replan_deviation) {
@@ -216,7 +216,8 @@ ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& wor
     return out;
   }
   const auto& s = trajectory_.samples;
-  const double until = status_.reference_time + config_.replan_horizon;
+  const double horizon = std::isfinite(min_horizon_s) ? std::max(config_.replan_horizon, min_horizon_s) : config_.replan_horizon;
+  const double until = status_.reference_time + horizon;
   for (std::size_t i = last_segment_; i < s.size() && s[i].time <= until; ++i) {
     if (world.isFree(s[i].position)) continue;
     std::ostringstream m;

@@ -204,6 +204,13 @@ class TrackerComponent : public runtime::Component {
   bool adoptSmoothed(Smoothed smoothed, const tracker::VehicleState& state) {
     if (!smoothed.trajectory) return false;
     auto& trajectory = *smoothed.trajectory;
+    // A plan from a predicted start the vehicle reaches at speed must be flown through; one that starts at
+    // rest (no lead-in along the heading was free) would make it overshoot its start. Asked again (ahead, or
+    // from rest once the block is close enough to stop for it).
+    if (request_speed_ > 0.5 && trajectory.samples.front().speed < 0.1) {
+      spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown", smoothed.request_id, request_speed_);
+      return false;
+    }
     const double latency = static_cast<double>(clock().nowNs() - requested_at_ns_) * 1e-9;
     spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s, ready {:.3f} s after its request",
                  smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
@@ -250,10 +257,14 @@ class TrackerComponent : public runtime::Component {
     double took_s = 0.0;
   };
   void startCheck(const tracker::VehicleState& state) {
-    checking_ = std::async(std::launch::async, [this, follower = *follower_, serial = trajectory_serial_, position = state.position] {
+    // At least as far ahead as a plan takes, twice, plus the stop margin: a slow vehicle with a long-range
+    // sensor (the AUV: 2 m/s, a 200 m sonar; a plan of 600 m took 49 simulated seconds at speed 10) must
+    // see the block while there is time to plan around it ahead.
+    const double horizon = 2 * replan_gate_.expectedPlanningTime() + params_.replan.stop_margin_s;
+    checking_ = std::async(std::launch::async, [this, follower = *follower_, serial = trajectory_serial_, position = state.position, horizon] {
       const auto started = std::chrono::steady_clock::now();
       Checked out{serial, follower.status().reference_time, {}, 0.0};
-      if (const auto world = currentWorld(position)) out.decision = follower.checkReplan(*world);
+      if (const auto world = currentWorld(position)) out.decision = follower.checkReplan(*world, horizon);
       out.took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       return out;
     });
@@ -366,14 +377,15 @@ class TrackerComponent : public runtime::Component {
       stop();
       follower_.reset();
       act(next);
-    } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory_ && !checking_.valid() && !smoothing_.valid()) {
+    } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory_ && !checking_.valid()) {
       startCheck(*state);
     }
     if (ready(checking_)) {
       Checked checked = checking_.get();
       if (checked.took_s > 1.0) spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check)", checked.took_s);
-      // Only a check of the trajectory still flown counts, and only while no new one is on its way.
-      if (follower_ && checked.trajectory_serial == trajectory_serial_ && !next_trajectory_ && !smoothing_.valid()) react(checked, *state);
+      // Only a check of the trajectory still flown counts, and only while no new one waits for its switch;
+      // while one is smoothed only a stop counts (react).
+      if (follower_ && checked.trajectory_serial == trajectory_serial_ && !next_trajectory_) react(checked, *state);
     }
   }
 
@@ -396,7 +408,7 @@ class TrackerComponent : public runtime::Component {
         if (mission_.awaitingPlan()) spdlog::warn("stopping; plan {} is superseded: {}", mission_.requestId(), verdict.reason);
         stopping_for_ = verdict.reason;
         stopping_since_ns_ = clock().nowNs();
-      } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan()) {
+      } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan() && !smoothing_.valid()) {
         tracker::VehicleState from = *state;
         from.position = verdict.start.position;
         from.heading = tracker::wrapAngle(verdict.start.heading);
