@@ -177,7 +177,9 @@ class TrackerComponent : public runtime::Component {
         next_trajectory_ = std::move(trajectory);
         next_since_ns_ = clock().nowNs();
       } else {
-        switchTrajectory(std::move(trajectory), path.request_id());
+        // Late: the vehicle has passed the predicted start already (by this much of the old trajectory).
+        const double late_s = follower_ && switch_at_ ? follower_->status().reference_time - *switch_at_ : 0.0;
+        switchTrajectory(std::move(trajectory), path.request_id(), late_s);
         switch_at_.reset();
       }
       return true;
@@ -187,9 +189,12 @@ class TrackerComponent : public runtime::Component {
     }
   }
 
-  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id) {
+  // `late_s`: how long ago (on the old trajectory) the vehicle passed the new one's start; the reference
+  // then starts at the vehicle's projection, not behind it (TrajectoryTracker::catchUp).
+  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id, double late_s = 0.0) {
     trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
     follower_.emplace(std::move(trajectory), limits_, params_.tracker);
+    if (late_s > 0.0 && vehicle_) follower_->catchUp(vehicle_->position, (late_s + 1.0) * limits_.v_max);
     replan_gate_.reset();
   }
 
@@ -230,7 +235,7 @@ class TrackerComponent : public runtime::Component {
 
     if (next_trajectory_ && (follower_->status().reference_time >= *switch_at_ ||
                              static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > 2.0)) {
-      switchTrajectory(std::move(*next_trajectory_), mission_.requestId());
+      switchTrajectory(std::move(*next_trajectory_), mission_.requestId(), follower_->status().reference_time - *switch_at_);
       next_trajectory_.reset();
       switch_at_.reset();
     }
