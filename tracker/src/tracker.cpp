@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -125,27 +124,6 @@ VehicleCommand TrajectoryTracker::approachGoal(const VehicleState& state) const 
   cmd.v = std::abs(bearing) < 0.5 ? std::min(config_.min_gain * dist, 0.2 * limits_.v_max) * std::cos(bearing) : 0.0;
   cmd.vz = config_.min_gain * d.z();
   return cmd;
-}
-
-void TrajectoryTracker::catchUp(const Vec3& position, double within_m) {
-  const auto& s = trajectory_.samples;
-  if (!position.allFinite() || s.size() < 2) return;
-  double best_d = std::numeric_limits<double>::infinity(), best_time = 0.0;
-  std::size_t best_segment = 0;
-  for (std::size_t i = 0; i + 1 < s.size() && s[i].arc_length <= within_m; ++i) {
-    const Vec3 a = s[i].position, ab = s[i + 1].position - a;
-    const double len2 = ab.squaredNorm();
-    const double f = len2 > 0 ? std::clamp((position - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-    const double d = (position - (a + f * ab)).norm();
-    if (d < best_d) {
-      best_d = d;
-      best_segment = i;
-      best_time = s[i].time + f * (s[i + 1].time - s[i].time);
-    }
-  }
-  if (best_time <= status_.reference_time) return;
-  status_.reference_time = std::min(best_time, trajectory_.duration());
-  last_segment_ = best_segment;
 }
 
 VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {

@@ -80,35 +80,6 @@ TEST(Tracker, ReplanOnDeviationAndOnNewObstacle) {
   EXPECT_EQ(dev.reason, ReplanReason::Deviation);
 }
 
-// A trajectory that arrives after the vehicle passed its (predicted) start: catchUp moves the reference to
-// the vehicle's projection, so the errors are small and the vehicle is not braked back to the start.
-TEST(Tracker, CatchUpStartsALateTrajectoryAtTheVehicle) {
-  auto sc = scenario2d(20, 0.3, "");
-  auto world = ddsnav::planner::makeScenarioWorld(sc);
-  auto traj = smoothPath(pathOf({{1, 5, 0}, {15, 5, 0}}), *world, *sc.vehicle);
-  VehicleState s;
-  s.position = {5.0, 5.05, 0};  // 4 m past the start, on the path
-  s.v = 3.0;
-  TrajectoryTracker late(traj, *sc.vehicle);
-  const auto late_cmd = late.update(s, 0.05);
-  EXPECT_GT(std::abs(late.status().cross_track_error), 1.0);  // the projection is held near the start
-  EXPECT_LT(late_cmd.v, 0.1);                                 // and the vehicle is braked back to it
-  TrajectoryTracker caught(traj, *sc.vehicle);
-  caught.catchUp(s.position, 10.0);
-  EXPECT_GT(caught.status().reference_time, 0.5);
-  const auto cmd = caught.update(s, 0.05);
-  EXPECT_NEAR(caught.status().cross_track_error, 0.05, 1e-3);
-  EXPECT_LT(std::abs(caught.status().along_track_error), 0.3);
-  EXPECT_GT(cmd.v, 0.5);  // keeps going
-  // Never backwards, and not beyond the bound it was given.
-  const double t = caught.status().reference_time;
-  caught.catchUp({1.0, 5.0, 0}, 10.0);
-  EXPECT_EQ(caught.status().reference_time, t);
-  TrajectoryTracker bounded(traj, *sc.vehicle);
-  bounded.catchUp(s.position, 1.0);
-  EXPECT_LT(traj.at(bounded.status().reference_time).arc_length, 1.2);
-}
-
 TEST(Tracker, RejectsBadInput) {
   Trajectory empty;
   ddsnav::planner::VehicleLimits l;

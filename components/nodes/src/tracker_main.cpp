@@ -177,9 +177,7 @@ class TrackerComponent : public runtime::Component {
         next_trajectory_ = std::move(trajectory);
         next_since_ns_ = clock().nowNs();
       } else {
-        // Late: the vehicle has passed the predicted start already (by this much of the old trajectory).
-        const double late_s = follower_ && switch_at_ ? follower_->status().reference_time - *switch_at_ : 0.0;
-        switchTrajectory(std::move(trajectory), path.request_id(), late_s);
+        switchTrajectory(std::move(trajectory), path.request_id());
         switch_at_.reset();
       }
       return true;
@@ -189,12 +187,9 @@ class TrackerComponent : public runtime::Component {
     }
   }
 
-  // `late_s`: how long ago (on the old trajectory) the vehicle passed the new one's start; the reference
-  // then starts at the vehicle's projection, not behind it (TrajectoryTracker::catchUp).
-  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id, double late_s = 0.0) {
+  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id) {
     trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
     follower_.emplace(std::move(trajectory), limits_, params_.tracker);
-    if (late_s > 0.0 && vehicle_) follower_->catchUp(vehicle_->position, (late_s + 1.0) * limits_.v_max);
     replan_gate_.reset();
   }
 
@@ -235,7 +230,7 @@ class TrackerComponent : public runtime::Component {
 
     if (next_trajectory_ && (follower_->status().reference_time >= *switch_at_ ||
                              static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > 2.0)) {
-      switchTrajectory(std::move(*next_trajectory_), mission_.requestId(), follower_->status().reference_time - *switch_at_);
+      switchTrajectory(std::move(*next_trajectory_), mission_.requestId());
       next_trajectory_.reset();
       switch_at_.reset();
     }

@@ -75,13 +75,6 @@ class TrajectoryTracker {
   // command (already saturated to the limits). After the goal is reached it returns zero commands.
   VehicleCommand update(const VehicleState& state, double dt);
 
-  // A trajectory planned from a start predicted ahead of the vehicle may arrive after the vehicle has
-  // passed that start: then the reference would begin behind it (the controller brakes, and the projection
-  // window at the start reports a cross-track error that asks for a replan). This moves the reference (and
-  // the projection) forward to the vehicle's projection onto the first `within_m` metres of the
-  // trajectory, when that is ahead of the reference; never backwards. Call it before the first update.
-  void catchUp(const Vec3& position, double within_m);
-
   const TrackingStatus& status() const { return status_; }
   const Trajectory& trajectory() const { return trajectory_; }
   const TrackerConfig& config() const { return config_; }
