@@ -208,6 +208,28 @@ void silenceOmplOnce() {
   done = true;
 }
 
+// Sets up and runs `planner` on `pdef` within the time limit and records what every OMPL run reports the same
+// way: wall time from `start_time`, validity checks, exact solution, iterations (the planner's own counter, else
+// the uniform samples drawn) and the number of vertices.
+RunRecord solveAndRecord(ob::Planner& planner, const ob::ProblemDefinitionPtr& pdef, const CollisionWorld& world,
+                         double time_limit_s, Clock::time_point start_time, std::int64_t samples) {
+  planner.setProblemDefinition(pdef);
+  planner.setup();
+  RunRecord r;
+  const std::uint64_t checks_before = world.validityChecks();
+  const ob::PlannerStatus status = planner.solve(ob::timedPlannerTerminationCondition(time_limit_s));
+  r.time_s = std::chrono::duration<double>(Clock::now() - start_time).count();
+  r.validity_checks = world.validityChecks() - checks_before;
+  r.solved = status == ob::PlannerStatus::EXACT_SOLUTION && pdef->hasExactSolution();
+  r.exact = r.solved;
+  r.iterations = iterationsOf(planner);
+  if (r.iterations < 0 && samples > 0) r.iterations = samples;
+  ob::PlannerData data(planner.getSpaceInformation());
+  planner.getPlannerData(data);
+  r.vertices = static_cast<std::int64_t>(data.numVertices());
+  return r;
+}
+
 RunRecord runGeometric(const std::string& name, const planner::Scenario& scenario, const CollisionWorld& world,
                        const planner::PlanProblem& problem) {
   const int dims = world.dimensions();
@@ -241,22 +263,8 @@ RunRecord runGeometric(const std::string& name, const planner::Scenario& scenari
   else if (name == "ompl:rrtconnect") planner = std::make_shared<og::RRTConnect>(si);
   else if (name == "ompl:rrtstar") planner = std::make_shared<og::RRTstar>(si);
   else planner = std::make_shared<og::BITstar>(si);
-  planner->setProblemDefinition(pdef);
-  planner->setup();
-
-  RunRecord r;
-  const std::uint64_t checks_before = world.validityChecks();
-  const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(problem.time_limit_s));
-  r.time_s = std::chrono::duration<double>(Clock::now() - start_time).count();
-  r.validity_checks = world.validityChecks() - checks_before;
-  r.solved = status == ob::PlannerStatus::EXACT_SOLUTION && pdef->hasExactSolution();
-  r.exact = r.solved;
+  RunRecord r = solveAndRecord(*planner, pdef, world, problem.time_limit_s, start_time, samples);
   r.kinodynamic = false;
-  r.iterations = iterationsOf(*planner);
-  if (r.iterations < 0 && samples > 0) r.iterations = samples;
-  ob::PlannerData data(si);
-  planner->getPlannerData(data);
-  r.vertices = static_cast<std::int64_t>(data.numVertices());
   if (r.solved) {
     auto& path = *pdef->getSolutionPath()->as<og::PathGeometric>();
     r.cost = path.length();
@@ -361,21 +369,7 @@ RunRecord runKinodynamic(const std::string& name, const planner::Scenario& scena
   } else {
     planner = std::make_shared<oc::PDST>(si);
   }
-  planner->setProblemDefinition(pdef);
-  planner->setup();
-
-  RunRecord r;
-  const std::uint64_t checks_before = world.validityChecks();
-  const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(problem.time_limit_s));
-  r.time_s = std::chrono::duration<double>(Clock::now() - start_time).count();
-  r.validity_checks = world.validityChecks() - checks_before;
-  r.solved = status == ob::PlannerStatus::EXACT_SOLUTION && pdef->hasExactSolution();
-  r.exact = r.solved;
-  r.iterations = iterationsOf(*planner);
-  if (r.iterations < 0 && samples > 0) r.iterations = samples;
-  ob::PlannerData data(si);
-  planner->getPlannerData(data);
-  r.vertices = static_cast<std::int64_t>(data.numVertices());
+  RunRecord r = solveAndRecord(*planner, pdef, world, problem.time_limit_s, start_time, samples);
   r.kinodynamic = true;
   if (r.solved) {
     r.time_to_first_s = first_solution_s >= 0.0 ? first_solution_s : goal->firstSeen();

@@ -45,6 +45,7 @@ nlohmann::json toJson(const std::string& scenario_file, const Scenario& scenario
           {"vertices", st.vertices},
           {"validity_checks", st.validity_checks},
           {"rewires", st.rewires},
+          {"restarts", st.restarts},
           {"cost", number(r.cost)},
           {"pous", st.pous},
           {"por", st.por},

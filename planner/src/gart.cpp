@@ -5,12 +5,56 @@
 #include "ddsnav/planner/planners.hpp"
 #include "ddsnav/planner/run.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <unordered_set>
 #include <limits>
 #include <stdexcept>
 #include <utility>
 
 namespace ddsnav::planner {
+namespace {
+
+// Whether the tree still grows into space it had not reached: cells a robot radius wide (a hash set of the
+// cells any node was added in). A run whose nodes only pile up where the tree already is for
+// `patience x 2^restarts` iterations is stuck, typically a branch whose headings all end in a wall
+// (kinodynamic trees in narrow corridors have a heavy-tailed run time; restarts with a doubling patience
+// cut that tail and keep completeness: each attempt may run longer than the last).
+class StagnationWatch {
+ public:
+  StagnationWatch(const CollisionWorld& world, int patience)
+      : cell_(std::max(world.robotRadius(), world.checkResolution())),
+        origin_(world.boundsMin()),
+        three_d_(world.dimensions() == 3),
+        patience_(static_cast<std::uint64_t>(patience)) {}
+
+  void reached(const Vec3& p) {
+    const Vec3 c = (p - origin_) / cell_;
+    // Cell coordinates inside validated bounds (|x| <= 1e9 m) fit 21 bits each at any robot radius >= 1e-3 m.
+    const auto key = (static_cast<std::uint64_t>(c.x()) & 0x1FFFFF) | ((static_cast<std::uint64_t>(c.y()) & 0x1FFFFF) << 21) |
+                     (three_d_ ? (static_cast<std::uint64_t>(c.z()) & 0x1FFFFF) << 42 : 0);
+    if (cells_.insert(key).second) since_new_cell_ = 0;
+  }
+  // Counts one iteration; true when the tree has stagnated.
+  bool stalled() { return patience_ > 0 && ++since_new_cell_ > patience_ << std::min<std::uint64_t>(restarts_, 20); }
+  void restart() {
+    cells_.clear();
+    since_new_cell_ = 0;
+    ++restarts_;
+  }
+
+ private:
+  double cell_;
+  Vec3 origin_;
+  bool three_d_;
+  std::uint64_t patience_;
+  std::uint64_t restarts_ = 0;
+  std::uint64_t since_new_cell_ = 0;
+  std::unordered_set<std::uint64_t> cells_;
+};
+
+}  // namespace
 
 GartOptions gartLazyOptions() {
   GartOptions o;
@@ -18,6 +62,8 @@ GartOptions gartLazyOptions() {
   o.defer_optimisation = true;
   o.attraction_patience = 20;
   o.goal_bias = 0.1;  // only used while the attraction is active (docs/planners.md)
+  o.explore_nearest = true;
+  o.restart_patience = 5000;
   return o;
 }
 
@@ -47,6 +93,9 @@ GartPlanner::GartPlanner(GartOptions options, std::string name) : options_(optio
   addOption("choose_parent", &o.choose_parent, "RRT* cheapest-parent choice at insertion");
   addOption("rewire", &o.rewire, "RRT* rewiring");
   addOption("defer_optimisation", &o.defer_optimisation, "parent choice and rewiring only after the first solution");
+  addOption("restart_patience", &o.restart_patience, 0, 100000000,
+            "iterations without a node in a new cell before the tree is grown again (doubles per restart; 0: never)");
+  addOption("explore_nearest", &o.explore_nearest, "non-attracting iterations extend the nearest node (RRT's choice)");
 }
 
 PlanResult GartPlanner::solve(const PlanProblem& problem) {
@@ -69,6 +118,7 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
   int fruitless_attractions = 0;
   double closest_to_goal = (run.problem.start.position - run.problem.goal).norm();
   GartOptions step_options = options_;
+  StagnationWatch stagnation(world, options_.restart_patience);
 
   while (run.nextIteration()) {
     // Whether this iteration attracts towards the goal (always, unless the attraction is self-limiting).
@@ -81,7 +131,8 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
     // Line 4: among the k nearest, the dynamically feasible parent of least control effort (or, with
     // effort_parent off, the closest feasible one); when none is feasible (the sample is behind every
     // near node) the nearest one steers at its maximum turn.
-    run.tree.kNearest(sample, k, knn);
+    const bool explore = self_limiting && options_.explore_nearest && !attract;
+    run.tree.kNearest(sample, explore ? 1 : k, knn);
     if (knn.empty()) continue;  // no node at a finite distance (cannot happen inside validated bounds)
     int v_near = knn.front();
     double best = std::numeric_limits<double>::infinity();
@@ -106,11 +157,20 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
       const int added = insertion.insert(run, steering, candidate.state.position, v_near, radius,
                                          options_.defer_optimisation && !run.solved() ? feasibility_first : parts);
       if (added < 0) continue;
+      stagnation.reached(run.tree.node(added).state.position);
       const double distance = (run.tree.node(added).state.position - run.problem.goal).norm();
       if (distance < closest_to_goal - progress_step) {
         closest_to_goal = distance;
         progress = true;
       }
+    }
+    if (!run.solved() && stagnation.stalled()) {
+      run.restart();
+      stagnation.restart();
+      attraction_level = 1.0;
+      fruitless_attractions = 0;
+      closest_to_goal = (run.problem.start.position - run.problem.goal).norm();
+      continue;
     }
     if (!self_limiting) continue;
     if (progress) {

@@ -1,6 +1,7 @@
 #include "ddsnav/planner/run.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 
 namespace ddsnav::planner {
 namespace {
@@ -73,6 +74,14 @@ int PlannerRun::addNode(const State& state, int parent, double cost) {
     goal_nodes_.push_back(id);
   }
   return id;
+}
+
+void PlannerRun::restart() {
+  if (solved()) throw std::logic_error("PlannerRun::restart after a solution");
+  tree = SearchTree(world.dimensions());
+  node_iteration_.clear();
+  ++result.stats.restarts;
+  addNode(problem.start, -1, 0.0);
 }
 
 PlanResult PlannerRun::finish() {

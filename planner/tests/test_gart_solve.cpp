@@ -86,6 +86,20 @@ void expectKinodynamicSolution(const KinoRun& run, const Vec3& goal, double goal
   EXPECT_GT(r.stats.pous, 0.0);
 }
 
+// Two solves with one seed: the same path, pose by pose, and the same amount of work.
+void expectSameSeedSameRun(const std::string& planner, std::uint64_t seed) {
+  const KinoRun a = solveScenario(planner, kClutter2D, seed);
+  const KinoRun b = solveScenario(planner, kClutter2D, seed);
+  ASSERT_TRUE(a.result.solved) << planner;
+  ASSERT_EQ(a.result.path.size(), b.result.path.size()) << planner;
+  for (std::size_t i = 0; i < a.result.path.size(); ++i) {
+    EXPECT_EQ(a.result.path[i].position, b.result.path[i].position) << planner << " pose " << i;
+    EXPECT_EQ(a.result.path[i].heading, b.result.path[i].heading) << planner << " pose " << i;
+  }
+  EXPECT_EQ(a.result.stats.iterations, b.result.stats.iterations) << planner;
+  EXPECT_EQ(a.result.stats.vertices, b.result.stats.vertices) << planner;
+}
+
 TEST(GartSolve, Clutter2DEveryEdgeInsideRegion) {
   const KinoRun run = solveScenario("gart", kClutter2D, 1);
   expectKinodynamicSolution(run, {45, 45, 0}, 2.0);
@@ -96,18 +110,9 @@ TEST(GartSolve, Terrain3DEveryEdgeInsideRegion) {
   expectKinodynamicSolution(run, {36, 36, 3}, 2.0);
 }
 
-TEST(GartSolve, SameSeedSamePath) {
-  const KinoRun a = solveScenario("gart", kClutter2D, 42);
-  const KinoRun b = solveScenario("gart", kClutter2D, 42);
-  ASSERT_TRUE(a.result.solved);
-  ASSERT_EQ(a.result.path.size(), b.result.path.size());
-  for (std::size_t i = 0; i < a.result.path.size(); ++i) {
-    EXPECT_EQ(a.result.path[i].position, b.result.path[i].position);
-    EXPECT_EQ(a.result.path[i].heading, b.result.path[i].heading);
-  }
-  EXPECT_EQ(a.result.stats.iterations, b.result.stats.iterations);
-  EXPECT_EQ(a.result.stats.vertices, b.result.stats.vertices);
-}
+TEST(GartSolve, SameSeedSamePath) { expectSameSeedSameRun("gart", 42); }
+
+TEST(GartLazySolve, SameSeedSamePath) { expectSameSeedSameRun("gart-lazy", 42); }
 
 TEST(LirrtSolve, Clutter2DEveryEdgeInsideRegion) {
   const KinoRun run = solveScenario("lirrt", kClutter2D, 1);
@@ -119,16 +124,7 @@ TEST(LirrtSolve, Terrain3DEveryEdgeInsideRegion) {
   expectKinodynamicSolution(run, {36, 36, 3}, 2.0);
 }
 
-TEST(LirrtSolve, SameSeedSamePath) {
-  const KinoRun a = solveScenario("lirrt", kClutter2D, 9);
-  const KinoRun b = solveScenario("lirrt", kClutter2D, 9);
-  ASSERT_TRUE(a.result.solved);
-  ASSERT_EQ(a.result.path.size(), b.result.path.size());
-  for (std::size_t i = 0; i < a.result.path.size(); ++i) {
-    EXPECT_EQ(a.result.path[i].position, b.result.path[i].position);
-  }
-  EXPECT_EQ(a.result.stats.iterations, b.result.stats.iterations);
-}
+TEST(LirrtSolve, SameSeedSamePath) { expectSameSeedSameRun("lirrt", 9); }
 
 TEST(KinoPlanners, NeedVehicleLimits) {
   Scenario scenario = parseScenario(kClutter2D, "test");

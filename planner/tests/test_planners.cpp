@@ -2,6 +2,7 @@
 // is deterministic per seed, and rejects bad problems.
 #include "ddsnav/planner/collision_world.hpp"
 #include "ddsnav/planner/planner.hpp"
+#include "ddsnav/planner/run.hpp"
 #include "ddsnav/planner/scenario.hpp"
 #include "ddsnav/planner/unicycle.hpp"
 
@@ -124,6 +125,36 @@ TEST(Planners, GartLazyBacksOffGoalAttractionInBugTrap) {
     always_on += a.solved ? a.stats.iterations_to_first_solution : problem.max_iterations;
   }
   EXPECT_LT(2 * self_limiting, always_on) << "self-limiting " << self_limiting << ", always on " << always_on;
+}
+
+// gart-lazy's restarts (docs/planners.md): a tree that stops reaching new cells for the patience is grown
+// again; with a tiny patience the narrow tunnel forces restarts, each doubling the patience, and the run still
+// solves with a valid path. A solved run never restarts afterwards, and `gart` (patience 0) never restarts.
+TEST(Planners, GartLazyRestartsAStagnantTreeAndStillSolves) {
+  const Scenario s = shipped("stunnel_0.3");
+  const auto world = makeScenarioWorld(s);
+  PlanProblem problem = problemFor(s, *world, 4);
+  problem.max_iterations = 400000;
+  auto lazy = makePlanner("gart-lazy");
+  applyOptions(*lazy, {"restart_patience=50"});
+  const PlanResult r = lazy->solve(problem);
+  ASSERT_TRUE(r.solved);
+  expectValidPath(s, r);
+  EXPECT_GT(r.stats.restarts, 0u);
+  // Doubling patience: n restarts take at least 50 * (2^n - 1) iterations.
+  EXPECT_GE(static_cast<double>(r.stats.iterations_to_first_solution), 50.0 * (std::pow(2.0, r.stats.restarts) - 1.0));
+  const PlanResult faithful = makePlanner("gart")->solve(problemFor(shipped("demo_2d"), *makeScenarioWorld(shipped("demo_2d")), 1));
+  EXPECT_EQ(faithful.stats.restarts, 0u);
+}
+
+TEST(Planners, PlannerRunRefusesToRestartASolvedRun) {
+  const Scenario s = shipped("demo_2d");
+  const auto world = makeScenarioWorld(s);
+  PlanProblem problem = problemFor(s, *world, 1);
+  problem.goal = problem.start.position;  // the root is in the goal region: solved at once
+  PlannerRun run(problem, "test", false);
+  ASSERT_TRUE(run.solved());
+  EXPECT_THROW(run.restart(), std::logic_error);
 }
 
 TEST(Planners, PathsStayValidOverManySeeds) {

@@ -215,7 +215,10 @@ TEST(PlannerOptions, GartLazyIsGartWithDocumentedChanges) {
   EXPECT_EQ(values["event1_min_edge"], "0.1");
   EXPECT_EQ(values["attraction_patience"], "20");
   EXPECT_EQ(values["goal_bias"], "0.1");
-  const std::set<std::string> changed = {"defer_optimisation", "event1_min_edge", "attraction_patience", "goal_bias"};
+  EXPECT_EQ(values["explore_nearest"], "true");
+  EXPECT_EQ(values["restart_patience"], "5000");
+  const std::set<std::string> changed = {"defer_optimisation", "event1_min_edge", "attraction_patience", "goal_bias",
+                                         "explore_nearest", "restart_patience"};
   for (const PlannerOption& o : makePlanner("gart")->options()) {
     if (!changed.count(o.name)) {
       EXPECT_EQ(values[o.name], o.value) << o.name;

@@ -50,6 +50,10 @@ struct GartOptions {
   bool rewire = true;           // RRT*'s rewiring around an inserted state
   // Feasibility first: choose_parent and rewire only start once a first solution exists (gart-lazy).
   bool defer_optimisation = false;
+  // While the self-limiting attraction is off for an iteration, v_near is the nearest node (RRT's Voronoi
+  // choice) instead of the least-effort one among the k nearest (gart-lazy; needs attraction_patience > 0).
+  bool explore_nearest = false;
+  int restart_patience = 0;
 };
 
 // gart-lazy's defaults: the paper's GART with event 1's reach search refined down to a tenth of the robot's

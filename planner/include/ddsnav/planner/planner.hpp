@@ -54,6 +54,7 @@ struct PlanStats {
   std::uint64_t vertices = 0;
   std::uint64_t validity_checks = 0;
   std::uint64_t rewires = 0;
+  std::uint64_t restarts = 0;  // trees discarded for stagnation before a first solution (gart-lazy)
   double time_s = 0.0;
   double time_to_first_solution_s = -1.0;        // -1 when never solved
   std::int64_t iterations_to_first_solution = -1;

@@ -86,6 +86,10 @@ class PlannerRun {
   bool solved() const { return !goal_nodes_.empty(); }
   void countRewire() { ++result.stats.rewires; }
 
+  // Discards the tree and plants a new root at the start (before a first solution only); the clock, the
+  // random stream and the iteration count go on.
+  void restart();
+
   // Builds the result: the cheapest node inside the goal region (costs may have dropped by rewiring).
   PlanResult finish();
 
