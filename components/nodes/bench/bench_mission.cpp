@@ -186,6 +186,7 @@ int main(int argc, char** argv) {
   double oracle_budget = 5.0;
   double timeout_factor = 2.5;
   bool keep = false;
+  std::vector<std::string> sets;
   app.add_option("--scenario", scenarios, "scenario file (repeatable; default: the issue-9 set in configs/scenarios)");
   app.add_option("--configs", configs, "the configs directory (launch/demo.yaml, scenarios/)");
   app.add_option("--out", out_dir, "where each run's report, recording and logs go");
@@ -196,6 +197,7 @@ int main(int argc, char** argv) {
   app.add_option("--timeout-factor", timeout_factor, "monitor timeout_s = max(60, factor x oracle duration) simulated s")
       ->check(CLI::PositiveNumber);
   app.add_flag("--keep-recordings", keep, "keep each run's MCAP recording (they are large in 3-D)");
+  app.add_option("--set", sets, "KEY=VALUE passed on to ddsnav launch (a demo.yaml variable, e.g. world=obstacles; repeatable)");
   CLI11_PARSE(app, argc, argv);
   if (scenarios.empty())
     for (const auto& name : kDefaultScenarios) scenarios.push_back(configs + "/scenarios/" + name + ".yaml");
@@ -205,6 +207,7 @@ int main(int argc, char** argv) {
   for (const auto& file : scenarios) {
     nlohmann::json row;
     row["scenario_file"] = file;
+    if (!sets.empty()) row["sets"] = sets;
     planner::Scenario scenario;
     try {
       scenario = planner::loadScenario(file);
@@ -232,11 +235,12 @@ int main(int argc, char** argv) {
     const pid_t recorder = spawn({bin + "/ddsnav-record", "-o", recording.string(), "--topics", topics, "--compression", "none",
                                   "--domain", std::to_string(domain)},
                                  run_dir / "record.log");
-    const pid_t launcher = spawn({bin + "/ddsnav-launch", configs + "/launch/demo.yaml", "--set", "scenario=" + fs::absolute(file).string(),
-                                  "--set", "out=" + fs::absolute(run_dir).string(), "--set", fmt::format("speed={:g}", speed), "--set",
-                                  fmt::format("timeout_s={:.0f}", timeout), "--set", "planner=" + planner_name, "--domain",
-                                  std::to_string(domain)},
-                                 run_dir / "launch.log");
+    std::vector<std::string> launch = {bin + "/ddsnav-launch", configs + "/launch/demo.yaml", "--set", "scenario=" + fs::absolute(file).string(),
+                                       "--set", "out=" + fs::absolute(run_dir).string(), "--set", fmt::format("speed={:g}", speed), "--set",
+                                       fmt::format("timeout_s={:.0f}", timeout), "--set", "planner=" + planner_name, "--domain",
+                                       std::to_string(domain)};
+    for (const auto& s : sets) launch.insert(launch.end(), {"--set", s});
+    const pid_t launcher = spawn(launch, run_dir / "launch.log");
     const auto wall_limit = std::chrono::duration<double>(timeout / speed * 1.5 + 90.0);
     const int launch_status = waitUntil(launcher, wall_start + std::chrono::duration_cast<std::chrono::nanoseconds>(wall_limit));
     ::kill(recorder, SIGINT);
