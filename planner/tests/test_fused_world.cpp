@@ -84,7 +84,9 @@ TEST(FusedWorld, ContactListsMergeNearestFirstWithDistinctIds) {
   EXPECT_NEAR(near.front().distance, 0.5, 1e-6);
   bool any_voxel = false;
   for (std::size_t i = 0; i < near.size(); ++i) {
-    if (i > 0) EXPECT_LE(near[i - 1].distance, near[i].distance);
+    if (i > 0) {
+      EXPECT_LE(near[i - 1].distance, near[i].distance);
+    }
     if (near[i].id % 2 == 0) any_voxel = true;
   }
   EXPECT_TRUE(any_voxel);

@@ -68,7 +68,9 @@ TEST(RequestBounds, BoundsAtTheLimitPlanWithinTheTimeLimit) {
     PlanResult r;
     seconds = secondsOf([&] { r = makePlanner(name)->solve(p); });
     EXPECT_LT(seconds, 2.0) << name;
-    if (r.solved) EXPECT_TRUE(r.exact) << name;  // geometric planners (range: a fifth of the diagonal) do solve it
+    if (r.solved) {
+      EXPECT_TRUE(r.exact) << name;  // geometric planners (range: a fifth of the diagonal) do solve it
+    }
   }
 }
 
@@ -97,7 +99,7 @@ TEST(RequestBounds, TwoDimensionalRequestIgnoresZAndMetricsKeepTheBudget) {
 TEST(RequestBounds, LongThinBoundsKeepTheTimeLimitWithMetrics) {
   const Scenario s = openWorld(kMaxCoordinate, 40);
   const auto world = makeScenarioWorld(s);
-  for (const std::string& name : {"rrt", "gart", "lirrt"}) {
+  for (const std::string name : {"rrt", "gart", "lirrt"}) {
     PlanProblem p = problemFromScenario(s, *world);
     p.time_limit_s = 0.5;
     p.kinodynamic = true;
@@ -163,7 +165,9 @@ TEST(PlannerOptions, ValidatedByNameTypeAndRange) {
   gart->setOption("rewire", "false");
   bool seen = false;
   for (const PlannerOption& o : gart->options()) {
-    if (o.name == "k_nearest") EXPECT_EQ(o.value, "7");
+    if (o.name == "k_nearest") {
+      EXPECT_EQ(o.value, "7");
+    }
     if (o.name == "rewire") seen = o.value == "false";
   }
   EXPECT_TRUE(seen);
