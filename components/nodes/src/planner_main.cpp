@@ -155,4 +155,4 @@ class PlannerComponent : public runtime::Component {
 
 }  // namespace
 
-int main(int argc, char** argv) { return runtime::runComponent<PlannerComponent>("planner", argc, argv); }
+DDSNAV_COMPONENT(PlannerComponent, "planner")

@@ -190,4 +190,4 @@ class SimComponent : public runtime::Component {
 
 }  // namespace
 
-int main(int argc, char** argv) { return runtime::runComponent<SimComponent>("sim", argc, argv); }
+DDSNAV_COMPONENT(SimComponent, "sim")
