@@ -128,6 +128,17 @@ double intersectHill(const Ray& ray, const Eigen::Vector3d& center, double heigh
   }
   if (d.z() > 0.0) t1 = std::min(t1, (height - o.z()) / d.z());  // climbing above the peak: no hit
   if (t0 > t1) return kNoHit;
+  // Exact rejection before the march (most beams of a 3-D lidar pass a hill well above its flank): on
+  // [t0, t1] the ray is nowhere lower than at one of the ends, and the hill nowhere higher than at the
+  // ray's closest horizontal approach to its centre (the height falls with the distance).
+  {
+    const double ox = o.x() - center.x(), oy = o.y() - center.y();
+    const double dxy2 = d.x() * d.x() + d.y() * d.y();
+    const double tc = dxy2 > 1e-24 ? std::clamp(-(ox * d.x() + oy * d.y()) / dxy2, t0, t1) : t0;
+    const double cx = ox + tc * d.x(), cy = oy + tc * d.y();
+    const double highest = height * std::exp(-(cx * cx + cy * cy) * inv_two_sigma2);
+    if (std::min(o.z() + t0 * d.z(), o.z() + t1 * d.z()) > highest) return kNoHit;
+  }
 
   double g0 = gap(t0);
   if (g0 <= 0.0) return t0;  // starts inside (or on) the hill

@@ -103,6 +103,37 @@ TEST(RayHill, SlantedRayLandsOnSurfaceAndMissesAbove) {
   EXPECT_EQ(intersectHill(makeRay({-30, 0, 5}, {1, 0, 0}), {0, 0, 0}, 10.0, 5.0, 10.0), kNoHit);  // beyond t_max
 }
 
+// Lidar-like rays from beside a hill, against a fine brute-force march: the same first crossing (to the
+// march's step) or the same miss, so the early rejection drops only rays that cannot hit. (Rays stay above
+// z = 0.5 within t_max: below the 1 mm cut-off of the hill the brute force would find the ground.)
+TEST(RayHill, AgreesWithABruteForceMarch) {
+  const Vector3d centre(3, -2, 0);
+  const double height = 20.0, sigma = 6.0, t_max = 50.0, step = 0.005;
+  auto surfaceGap = [&](const Ray& r, double t) {
+    const Vector3d p = r.origin + t * r.direction;
+    const double d2 = (p.x() - centre.x()) * (p.x() - centre.x()) + (p.y() - centre.y()) * (p.y() - centre.y());
+    return p.z() - height * std::exp(-d2 / (2 * sigma * sigma));
+  };
+  int hits = 0, misses = 0, mismatches = 0;
+  for (int e = -6; e <= 15; e += 3)
+    for (int a = 0; a < 360; a += 5) {
+      const double el = e * kPi / 180, az = a * kPi / 180;
+      const Ray r = makeRay({-15, -10, 6}, {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)});
+      double brute = kNoHit;
+      for (double t = 0; t <= t_max; t += step)
+        if (surfaceGap(r, t) <= 0) {
+          brute = t;
+          break;
+        }
+      const double t = intersectHill(r, centre, height, sigma, t_max);
+      (brute == kNoHit ? misses : hits)++;
+      if ((brute == kNoHit) != (t == kNoHit) || (t != kNoHit && std::abs(t - brute) > 2 * step)) ++mismatches;
+    }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(hits, 50);
+  EXPECT_GT(misses, 50);
+}
+
 TEST(RayBounds, ExitsThroughEnabledFaces) {
   const Vector3d lo(0, 0, 0), hi(10, 10, 10);
   EXPECT_NEAR(exitBounds(makeRay({1, 1, 1}, {1, 0, 0}), lo, hi, true, true, false, false), 9.0, 1e-12);
