@@ -84,10 +84,12 @@ set(CPACK_DEBIAN_PACKAGE_SECTION devel)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 # Shared-library dependencies of the binaries (Fast DDS, Cyclone, PCL, OMPL, ...) come from
 # dpkg-shlibdeps; the list below adds what building against the package needs: the headers the
-# installed headers include, the packages find_dependency() looks for, and the two IDL compilers.
+# installed headers include, the packages find_dependency() looks for, the two IDL compilers, and a C and
+# C++ compiler with a build tool (a user project enables C for idlc's descriptors; g++ alone brings no
+# `cc`, and cmake no `make`: scripts/test-deb found both missing on a fresh Debian 12).
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_PACKAGE_DEPENDS
-  "cmake (>= 3.22), g++, libfastrtps-dev (>= 2.9), libfastcdr-dev, fastddsgen, cyclonedds-dev (>= 0.10), \
+  "cmake (>= 3.22), make | ninja-build, gcc, g++, libfastrtps-dev (>= 2.9), libfastcdr-dev, fastddsgen, cyclonedds-dev (>= 0.10), \
 cyclonedds-tools (>= 0.10), libyaml-cpp-dev, libspdlog-dev, nlohmann-json3-dev, libeigen3-dev, liboctomap-dev, \
 libnanoflann-dev, libcli11-dev, libzstd-dev, zlib1g-dev, libgtest-dev")
 include(CPack)
