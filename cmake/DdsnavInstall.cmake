@@ -51,8 +51,8 @@ install(DIRECTORY ${PROJECT_BINARY_DIR}/idl/gen/cyclone/ DESTINATION ${CMAKE_INS
 set(ddsnav_programs ddsnav ddsnav-talker ddsnav-echo ddsnav-launch ddsnav-record ddsnav-play ddsnav-info
   ddsnav-bridge ddsnav-export ddsnav-plan ddsnav-bench ddsnav-bench-bus ddsnav-bench-record ddsnav-bench-bridge
   ddsnav-bench-mapper ddsnav-bench-perception ddsnav-bench-tracker
-  ddsnav-sim ddsnav-perception ddsnav-mapper ddsnav-planner ddsnav-tracker ddsnav-monitor
-  ddsnav-security ddsnav-bench-roundtrip ddsnav-bench-mission ddsnav-test-with-domain)
+  ddsnav-sim ddsnav-perception ddsnav-mapper ddsnav-planner ddsnav-tracker ddsnav-monitor ddsnav-container
+  ddsnav-security ddsnav-bench-roundtrip ddsnav-bench-intra ddsnav-bench-busy ddsnav-bench-mission ddsnav-test-with-domain)
 install(TARGETS ${ddsnav_programs} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 
 set(ddsnav_share ${CMAKE_INSTALL_DATADIR}/ddsnav)

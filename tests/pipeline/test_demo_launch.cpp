@@ -1,6 +1,7 @@
 // The README's main job, exactly as `scripts/demo` runs it: `ddsnav launch configs/launch/demo.yaml`
 // (sim, perception, mapper, planner, tracker and the monitor across both vendors) must end by itself with
-// status 0, the goal reached, and the report, summary and map written.
+// status 0, the goal reached, and the report, summary and map written. The same test runs the same
+// pipeline composed in one container (demo_composed.yaml, intra-process delivery).
 
 #include <ddsnav/testing/harness.hpp>
 
@@ -17,13 +18,15 @@ using namespace ddsnav;
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
-TEST(DemoLaunch, TheReadmeDemoReachesTheGoalAndWritesItsReport) {
+class DemoLaunch : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(DemoLaunch, TheReadmeDemoReachesTheGoalAndWritesItsReport) {
   harness::Harness h;
-  const fs::path out = fs::temp_directory_path() / ("ddsnav_demo_launch_" + std::to_string(::getpid()));
+  const fs::path out = fs::temp_directory_path() / ("ddsnav_demo_launch_" + GetParam() + "_" + std::to_string(::getpid()));
   fs::remove_all(out);
   h.start({.name = "launcher",
            .command = "ddsnav-launch",
-           .args = {std::string(DDSNAV_SOURCE_DIR) + "/configs/launch/demo.yaml", "--domain", std::to_string(h.domain()),
+           .args = {std::string(DDSNAV_SOURCE_DIR) + "/configs/launch/" + GetParam() + ".yaml", "--domain", std::to_string(h.domain()),
                     "--set", "out=" + out.string()}});
 
   // The monitor (required) ends the set when the vehicle reaches the goal or its own timeout passes
@@ -46,3 +49,6 @@ TEST(DemoLaunch, TheReadmeDemoReachesTheGoalAndWritesItsReport) {
   }
   fs::remove_all(out);
 }
+
+INSTANTIATE_TEST_SUITE_P(SeparateAndComposed, DemoLaunch, ::testing::Values("demo", "demo_composed"),
+                         [](const auto& info) { return info.param == "demo" ? std::string("Separate") : std::string("Composed"); });

@@ -4,8 +4,10 @@
 #include <ddsnav/bus/bus.hpp>
 #include <ddsnav/security/security.hpp>
 
+#include <atomic>
 #include <functional>
 #include <memory>
+#include <set>
 #include <span>
 #include <string>
 
@@ -17,6 +19,11 @@ class WriterImpl {
   virtual void writeSample(const void* sample) = 0;                 // a generated class
   virtual void writeRaw(std::span<const std::uint8_t> payload) = 0;  // encapsulation + body
   virtual std::size_t matched() const = 0;
+  // The writer's handle as a reader's SampleInfo::publication_handle shows it.
+  virtual std::uint64_t handle() const = 0;
+  // Whether a matched reader exists whose handle (ReaderImpl::handle) is not in `readers`.
+  virtual bool matchedBeyond(const std::set<std::uint64_t>& readers) const = 0;
+  std::atomic<std::uint64_t> typed_writes{0};  // writeSample calls, for Publisher::ddsWrites
 };
 
 class ReaderImpl {
@@ -24,6 +31,7 @@ class ReaderImpl {
   virtual ~ReaderImpl() = default;
   virtual std::size_t matched() const = 0;
   virtual std::uint64_t lost() const = 0;  // sample lost + sample rejected totals
+  virtual std::uint64_t handle() const { return 0; }  // as the writers' matched-reader lists show it
 };
 
 // One endpoint to create. `type` is null only for raw endpoints of a type unknown to this build.
@@ -33,6 +41,9 @@ struct EndpointSpec {
   bool keyed = false;
   const msg::TypeSupport* type = nullptr;
   Qos qos;
+  // Readers only: when set and true for a sample's writer handle, the sample is dropped before it is
+  // decoded (it came from this process and was delivered intra-process already).
+  std::function<bool(std::uint64_t writer)> ignore_writer;
 };
 
 // A discovered endpoint: is_writer false for a subscription.

@@ -1,6 +1,7 @@
 // Vendor-independent part of the bus: option checks, the per-process topic/type table, discovery
 // bookkeeping. The vendor code lives in fastdds_backend.cpp and cyclone_backend.cpp.
 #include "backend.hpp"
+#include "intra_process.hpp"
 #include "ddsnav/bus/printable.hpp"
 
 #include <spdlog/spdlog.h>
@@ -157,7 +158,7 @@ Transport resolveTransport(const ParticipantOptions& options) {
     std::string identity = options.identity;
     if (identity.empty()) identity = options.name.starts_with("ddsnav-") ? options.name.substr(7) : options.name;
     try {
-      t.security = security::credentialsFor(dir, identity);
+      t.security = security::credentialsFor(dir, identity, std::string(vendorName(options.vendor)));
     } catch (const security::SecurityError& e) {
       throw BusError(std::string("security: ") + e.what() + "; participant '" + options.name + "' not created");
     }
@@ -167,7 +168,11 @@ Transport resolveTransport(const ParticipantOptions& options) {
 
 }  // namespace
 
-void write(WriterImpl& writer, const void* sample) { writer.writeSample(sample); }
+void write(WriterImpl& writer, const void* sample) {
+  writer.typed_writes.fetch_add(1, std::memory_order_relaxed);
+  writer.writeSample(sample);
+}
+std::uint64_t ddsWrites(const WriterImpl& writer) { return writer.typed_writes.load(); }
 std::size_t matchedReaders(const WriterImpl& writer) { return writer.matched(); }
 std::size_t matchedWriters(const ReaderImpl& reader) { return reader.matched(); }
 std::uint64_t lostSamples(const ReaderImpl& reader) { return reader.lost(); }
@@ -231,6 +236,7 @@ class ParticipantImpl {
   ParticipantOptions options;
   std::shared_ptr<DiscoveryState> discovery = std::make_shared<DiscoveryState>();
   std::unique_ptr<Backend> backend;
+  std::shared_ptr<IntraDomain> intra;  // null unless options.intra_process
 
   // Same topic, same type within one process: DDS would otherwise fail obscurely or never match.
   void claimTopic(const std::string& topic, std::string_view type_name) {
@@ -257,6 +263,7 @@ Participant::Participant(const ParticipantOptions& options) : impl_(std::make_un
   const detail::Transport transport = detail::resolveTransport(options);
   impl_->backend = options.vendor == Vendor::FastDDS ? detail::makeFastBackend(options, transport, sink)
                                                      : detail::makeCycloneBackend(options, transport, sink);
+  if (options.intra_process) impl_->intra = detail::intraDomain(options.vendor, options.domain_id);
   if (transport.security)
     spdlog::debug("bus: participant '{}' secured as {}", options.name, transport.security->identity_certificate);
 }
@@ -270,17 +277,36 @@ const std::string& Participant::name() const { return impl_->options.name; }
 std::shared_ptr<detail::WriterImpl> Participant::createWriter(const msg::TypeSupport& type,
                                                               const std::string& topic, const Qos& qos) {
   impl_->claimTopic(topic, type.name);
-  auto writer = impl_->backend->createWriter({topic, std::string(type.name), type.keyed, &type, qos});
+  auto writer = impl_->backend->createWriter({topic, std::string(type.name), type.keyed, &type, qos, {}});
   impl_->discovery->onEndpoint({topic, std::string(type.name), type.keyed}, true);
   return writer;
 }
 
 std::shared_ptr<detail::ReaderImpl> Participant::createReader(const msg::TypeSupport& type,
                                                               const std::string& topic, const Qos& qos,
-                                                              detail::SampleCallback callback) {
+                                                              detail::SampleCallback callback,
+                                                              detail::SharedCallback local) {
   impl_->claimTopic(topic, type.name);
-  return impl_->backend->createReader({topic, std::string(type.name), type.keyed, &type, qos},
-                                      std::move(callback), nullptr);
+  detail::EndpointSpec spec{topic, std::string(type.name), type.keyed, &type, qos, {}};
+  if (!impl_->intra || type.keyed) return impl_->backend->createReader(spec, std::move(callback), nullptr);
+  // Intra-process: samples of this process's intra-process writers come as objects, so the DDS copies of
+  // them are dropped; both paths run under one gate.
+  if (!local) local = [callback](std::shared_ptr<const void> s, const SampleInfo& info) { callback(s.get(), info); };
+  auto gate = std::make_shared<detail::CallbackGate>();
+  std::weak_ptr<detail::IntraDomain> domain = impl_->intra;
+  spec.ignore_writer = [domain](std::uint64_t writer) {
+    auto d = domain.lock();
+    return d && d->isLocalWriter(writer);
+  };
+  auto dds = impl_->backend->createReader(spec, detail::gated(gate, std::move(callback)), nullptr);
+  return detail::makeIntraReader(impl_->intra, topic, std::string(type.name), qos, std::move(dds), std::move(gate),
+                                 std::move(local));
+}
+
+std::shared_ptr<detail::LocalWriter> Participant::createLocalWriter(const msg::TypeSupport& type, const std::string& topic,
+                                                                    const Qos& qos, const detail::WriterImpl& dds) {
+  if (!impl_->intra || type.keyed) return nullptr;
+  return detail::makeLocalWriter(impl_->intra, topic, std::string(type.name), qos, dds);
 }
 
 namespace {
@@ -290,7 +316,7 @@ detail::EndpointSpec rawSpec(const TopicInfo& topic, const Qos& qos) {
     throw BusError("topic '" + topic.topic + "': type " + topic.type_name + " is " +
                    (type->keyed ? "keyed" : "unkeyed") + " in this build but was given as " +
                    (topic.keyed ? "keyed" : "unkeyed"));
-  return {topic.topic, topic.type_name, topic.keyed, type, qos};
+  return {topic.topic, topic.type_name, topic.keyed, type, qos, {}};
 }
 }  // namespace
 

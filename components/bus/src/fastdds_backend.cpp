@@ -8,6 +8,7 @@
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/DataWriterListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
@@ -31,6 +32,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <set>
 
 namespace ddsnav::bus::detail {
 namespace {
@@ -223,11 +225,34 @@ dds::DomainParticipantQos participantQos(const ParticipantOptions& options, cons
 
 class FastCore;
 
+// The readers a writer is matched with (Fast DDS 2.9 has no get_matched_subscriptions).
+class MatchedReaders : public dds::DataWriterListener {
+ public:
+  void on_publication_matched(dds::DataWriter*, const dds::PublicationMatchedStatus& status) override {
+    std::lock_guard lock(mutex_);
+    if (status.current_count_change > 0) readers_.insert(publicationHandle(status.last_subscription_handle));
+    else if (status.current_count_change < 0) readers_.erase(publicationHandle(status.last_subscription_handle));
+  }
+  bool beyond(const std::set<std::uint64_t>& readers) const {
+    std::lock_guard lock(mutex_);
+    for (std::uint64_t r : readers_)
+      if (!readers.count(r)) return true;
+    return false;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::set<std::uint64_t> readers_;
+};
+
 class FastWriter : public WriterImpl {
  public:
-  FastWriter(std::shared_ptr<FastCore> core, dds::DataWriter* writer, std::string topic)
-      : core_(std::move(core)), writer_(writer), topic_(std::move(topic)) {}
+  FastWriter(std::shared_ptr<FastCore> core, dds::DataWriter* writer, std::string topic, std::unique_ptr<MatchedReaders> matched)
+      : core_(std::move(core)), writer_(writer), topic_(std::move(topic)), matched_(std::move(matched)),
+        handle_(publicationHandle(writer->get_instance_handle())) {}
   ~FastWriter() override;
+  std::uint64_t handle() const override { return handle_; }
+  bool matchedBeyond(const std::set<std::uint64_t>& readers) const override { return matched_->beyond(readers); }
 
   void writeSample(const void* sample) override {
     Carrier c;
@@ -254,6 +279,8 @@ class FastWriter : public WriterImpl {
   std::shared_ptr<FastCore> core_;
   dds::DataWriter* writer_;
   std::string topic_;
+  std::unique_ptr<MatchedReaders> matched_;  // outlives the writer: deleted after it (see ~FastWriter)
+  std::uint64_t handle_;
 };
 
 class FastReader : public ReaderImpl, public dds::DataReaderListener {
@@ -264,7 +291,11 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
   }
   ~FastReader() override;
 
-  void attach(dds::DataReader* reader) { reader_ = reader; }
+  void attach(dds::DataReader* reader) {
+    reader_ = reader;
+    handle_ = publicationHandle(reader->get_instance_handle());
+  }
+  std::uint64_t handle() const override { return handle_; }
 
   std::size_t matched() const override {
     dds::SubscriptionMatchedStatus status;
@@ -283,8 +314,16 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
 
   void on_data_available(dds::DataReader* reader) override {
     dds::SampleInfo info;
+    // A sample of a writer of this process was delivered to us as an object already: taken as bytes
+    // (a copy, no decoding) and dropped.
+    if (spec_.ignore_writer) {
+      while (reader->get_first_untaken_info(&info) == ReturnCode_t::RETCODE_OK &&
+             spec_.ignore_writer(publicationHandle(info.publication_handle)))
+        reader->take_next_sample(&skipped_, &info);
+    }
     // Fast DDS calls this once per reader at a time, so the one carrier (and its grown buffers) is reused.
     while (reader->take_next_sample(&carrier_, &info) == ReturnCode_t::RETCODE_OK) {
+      if (spec_.ignore_writer && spec_.ignore_writer(publicationHandle(info.publication_handle))) continue;
       if (!info.valid_data) continue;
       SampleInfo si{info.source_timestamp.to_ns(), publicationHandle(info.publication_handle)};
       if (typed_) {
@@ -302,7 +341,9 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
   SampleCallback typed_;
   RawCallback raw_;
   Carrier carrier_;
+  Carrier skipped_;  // raw: what samples of ignored writers are taken into
   dds::DataReader* reader_ = nullptr;
+  std::uint64_t handle_ = 0;
 };
 
 class DiscoveryListener : public dds::DomainParticipantListener {
@@ -366,11 +407,12 @@ class FastCore : public std::enable_shared_from_this<FastCore> {
     qos.endpoint().history_memory_policy = rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;
     // Repair lost fragments of large samples quickly rather than after the default 3 s heartbeat.
     qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
-    dds::DataWriter* writer = publisher_->create_datawriter(topic, qos);
+    auto matched = std::make_unique<MatchedReaders>();
+    dds::DataWriter* writer = publisher_->create_datawriter(topic, qos, matched.get(), dds::StatusMask::publication_matched());
     if (writer == nullptr)
       throw BusError("Fast DDS could not create a writer on topic '" + spec.topic + "'" +
                      (secured_ ? " (with DDS Security: do this identity's permissions allow publishing it?)" : ""));
-    return std::make_shared<FastWriter>(shared_from_this(), writer, spec.topic);
+    return std::make_shared<FastWriter>(shared_from_this(), writer, spec.topic, std::move(matched));
   }
 
   std::shared_ptr<ReaderImpl> createReader(const EndpointSpec& spec, SampleCallback typed, RawCallback raw) {
@@ -392,6 +434,7 @@ class FastCore : public std::enable_shared_from_this<FastCore> {
 
   void deleteWriter(dds::DataWriter* writer) {
     std::lock_guard lock(mutex_);
+    writer->set_listener(nullptr);
     publisher_->delete_datawriter(writer);
   }
   void deleteReader(dds::DataReader* reader) {

@@ -154,6 +154,15 @@ std::string substitute(const std::string& text, const std::map<std::string, std:
 
 // Orders processes so that each comes after everything it waits for; rejects unknown names and cycles.
 std::vector<ProcessSpec> orderByDependencies(std::vector<ProcessSpec> processes, const std::string& source) {
+  // `after:` may name a component of a container: it then waits for the container (ready once all are).
+  std::map<std::string, std::string> container_of;
+  for (const auto& p : processes)
+    for (const auto& c : p.components) container_of[c.name] = p.name;
+  for (auto& p : processes) {
+    for (auto& dep : p.after)
+      if (auto it = container_of.find(dep); it != container_of.end()) dep = it->second;
+    std::erase(p.after, p.name);  // a component of this very container
+  }
   std::map<std::string, const ProcessSpec*> by_name;
   for (const auto& p : processes) by_name[p.name] = &p;
   for (const auto& p : processes) {
@@ -281,8 +290,13 @@ void parseProcessList(const YAML::Node& list, const Reader& reader, const std::m
   if (!list || !list.IsSequence() || list.size() == 0) reader.fail(list, "processes", "expected a non-empty list of processes");
   // Short names of this list, so that `after:` may name them without the namespace.
   std::set<std::string> local;
-  for (const auto& node : list)
+  for (const auto& node : list) {
     if (node.IsMap() && node["name"] && node["name"].IsScalar()) local.insert(node["name"].Scalar());
+    if (node.IsMap() && node["container"] && node["container"].IsScalar()) local.insert(node["container"].Scalar());
+    if (node.IsMap() && node["container"] && node["components"] && node["components"].IsSequence())
+      for (const auto& c : node["components"])
+        if (c.IsMap() && c["name"] && c["name"].IsScalar()) local.insert(c["name"].Scalar());
+  }
   const auto qualified = [&](const std::string& name) { return ns.empty() ? name : ns + "/" + name; };
   const auto groupNamespace = [&](const YAML::Node& node) {
     if (!node["namespace"]) return ns;
@@ -323,43 +337,17 @@ void parseProcessList(const YAML::Node& list, const Reader& reader, const std::m
       parseProcessList(node["processes"], reader, variables, groupNamespace(node), source_name, include_depth, processes);
       continue;
     }
-    reader.allowOnly(node,
-                     {"name", "command", "args", "dds", "params", "after", "wait_ready", "restart", "max_restarts",
-                      "restart_window_s", "restart_delay_s", "max_restart_delay_s", "ready_timeout_s",
-                      "liveness_timeout_s", "required", "namespace", "remap"},
-                     "processes");
-    ProcessSpec spec;
-    if (!node["name"]) reader.fail(node, "name", "every process needs a name");
-    spec.name = reader.scalar(node["name"], "name", true);
-    if (spec.name.empty() || spec.name.size() > kMaxNameBytes)
-      reader.fail(node["name"], "name", "must be 1.." + std::to_string(kMaxNameBytes) + " bytes long");
-    spec.name = qualified(spec.name);
-    for (const auto& p : processes)
-      if (p.name == spec.name) reader.fail(node["name"], "name", "duplicate process name '" + spec.name + "'");
-    spec.ns = groupNamespace(node);
-    if (!node["command"]) reader.fail(node, "command", "process '" + spec.name + "' needs a command");
-    spec.command = substitute(reader.scalar(node["command"], "command", true), variables, reader, node["command"], "command");
-    if (spec.command.empty()) reader.fail(node["command"], "command", "process '" + spec.name + "': the command is empty");
-    for (const char c : spec.command)  // a variable's value may bring one in
-      if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
-        reader.fail(node["command"], "command", "process '" + spec.name + "': control character in the expanded command");
-    if (node["args"])
-      for (const auto& arg : reader.stringList(node["args"], "args"))
-        spec.args.push_back(substitute(arg, variables, reader, node["args"], "args"));
-    if (node["dds"]) spec.dds = reader.scalar(node["dds"], "dds", true);
-    if (const auto params = node["params"]) {
+    const auto parseParams = [&](const YAML::Node& params, std::map<std::string, std::string>& out) {
       if (!params.IsMap()) reader.fail(params, "params", "expected a mapping of parameter: value");
       reader.uniqueKeys(params, "params");
       for (const auto& entry : params) {
         const auto key = reader.key(entry.first, "params");
         if (key.empty() || key.find('=') != std::string::npos || key.find('\0') != std::string::npos)
           reader.fail(entry.first, "params." + key, "a parameter name must be non-empty and contain no '=' or NUL");
-        spec.params[key] = substitute(reader.scalar(entry.second, key), variables, reader, entry.second, key);
+        out[key] = substitute(reader.scalar(entry.second, key), variables, reader, entry.second, key);
       }
-    }
-    if (node["after"])
-      for (const auto& dep : reader.stringList(node["after"], "after")) spec.after.push_back(local.count(dep) ? qualified(dep) : dep);
-    if (const auto remap = node["remap"]) {
+    };
+    const auto parseRemap = [&](const YAML::Node& remap, std::map<std::string, std::string>& out) {
       if (!remap.IsMap()) reader.fail(remap, "remap", "expected a mapping of from: to topic names");
       reader.uniqueKeys(remap, "remap");
       for (const auto& entry : remap) {
@@ -368,9 +356,81 @@ void parseProcessList(const YAML::Node& list, const Reader& reader, const std::m
         for (const auto& n : {from, to.empty() || to.front() != '/' ? to : to.substr(1)})
           if (const auto error = topicNameError(n); !error.empty()) reader.fail(entry.first, "remap." + from, "'" + n + "' " + error);
         if (from == "system/status") reader.fail(entry.first, "remap." + from, "system/status is never remapped");
-        spec.remap[from] = to;
+        out[from] = to;
       }
+    };
+    const auto checkName = [&](const YAML::Node& name_node, const std::string& key) {
+      std::string name = reader.scalar(name_node, key, true);
+      if (name.empty() || name.size() > kMaxNameBytes)
+        reader.fail(name_node, key, "must be 1.." + std::to_string(kMaxNameBytes) + " bytes long");
+      name = qualified(name);
+      for (const auto& p : processes) {
+        if (p.name == name) reader.fail(name_node, key, "duplicate process name '" + name + "'");
+        for (const auto& c : p.components)
+          if (c.name == name) reader.fail(name_node, key, "duplicate name '" + name + "' (a component of container '" + p.name + "')");
+      }
+      return name;
+    };
+    const bool container = node.IsMap() && node["container"];
+    reader.allowOnly(node,
+                     container ? std::set<std::string>{"container", "components", "args", "dds", "after", "restart", "max_restarts",
+                                                       "restart_window_s", "restart_delay_s", "max_restart_delay_s", "ready_timeout_s",
+                                                       "liveness_timeout_s", "required", "namespace"}
+                               : std::set<std::string>{"name", "command", "args", "dds", "params", "after", "wait_ready", "restart", "max_restarts",
+                      "restart_window_s", "restart_delay_s", "max_restart_delay_s", "ready_timeout_s",
+                      "liveness_timeout_s", "required", "namespace", "remap"},
+                     "processes");
+    ProcessSpec spec;
+    if (container) {
+      // One process, ddsnav-container, holding the listed components (runtime::runContainer).
+      spec.name = checkName(node["container"], "container");
+      spec.command = "ddsnav-container";
+      const std::string ns = groupNamespace(node);
+      const auto components = node["components"];
+      if (!components || !components.IsSequence() || components.size() == 0)
+        reader.fail(components ? components : node, "components", "container '" + spec.name + "' needs a non-empty list of components");
+      for (const auto& c : components) {
+        reader.allowOnly(c, {"name", "component", "args", "params", "namespace", "remap"}, "components");
+        ComponentSpec component;
+        if (!c["component"]) reader.fail(c, "component", "every component names its kind (component: planner)");
+        component.component = substitute(reader.scalar(c["component"], "component", true), variables, reader, c["component"], "component");
+        component.name = checkName(c["name"] ? c["name"] : c["component"], c["name"] ? "name" : "component");
+        for (const auto& other : spec.components)
+          if (other.name == component.name) reader.fail(c, "name", "duplicate component name '" + component.name + "'");
+        if (c["namespace"]) {
+          const std::string inner = substitute(reader.scalar(c["namespace"], "namespace", true), variables, reader, c["namespace"], "namespace");
+          if (const auto error = topicNameError(inner); !error.empty()) reader.fail(c["namespace"], "namespace", "'" + inner + "' " + error);
+          component.ns = joinNamespace(ns, inner);
+        } else {
+          component.ns = ns;
+        }
+        if (c["args"])
+          for (const auto& arg : reader.stringList(c["args"], "args")) component.args.push_back(substitute(arg, variables, reader, c["args"], "args"));
+        if (c["params"]) parseParams(c["params"], component.params);
+        if (c["remap"]) parseRemap(c["remap"], component.remap);
+        spec.components.push_back(std::move(component));
+      }
+    } else {
+      if (!node["name"]) reader.fail(node, "name", "every process needs a name");
+      spec.name = checkName(node["name"], "name");
+      spec.ns = groupNamespace(node);
     }
+    if (!container) {
+      if (!node["command"]) reader.fail(node, "command", "process '" + spec.name + "' needs a command");
+      spec.command = substitute(reader.scalar(node["command"], "command", true), variables, reader, node["command"], "command");
+      if (spec.command.empty()) reader.fail(node["command"], "command", "process '" + spec.name + "': the command is empty");
+      for (const char c : spec.command)  // a variable's value may bring one in
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+          reader.fail(node["command"], "command", "process '" + spec.name + "': control character in the expanded command");
+    }
+    if (node["args"])
+      for (const auto& arg : reader.stringList(node["args"], "args"))
+        spec.args.push_back(substitute(arg, variables, reader, node["args"], "args"));
+    if (node["dds"]) spec.dds = reader.scalar(node["dds"], "dds", true);
+    if (node["params"]) parseParams(node["params"], spec.params);
+    if (node["after"])
+      for (const auto& dep : reader.stringList(node["after"], "after")) spec.after.push_back(local.count(dep) ? qualified(dep) : dep);
+    if (node["remap"]) parseRemap(node["remap"], spec.remap);
     if (node["wait_ready"]) spec.wait_ready = reader.boolean(node["wait_ready"], "wait_ready");
     if (node["restart"]) {
       try {

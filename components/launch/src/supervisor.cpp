@@ -104,12 +104,22 @@ pid_t spawnComponent(const ProcessSpec& spec, const SpawnOptions& options) {
   }
   std::vector<std::string> argv_strings{program};
   argv_strings.insert(argv_strings.end(), spec.args.begin(), spec.args.end());
-  for (const auto& [key, value] : spec.params) {
-    argv_strings.push_back("--param");
-    argv_strings.push_back(key + "=" + value);
+  const auto addNames = [&](const std::map<std::string, std::string>& params, const std::string& ns,
+                            const std::map<std::string, std::string>& remap) {
+    for (const auto& [key, value] : params) {
+      argv_strings.push_back("--param");
+      argv_strings.push_back(key + "=" + value);
+    }
+    if (!ns.empty()) argv_strings.insert(argv_strings.end(), {"--namespace", ns});
+    for (const auto& [from, to] : remap) argv_strings.insert(argv_strings.end(), {"--remap", from + "=" + to});
+  };
+  addNames(spec.params, spec.ns, spec.remap);
+  // A container: one "-- KIND --name NAME ..." segment per component (runtime::runContainer).
+  for (const auto& c : spec.components) {
+    argv_strings.insert(argv_strings.end(), {"--", c.component, "--name", c.name});
+    argv_strings.insert(argv_strings.end(), c.args.begin(), c.args.end());
+    addNames(c.params, c.ns, c.remap);
   }
-  if (!spec.ns.empty()) argv_strings.insert(argv_strings.end(), {"--namespace", spec.ns});
-  for (const auto& [from, to] : spec.remap) argv_strings.insert(argv_strings.end(), {"--remap", from + "=" + to});
   // Everything the child needs is prepared before fork: after it, only async-signal-safe calls.
   std::vector<char*> argv;
   for (auto& s : argv_strings) argv.push_back(s.data());
@@ -404,7 +414,15 @@ struct Supervisor::Impl {
     const auto now = Clock::now();
     for (auto& r : running) {
       if (!r.watched || r.pid <= 0 || r.ended || !r.kill_reason.empty()) continue;
-      const auto heard = readiness.lastHeard(r.spec->name, r.pid);
+      // A container is as alive as its quietest component.
+      std::optional<Clock::time_point> heard;
+      bool all_heard = true;
+      for (const auto& name : r.spec->reportingNames()) {
+        const auto h = readiness.lastHeard(name, r.pid);
+        if (!h) all_heard = false;
+        else if (!heard || *h < *heard) heard = h;
+      }
+      if (!all_heard) heard.reset();
       const auto deadline = heard ? std::max(*heard, r.started_at) + toDuration(r.spec->liveness_timeout_s)
                                   : r.started_at + toDuration(r.spec->ready_timeout_s);
       if (now <= deadline) continue;
@@ -479,7 +497,9 @@ struct Supervisor::Impl {
         if (r.ended) {  // waiting out a restart's backoff
           if (!step(std::chrono::milliseconds(50))) return false;
         } else {
-          ready = readiness.waitUntilReady(r.spec->name, pid, std::min(deadline, Clock::now() + std::chrono::milliseconds(100)));
+          ready = true;  // a container: every component, with the container's pid
+          for (const auto& name : r.spec->reportingNames())
+            ready = ready && readiness.waitUntilReady(name, pid, std::min(deadline, Clock::now() + std::chrono::milliseconds(100)));
           if (!step(std::chrono::milliseconds(0))) return false;
         }
         if (r.ended && !r.restart_due) {

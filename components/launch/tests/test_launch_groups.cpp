@@ -113,3 +113,54 @@ processes:
   EXPECT_THROW(loadLaunchConfig((dir / "loop.yaml").string()), LaunchError);
   fs::remove_all(dir);
 }
+
+TEST(LaunchGroups, ContainerHoldsComponentsWithTheirOwnNamesAndAfterNamesThem) {
+  const auto config = parseLaunchConfig(R"(
+processes:
+  - name: recorder
+    command: ddsnav-record
+    after: [uav1/perception]
+  - namespace: uav1
+    processes:
+      - container: pipeline
+        required: true
+        components:
+          - {component: sim, params: {scenario: s.yaml}}
+          - name: perception
+            component: perception
+            namespace: coarse
+            remap: {perception/obstacles: perception/coarse}
+            args: [--log-level, debug]
+)", "set.yaml");
+  ASSERT_EQ(config.processes.size(), 2u);
+  const auto& container = byName(config, "uav1/pipeline");
+  EXPECT_EQ(container.command, "ddsnav-container");
+  EXPECT_TRUE(container.required);
+  EXPECT_TRUE(container.ns.empty()) << "the namespace goes to each component, not the container";
+  ASSERT_EQ(container.components.size(), 2u);
+  EXPECT_EQ(container.components[0].name, "uav1/sim");
+  EXPECT_EQ(container.components[0].component, "sim");
+  EXPECT_EQ(container.components[0].ns, "uav1");
+  EXPECT_EQ(container.components[0].params.at("scenario"), "s.yaml");
+  EXPECT_EQ(container.components[1].name, "uav1/perception");
+  EXPECT_EQ(container.components[1].ns, "uav1/coarse");
+  EXPECT_EQ(container.components[1].remap.at("perception/obstacles"), "perception/coarse");
+  EXPECT_EQ(container.components[1].args, (std::vector<std::string>{"--log-level", "debug"}));
+  EXPECT_EQ(container.reportingNames(), (std::vector<std::string>{"uav1/sim", "uav1/perception"}));
+  // Waiting for a component waits for its container; the container starts first.
+  EXPECT_EQ(byName(config, "recorder").after, (std::vector<std::string>{"uav1/pipeline"}));
+  EXPECT_EQ(config.processes.front().name, "uav1/pipeline");
+}
+
+TEST(LaunchGroups, BadContainersAreRefusedNamingTheKey) {
+  EXPECT_NE(errorOf("processes:\n  - container: c\n").find("needs a non-empty list of components"), std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - container: c\n    components: [{name: a}]\n").find("every component names its kind"),
+            std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - container: c\n    command: x\n    components: [{component: sim}]\n").find("key 'command': unknown key"),
+            std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - {name: sim, command: ddsnav-sim}\n  - container: c\n    components: [{component: sim}]\n")
+                .find("duplicate process name 'sim'"),
+            std::string::npos);
+  EXPECT_NE(errorOf("processes:\n  - container: c\n    components: [{component: sim}, {component: sim}]\n").find("duplicate"),
+            std::string::npos);
+}

@@ -113,4 +113,4 @@ class MapperComponent : public runtime::Component {
 
 }  // namespace
 
-int main(int argc, char** argv) { return runtime::runComponent<MapperComponent>("mapper", argc, argv); }
+DDSNAV_COMPONENT(MapperComponent, "mapper")

@@ -149,4 +149,4 @@ class PerceptionComponent : public runtime::Component {
 
 }  // namespace
 
-int main(int argc, char** argv) { return runtime::runComponent<PerceptionComponent>("perception", argc, argv); }
+DDSNAV_COMPONENT(PerceptionComponent, "perception")

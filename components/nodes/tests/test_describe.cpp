@@ -40,4 +40,19 @@ TEST(Describe, EveryDeclaredRangeIsShown) {
   EXPECT_NE(sim.find("| `scenario` | string | (required) |"), std::string::npos) << sim;
 }
 
+// The container holds the same component classes: the same descriptions, and a kind it does not hold is
+// refused (exit status 2) listing the ones it does. Nothing starts: no DDS.
+TEST(Container, HoldsTheStockComponentsAndRefusesAnUnknownOneListingThem) {
+  const std::string bin = DDSNAV_BIN_DIR;
+  for (const char* component : {"sim", "perception", "mapper", "planner", "tracker", "monitor"}) {
+    SCOPED_TRACE(component);
+    EXPECT_EQ(run(bin + "/ddsnav-container -- " + component + " --describe"), run(bin + "/ddsnav-" + component + " --describe"));
+  }
+  const std::string unknown = run(bin + "/ddsnav-container -- sim --param scenario=x -- planer 2>&1");
+  EXPECT_EQ(unknown.rfind("exit status 512: ", 0), 0u) << unknown;
+  EXPECT_NE(unknown.find("unknown component 'planer': this container holds mapper, monitor, perception, planner, sim, tracker"),
+            std::string::npos)
+      << unknown;
+}
+
 }  // namespace

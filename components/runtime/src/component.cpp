@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 
@@ -128,6 +129,12 @@ class ContextImpl : public Context {
     publishState(msg::LIFECYCLE_CONFIGURING);
   }
 
+  // The component's own name (the instance may be called otherwise): what the topic table lists.
+  void setComponent(const std::string& component) { component_ = component; }
+  void checkTopicUse(const std::string& name, TopicUse use) override {
+    if (const auto error = topicUseError(component_, name, use); !error.empty()) throw std::logic_error(error);
+  }
+
   const std::string& name() const override { return name_; }
   Parameters& params() override { return params_; }
   bus::Participant& bus() override { return *participant_; }
@@ -202,6 +209,7 @@ class ContextImpl : public Context {
   }
 
   const RuntimeParams& runtimeParams() const { return runtime_params_; }
+  spdlog::logger& logger() { return *logger_; }
 
   void finish(msg::LifecycleState state, const std::string& detail) {
     executor_.stop();
@@ -300,6 +308,7 @@ class ContextImpl : public Context {
   std::string ns_;
   std::map<std::string, std::string> remaps_;
   std::set<std::string> used_;
+  std::string component_;
 
   double heartbeat_period_ = 1.0;
   std::thread heartbeat_;
@@ -337,17 +346,24 @@ int runComponent(const std::string& name, int argc, char** argv, const std::func
   return runComponent(ComponentInfo{name, {}, options}, argc, argv, body);
 }
 
-int runComponent(const ComponentInfo& info, int argc, char** argv, const std::function<void(Context&)>& body) {
-  const std::string& name = info.name;
-  // Before any thread exists, so that every thread (DDS ones included) inherits the blocked mask.
-  sigset_t signals = shutdownSignals();
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+namespace {
 
+// One component's command line, parsed and checked: its context (not started yet) and bus options.
+struct Prepared {
+  std::unique_ptr<ContextImpl> ctx;
+  bus::ParticipantOptions bus;
+  std::string instance;
+};
+
+// Parses a component's command line (the common options, then `info.options`). Returns an exit code
+// when the process should end here (--help, --describe, a bad option), else fills `out`.
+std::optional<int> prepare(const ComponentInfo& info, int argc, char** argv, bool intra_process, Prepared& out) {
+  const std::string& name = info.name;
   CLI::App app{"ddsnav component " + name};
   std::string dds, config, log_level = "info", ns;
   // The launcher names each process it starts; a process started by hand is named after its component.
   const char* launched_as = std::getenv("DDSNAV_COMPONENT_NAME");
-  std::string instance = launched_as && *launched_as ? launched_as : name;
+  std::string instance = launched_as && *launched_as && !intra_process ? launched_as : name;
   std::optional<int> domain;
   std::vector<std::string> overrides, remaps;
   app.add_option("--dds", dds, "DDS vendor: fastdds | cyclonedds (default: $DDSNAV_DDS, else fastdds)");
@@ -382,36 +398,63 @@ int runComponent(const ComponentInfo& info, int argc, char** argv, const std::fu
     return rc == 0 ? kExitOk : kExitUsage;
   }
 
+  // In a container every component logs through its own logger; spdlog's default one is the container's.
+  if (spdlog::get(instance)) {
+    spdlog::error("two components named '{}' in one process: give each its own --name", instance);
+    return kExitUsage;
+  }
   auto logger = spdlog::stderr_color_mt(instance);
   logger->set_level(spdlog::level::from_str(log_level));
   logger->set_pattern("[%H:%M:%S.%e] [%n] [%^%l%$] %v");
-  spdlog::set_default_logger(logger);
+  if (!intra_process) spdlog::set_default_logger(logger);
 
-  std::unique_ptr<ContextImpl> ctx;
-  bus::ParticipantOptions bus_options;
   try {
-    bus_options.vendor = dds.empty() ? bus::vendorFromEnvironment() : bus::parseVendor(dds);
-    bus_options.domain_id = domain ? *domain : bus::domainFromEnvironment(0);
-    if (bus_options.domain_id < 0 || bus_options.domain_id > bus::kMaxDomainId)
-      throw bus::BusError("DDS domain id " + std::to_string(bus_options.domain_id) + " is out of range: expected 0.." +
+    out.bus.vendor = dds.empty() ? bus::vendorFromEnvironment() : bus::parseVendor(dds);
+    out.bus.domain_id = domain ? *domain : bus::domainFromEnvironment(0);
+    if (out.bus.domain_id < 0 || out.bus.domain_id > bus::kMaxDomainId)
+      throw bus::BusError("DDS domain id " + std::to_string(out.bus.domain_id) + " is out of range: expected 0.." +
                           std::to_string(bus::kMaxDomainId));
-    bus_options.name = instance;
-    bus_options.identity = name;  // the credentials are per component, whatever the instance is called
-    bus_options.security_dir = security;
+    out.bus.name = instance;
+    out.bus.identity = name;  // the credentials are per component, whatever the instance is called
+    out.bus.security_dir = security;
+    out.bus.intra_process = intra_process;
     if (!network.empty())
-      bus_options.network = bus::NetworkOptions{network, peers.empty() ? std::vector<std::string>{} : bus::parsePeers(peers), multicast};
+      out.bus.network = bus::NetworkOptions{network, peers.empty() ? std::vector<std::string>{} : bus::parsePeers(peers), multicast};
     else if (!peers.empty() || multicast)
       throw bus::BusError("--peers / --multicast need --network INTERFACE");
-    ctx = std::make_unique<ContextImpl>(instance, Parameters::load(config, overrides), logger);
-    ctx->setNames(ns, remaps);
+    out.ctx = std::make_unique<ContextImpl>(instance, Parameters::load(config, overrides), logger);
+    out.ctx->setComponent(name);
+    out.ctx->setNames(ns, remaps);
   } catch (const std::exception& e) {
     logger->error("{}", e.what());
+    spdlog::drop(instance);
     return kExitUsage;
   }
+  out.instance = instance;
+  return std::nullopt;
+}
+
+// The registry of component classes the container can load (DDSNAV_COMPONENT with DDSNAV_COMPONENT_REGISTRY).
+std::map<std::string, ComponentFactory>& registry() {
+  static std::map<std::string, ComponentFactory> factories;
+  return factories;
+}
+
+}  // namespace
+
+int runComponent(const ComponentInfo& info, int argc, char** argv, const std::function<void(Context&)>& body) {
+  // Before any thread exists, so that every thread (DDS ones included) inherits the blocked mask.
+  sigset_t signals = shutdownSignals();
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  Prepared prepared;
+  if (const auto rc = prepare(info, argc, argv, false, prepared)) return *rc;
+  auto& ctx = prepared.ctx;
+  auto& logger = ctx->logger();
 
   int rc = kExitOk;
   try {
-    ctx->start(bus_options);
+    ctx->start(prepared.bus);
     const double bound_s = ctx->runtimeParams().shutdown_timeout_s;
     SignalWatcher watcher([&ctx] { ctx->requestShutdown(); },
                           std::chrono::milliseconds(static_cast<long>(bound_s * 1000)));
@@ -419,23 +462,174 @@ int runComponent(const ComponentInfo& info, int argc, char** argv, const std::fu
       body(*ctx);
       ctx->finish(msg::LIFECYCLE_FINISHED, "");
     } catch (const ParameterError& e) {
-      logger->error("{}", e.what());
+      logger.error("{}", e.what());
       ctx->finish(msg::LIFECYCLE_FAILED, e.what());
       rc = kExitUsage;
     } catch (const std::exception& e) {
-      logger->error("{}", e.what());
+      logger.error("{}", e.what());
       ctx->finish(msg::LIFECYCLE_FAILED, e.what());
       rc = kExitError;
     }
   } catch (const ParameterError& e) {
-    logger->error("{}", e.what());
+    logger.error("{}", e.what());
     rc = kExitUsage;
   } catch (const std::exception& e) {
-    logger->error("{}", e.what());
+    logger.error("{}", e.what());
     rc = kExitError;
   }
   ctx.reset();
-  spdlog::drop(instance);
+  spdlog::drop(prepared.instance);
+  return rc;
+}
+
+bool registerComponent(ComponentFactory factory) {
+  const std::string name = factory.name;
+  return registry().emplace(name, std::move(factory)).second;
+}
+
+std::vector<std::string> registeredComponents() {
+  std::vector<std::string> names;
+  for (const auto& [name, f] : registry()) names.push_back(name);
+  return names;
+}
+
+int runContainer(int argc, char** argv) {
+  sigset_t signals = shutdownSignals();
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  auto container_log = spdlog::stderr_color_mt("container");
+  container_log->set_pattern("[%H:%M:%S.%e] [%n] [%^%l%$] %v");
+  spdlog::set_default_logger(container_log);
+
+  std::string known;
+  for (const auto& n : registeredComponents()) known += (known.empty() ? "" : ", ") + n;
+  const std::string usage = std::string("usage: ") + argv[0] +
+                            " -- COMPONENT [its options] [-- COMPONENT [its options] ...]\n  components: " + known + "\n";
+  // Segments between "--": each a component's own command line, its kind first.
+  std::vector<std::vector<char*>> segments;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h" || arg == "--list") {
+      std::fputs(usage.c_str(), stdout);
+      return kExitOk;
+    }
+    if (arg == "--") {
+      segments.emplace_back();
+      continue;
+    }
+    if (segments.empty()) {
+      container_log->error("unexpected '{}' before the first '--'\n{}", arg, usage);
+      return kExitUsage;
+    }
+    segments.back().push_back(argv[i]);
+  }
+  std::erase_if(segments, [](const auto& s) { return s.empty(); });
+  if (segments.empty()) {
+    container_log->error("no component given\n{}", usage);
+    return kExitUsage;
+  }
+
+  struct Loaded {
+    const ComponentFactory* factory = nullptr;
+    Prepared prepared;
+    std::unique_ptr<Component> component;
+    std::thread thread;
+    std::exception_ptr error;
+  };
+  std::vector<Loaded> loaded(segments.size());
+  for (std::size_t i = 0; i < segments.size(); ++i) {
+    const std::string kind = segments[i][0];
+    auto it = registry().find(kind);
+    if (it == registry().end()) {
+      container_log->error("unknown component '{}': this container holds {}", kind, known);
+      return kExitUsage;
+    }
+    loaded[i].factory = &it->second;
+    std::vector<char*> args = segments[i];  // args[0] (the kind) stands where a program name would
+    if (const auto rc = prepare({kind, it->second.declare, {}}, static_cast<int>(args.size()), args.data(), true, loaded[i].prepared))
+      return *rc;
+  }
+
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool stopping = false;
+  const auto stopAll = [&] {
+    {
+      std::lock_guard lock(mutex);
+      stopping = true;
+    }
+    changed.notify_all();
+    for (auto& l : loaded)
+      if (l.prepared.ctx) l.prepared.ctx->requestShutdown();
+  };
+
+  int rc = kExitOk;
+  double bound_s = 0;
+  try {
+    for (auto& l : loaded) {
+      l.prepared.ctx->start(l.prepared.bus);
+      bound_s = std::max(bound_s, l.prepared.ctx->runtimeParams().shutdown_timeout_s);
+    }
+  } catch (const std::exception& e) {
+    container_log->error("{}", e.what());
+    return kExitError;
+  }
+  SignalWatcher watcher(stopAll, std::chrono::milliseconds(static_cast<long>(bound_s * 1000)));
+  // Constructed in the order given (a component's constructor may wait for what an earlier one offers),
+  // each then runs on its own executor thread.
+  for (auto& l : loaded) {
+    ContextImpl& ctx = *l.prepared.ctx;
+    try {
+      l.component = l.factory->make(ctx);
+      ctx.ready();
+    } catch (const ParameterError& e) {
+      ctx.logger().error("{}", e.what());
+      ctx.finish(msg::LIFECYCLE_FAILED, e.what());
+      rc = kExitUsage;
+      break;
+    } catch (const std::exception& e) {
+      ctx.logger().error("{}", e.what());
+      ctx.finish(msg::LIFECYCLE_FAILED, e.what());
+      rc = kExitError;
+      break;
+    }
+    l.thread = std::thread([&l, &ctx, &stopAll] {
+      try {
+        ctx.runExecutor();
+      } catch (...) {
+        l.error = std::current_exception();
+      }
+      stopAll();  // one component ending (the monitor's mission is over) or failing ends the container
+    });
+  }
+  if (rc == kExitOk) {
+    std::unique_lock lock(mutex);
+    changed.wait(lock, [&] { return stopping; });
+  } else {
+    stopAll();
+  }
+  for (auto& l : loaded)
+    if (l.thread.joinable()) l.thread.join();
+  // Shut down in reverse order of construction: consumers before what they consume.
+  for (auto it = loaded.rbegin(); it != loaded.rend(); ++it) {
+    if (!it->component) continue;
+    ContextImpl& ctx = *it->prepared.ctx;
+    std::string failure;
+    try {
+      if (it->error) std::rethrow_exception(it->error);
+      it->component->shutdown();
+    } catch (const std::exception& e) {
+      failure = e.what();
+      ctx.logger().error("{}", e.what());
+      rc = rc == kExitOk ? kExitError : rc;
+    }
+    it->component.reset();
+    ctx.finish(failure.empty() ? msg::LIFECYCLE_FINISHED : msg::LIFECYCLE_FAILED, failure);
+  }
+  for (auto& l : loaded) {
+    if (l.prepared.ctx) l.prepared.ctx->finish(msg::LIFECYCLE_FINISHED, "");
+    l.prepared.ctx.reset();
+    spdlog::drop(l.prepared.instance);
+  }
   return rc;
 }
 

@@ -30,14 +30,14 @@ double timeFactor() {
 // A queue filled by hand, as the bus callback would (the callback is exercised over DDS in test_subscribe).
 struct HandQueue {
   std::shared_ptr<TypedQueue<int>> queue;
-  void push(int v) { queue->push(v, {}, queue); }
+  void push(int v) { queue->push(std::make_shared<const int>(v), {}, queue); }
 };
 
 TEST(Executor, FullQueueDropsTheOldestAndCountsIt) {
   Executor executor;
   std::vector<int> seen;
   // Executor::subscribe builds the same queue over a bus subscription; here it is filled directly.
-  auto queue = std::make_shared<TypedQueue<int>>("test/ints", 3, [&](const int& v, const bus::SampleInfo&) { seen.push_back(v); },
+  auto queue = std::make_shared<TypedQueue<int>>("test/ints", 3, [&](std::shared_ptr<const int> v, const bus::SampleInfo&) { seen.push_back(*v); },
                                                   std::weak_ptr<detail::ExecutorCore>());
   HandQueue q{queue};
   for (int i = 1; i <= 5; ++i) q.push(i);  // nobody runs the executor meanwhile: 1 and 2 are dropped

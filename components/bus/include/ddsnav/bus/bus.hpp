@@ -21,7 +21,13 @@
 //   bus::RawPublisher out = bus.rawPublisher(*t, bus::Qos::sensorData());
 //   out.publish(bytes);  // 4-byte encapsulation + XCDR1 body, as RawSample::payload
 //
-// Threads: callbacks run on the vendor's receive/listener threads. One subscription's callbacks never
+// Intra-process delivery (ParticipantOptions::intra_process, what `ddsnav container` turns on): a sample
+// published in this process reaches this process's subscriptions of the same vendor and domain as the
+// message object itself -- publish(std::shared_ptr<const T>) shares it, publish(const T&) copies it once --
+// without serialization, while other processes still get it over DDS (docs/bus.md, "Intra-process").
+//
+// Threads: callbacks run on the vendor's receive/listener threads (an intra-process sample's, on the
+// publishing thread). One subscription's callbacks never
 // overlap, different subscriptions' callbacks may run concurrently. Keep them short; publishing from a
 // callback is fine. A Subscription (or Inbox) stops its callbacks when destroyed; destroy subscriptions
 // before the state their callbacks use.
@@ -120,6 +126,9 @@ struct ParticipantOptions {
   std::optional<std::string> security_dir;
   // Identity within security_dir; empty: the participant name without a leading "ddsnav-".
   std::string identity;
+  // Deliver samples between this process's intra-process participants (same vendor and domain) as objects,
+  // not over DDS; unkeyed typed topics only (keyed ones, e.g. system/status, and raw endpoints use DDS).
+  bool intra_process = false;
 };
 
 // What a subscriber learns besides the sample itself.
@@ -153,9 +162,19 @@ namespace detail {
 class ParticipantImpl;
 class WriterImpl;
 class ReaderImpl;
+class LocalWriter;
 using SampleCallback = std::function<void(const void* sample, const SampleInfo& info)>;
+// Receives a sample as a shared object: from DDS a fresh copy, from this process the publisher's object.
+using SharedCallback = std::function<void(std::shared_ptr<const void> sample, const SampleInfo& info)>;
+// The intra-process side of a publisher: whether any local subscription (or a transient-local history)
+// wants the object, handing it over, and whether DDS must still get the sample (another process, or a
+// late joiner of a transient-local topic, may want it).
+bool localWanted(const LocalWriter& writer);
+void localPublish(LocalWriter& writer, std::shared_ptr<const void> sample);
+bool ddsWriteNeeded(const LocalWriter& writer, const WriterImpl& dds);
 using RawCallback = std::function<void(const RawSample& sample)>;
 void write(WriterImpl& writer, const void* sample);
+std::uint64_t ddsWrites(const WriterImpl& writer);
 std::size_t matchedReaders(const WriterImpl& writer);
 std::size_t matchedWriters(const ReaderImpl& reader);
 std::uint64_t lostSamples(const ReaderImpl& reader);
@@ -187,13 +206,33 @@ template <class T>
 class Publisher {
  public:
   Publisher() = default;
-  explicit Publisher(std::shared_ptr<detail::WriterImpl> impl) : impl_(std::move(impl)) {}
-  // Serializes once and hands the bytes to the vendor. Throws BusError when the vendor refuses.
-  void publish(const T& sample) { detail::write(checked(), &sample); }
+  explicit Publisher(std::shared_ptr<detail::WriterImpl> impl, std::shared_ptr<detail::LocalWriter> local = {})
+      : impl_(std::move(impl)), local_(std::move(local)) {}
+  // Serializes once and hands the bytes to the vendor. Throws BusError when the vendor refuses. With
+  // intra-process delivery: local subscriptions get one copy of `sample`, and the bytes go to DDS only
+  // when another process may want them.
+  void publish(const T& sample) {
+    if (local_) {
+      if (detail::localWanted(*local_)) detail::localPublish(*local_, std::make_shared<const T>(sample));
+      if (!detail::ddsWriteNeeded(*local_, checked())) return;
+    }
+    detail::write(checked(), &sample);
+  }
+  // The same without the copy: local subscriptions share `sample` (it must not change afterwards).
+  void publish(std::shared_ptr<const T> sample) {
+    if (!sample) throw BusError("publish: null sample");
+    if (local_) {
+      if (detail::localWanted(*local_)) detail::localPublish(*local_, sample);
+      if (!detail::ddsWriteNeeded(*local_, checked())) return;
+    }
+    detail::write(checked(), sample.get());
+  }
   std::size_t matchedSubscribers() const { return detail::matchedReaders(checked()); }
   bool waitForSubscribers(std::size_t count, std::chrono::milliseconds timeout) const {
     return detail::waitMatched([this] { return matchedSubscribers(); }, count, timeout);
   }
+  // Samples serialized and handed to DDS so far (intra-process deliveries not counted).
+  std::uint64_t ddsWrites() const { return detail::ddsWrites(checked()); }
 
  private:
   detail::WriterImpl& checked() const {
@@ -201,6 +240,7 @@ class Publisher {
     return *impl_;
   }
   std::shared_ptr<detail::WriterImpl> impl_;
+  std::shared_ptr<detail::LocalWriter> local_;
 };
 
 // Publishes serialized samples of one topic/type (replay, bridges).
@@ -279,7 +319,9 @@ class Participant {
   template <class T>
   Publisher<T> publisher(const std::string& topic, const Qos& qos) {
     static_assert(msg::IsMessage<T>::value, "publisher<T>: T must be a generated ddsnav::msg class");
-    return Publisher<T>(createWriter(msg::type_support<T>(), topic, qos));
+    auto writer = createWriter(msg::type_support<T>(), topic, qos);
+    auto local = createLocalWriter(msg::type_support<T>(), topic, qos, *writer);
+    return Publisher<T>(std::move(writer), std::move(local));
   }
 
   template <class T, class Callback>
@@ -297,7 +339,22 @@ class Participant {
         cb(*static_cast<const T*>(s));
       };
     }
-    return Subscription(createReader(msg::type_support<T>(), topic, qos, std::move(erased)));
+    return Subscription(createReader(msg::type_support<T>(), topic, qos, std::move(erased), {}));
+  }
+
+  // Like subscribe(), the sample handed over as a shared object: a copy of what DDS delivered, or (with
+  // intra_process) the very object a publisher in this process published. For executors and queues.
+  template <class T>
+  Subscription subscribeShared(const std::string& topic, const Qos& qos,
+                               std::function<void(std::shared_ptr<const T>, const SampleInfo&)> callback) {
+    static_assert(msg::IsMessage<T>::value, "subscribeShared<T>: T must be a generated ddsnav::msg class");
+    detail::SampleCallback from_dds = [callback](const void* s, const SampleInfo& info) {
+      callback(std::make_shared<const T>(*static_cast<const T*>(s)), info);
+    };
+    detail::SharedCallback local = [callback](std::shared_ptr<const void> s, const SampleInfo& info) {
+      callback(std::static_pointer_cast<const T>(std::move(s)), info);
+    };
+    return Subscription(createReader(msg::type_support<T>(), topic, qos, std::move(from_dds), std::move(local)));
   }
 
   template <class T>
@@ -330,8 +387,13 @@ class Participant {
  private:
   std::shared_ptr<detail::WriterImpl> createWriter(const msg::TypeSupport& type, const std::string& topic,
                                                    const Qos& qos);
+  // `local`: how an intra-process sample is handed over; empty: through `callback` (a pointer to it).
   std::shared_ptr<detail::ReaderImpl> createReader(const msg::TypeSupport& type, const std::string& topic,
-                                                   const Qos& qos, detail::SampleCallback callback);
+                                                   const Qos& qos, detail::SampleCallback callback,
+                                                   detail::SharedCallback local);
+  // Null unless intra_process is on and the type is unkeyed.
+  std::shared_ptr<detail::LocalWriter> createLocalWriter(const msg::TypeSupport& type, const std::string& topic,
+                                                         const Qos& qos, const detail::WriterImpl& dds);
 
   std::unique_ptr<detail::ParticipantImpl> impl_;
 };

@@ -36,6 +36,17 @@ inline constexpr DurationRange kRestartDelayRange{"restart_delay_s", 0.0, 3600.0
 inline constexpr DurationRange kMaxRestartDelayRange{"max_restart_delay_s", 0.0, 3600.0};
 inline constexpr DurationRange kRestartWindowRange{"restart_window_s", 1.0, 86400.0};
 
+// One component of a container (`container:` entry, docs/launch.md): loaded into the container's process
+// with its own name, parameters, namespace and remaps, as a process of its own would be started.
+struct ComponentSpec {
+  std::string name;       // on system/status (a group's namespace prefixed, like process names)
+  std::string component;  // the kind: sim, perception, mapper, planner, tracker, monitor
+  std::vector<std::string> args;
+  std::map<std::string, std::string> params;
+  std::string ns;
+  std::map<std::string, std::string> remap;
+};
+
 struct ProcessSpec {
   std::string name;                         // also the component name it reports on system/status
   std::string command;                      // "ddsnav-sim" (found beside ddsnav) or a path
@@ -54,6 +65,16 @@ struct ProcessSpec {
   double ready_timeout_s = 20.0;
   double liveness_timeout_s = 5.0;          // silent on system/status this long after ready: killed (5 heartbeats)
   bool required = false;                    // when it exits, the whole set is torn down
+  // Not empty: a container (command ddsnav-container); it is ready once every component reports ready
+  // with the container's pid, and silent once any of them is.
+  std::vector<ComponentSpec> components;
+  // The names this process reports under on system/status: its components', or its own.
+  std::vector<std::string> reportingNames() const {
+    if (components.empty()) return {name};
+    std::vector<std::string> names;
+    for (const auto& c : components) names.push_back(c.name);
+    return names;
+  }
 };
 
 // `network:` — every process of the set talks on this interface with unicast discovery of the peers

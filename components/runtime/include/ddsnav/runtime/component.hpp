@@ -16,7 +16,7 @@
 //     }
 //     void shutdown() override { ... }  // after the last callback, before the destructor
 //   };
-//   int main(int argc, char** argv) { return runtime::runComponent<Mapper>("mapper", argc, argv); }
+//   DDSNAV_COMPONENT(Mapper, "mapper")  // main() running it; with DDSNAV_COMPONENT_REGISTRY, its registration for the container
 //
 // Its callbacks and timers run on the component's executor thread (executor.hpp), never on a DDS thread;
 // long work goes to a Worker. Every topic name goes through Context::topic: `--remap from=to` (repeatable)
@@ -64,6 +64,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace CLI {
 class App;
@@ -108,12 +109,18 @@ class Context {
   }
   template <class T, class Callback>
   bus::Subscription subscribe(const std::string& name, const bus::Qos& qos, Callback callback) {
+    checkTopicUse(name, TopicUse::Subscribe);
     return executor().subscribe<T>(bus(), topic(name), qos, std::move(callback));
   }
   template <class T>
   bus::Publisher<T> publisher(const Topic<T>& t) {
+    checkTopicUse(t.name, TopicUse::Publish);
     return bus().publisher<T>(topic(t.name), t.qos);
   }
+
+  // Every topic opened through the two above (its name before remapping): a stock component may open a
+  // stock topic only as the topic table lists it (topicUseError); throws std::logic_error otherwise.
+  virtual void checkTopicUse(const std::string& name, TopicUse use) { (void)name, (void)use; }
 };
 
 // The base of a component class (see the top of this file).
@@ -189,5 +196,36 @@ int runComponent(const std::string& name, int argc, char** argv, const OptionsHo
     component->shutdown();
   });
 }
+
+// Composition: the component classes one process (`ddsnav container`) can load, by kind.
+struct ComponentFactory {
+  std::string name;                                          // the kind: "planner"
+  std::function<void(Parameters&)> declare;                  // as ComponentInfo::declare
+  std::function<std::unique_ptr<Component>(Context&)> make;  // constructs it from its context
+};
+bool registerComponent(ComponentFactory factory);  // false when the kind is taken already
+std::vector<std::string> registeredComponents();   // sorted
+template <class C>
+bool registerComponent(const std::string& name) {
+  return registerComponent({name, [](Parameters& p) { typename C::Params params(p); },
+                            [](Context& ctx) -> std::unique_ptr<Component> { return std::make_unique<C>(ctx); }});
+}
+
+// The container's main: `ddsnav-container -- KIND [options] [-- KIND [options] ...]`. Each segment is the
+// command line the component takes on its own (--name, --param, --config, --namespace, --remap, --dds,
+// --domain ...). Every component gets its own participant with intra-process delivery, its own status
+// heartbeat and its own executor thread; SIGINT/SIGTERM shut all of them down, and so does one that
+// fails (the container then exits non-zero). An unknown kind is refused listing the known ones.
+int runContainer(int argc, char** argv);
+
+// Ends a component's source file: its main() in the component's own program, or (compiled with
+// DDSNAV_COMPONENT_REGISTRY, as for the container) its registration under `name`.
+#ifdef DDSNAV_COMPONENT_REGISTRY
+#define DDSNAV_COMPONENT(Class, name) \
+  [[maybe_unused]] static const bool ddsnav_registered_component = ::ddsnav::runtime::registerComponent<Class>(name);
+#else
+#define DDSNAV_COMPONENT(Class, name) \
+  int main(int argc, char** argv) { return ::ddsnav::runtime::runComponent<Class>(name, argc, argv); }
+#endif
 
 }  // namespace ddsnav::runtime

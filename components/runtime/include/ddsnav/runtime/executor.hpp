@@ -1,7 +1,8 @@
 // Where a component's code runs: its executor's thread, never a DDS vendor thread.
 //
-// A subscription made through the executor (Context::subscribe) only copies the sample into that
-// subscription's queue on the vendor thread; the executor's thread takes samples, timers and posted tasks
+// A subscription made through the executor (Context::subscribe) only puts the sample into that
+// subscription's queue on the vendor thread (a shared object: a copy of what DDS delivered, or the
+// publisher's own object when it came intra-process, bus.hpp); the executor's thread takes samples, timers and posted tasks
 // in arrival order and runs the callbacks, one at a time. So a component's callbacks never overlap and
 // need no locks among themselves. Each queue holds at most its QoS depth (every ddsnav profile is
 // KEEP_LAST): when a sample arrives at a full queue the oldest one is dropped and counted (queueStats(),
@@ -101,12 +102,12 @@ class ExecutorCore : public std::enable_shared_from_this<ExecutorCore> {
 template <class T>
 class TypedQueue : public SampleQueue {
  public:
-  using Callback = std::function<void(const T&, const bus::SampleInfo&)>;
+  using Callback = std::function<void(std::shared_ptr<const T>, const bus::SampleInfo&)>;
   TypedQueue(std::string topic, std::size_t depth, Callback callback, std::weak_ptr<ExecutorCore> core)
       : SampleQueue(std::move(topic), depth), callback_(std::move(callback)), core_(std::move(core)) {}
 
-  // On the vendor thread: a copy into the queue, nothing else.
-  void push(const T& sample, const bus::SampleInfo& info, const std::shared_ptr<SampleQueue>& self) {
+  // On the vendor (or, intra-process, the publisher's) thread: into the queue, nothing else.
+  void push(std::shared_ptr<const T> sample, const bus::SampleInfo& info, const std::shared_ptr<SampleQueue>& self) {
     bool added = true;
     {
       std::lock_guard lock(mutex_);
@@ -115,7 +116,7 @@ class TypedQueue : public SampleQueue {
         added = false;
         dropped_.fetch_add(1, std::memory_order_relaxed);
       }
-      items_.emplace_back(sample, info);
+      items_.emplace_back(std::move(sample), info);
     }
     received_.fetch_add(1, std::memory_order_relaxed);
     if (added)
@@ -123,20 +124,20 @@ class TypedQueue : public SampleQueue {
   }
 
   bool runOne() override {
-    std::optional<std::pair<T, bus::SampleInfo>> item;
+    std::optional<std::pair<std::shared_ptr<const T>, bus::SampleInfo>> item;
     {
       std::lock_guard lock(mutex_);
       if (items_.empty()) return false;
       item.emplace(std::move(items_.front()));
       items_.pop_front();
     }
-    callback_(item->first, item->second);
+    callback_(std::move(item->first), item->second);
     return true;
   }
 
  private:
   std::mutex mutex_;
-  std::deque<std::pair<T, bus::SampleInfo>> items_;
+  std::deque<std::pair<std::shared_ptr<const T>, bus::SampleInfo>> items_;
   Callback callback_;
   std::weak_ptr<ExecutorCore> core_;
 };
@@ -175,21 +176,24 @@ class Executor {
   Executor(const Executor&) = delete;
   Executor& operator=(const Executor&) = delete;
 
-  // A subscription whose callback runs on this executor; the queue holds up to qos.depth samples.
+  // A subscription whose callback runs on this executor; the queue holds up to qos.depth samples. The
+  // callback takes (const T&), (const T&, const SampleInfo&) or (std::shared_ptr<const T>, const SampleInfo&).
   template <class T, class Callback>
   bus::Subscription subscribe(bus::Participant& participant, const std::string& topic, const bus::Qos& qos, Callback callback) {
     typename detail::TypedQueue<T>::Callback erased;
-    if constexpr (std::is_invocable_v<Callback&, const T&, const bus::SampleInfo&>) {
-      erased = std::move(callback);
+    if constexpr (std::is_invocable_v<Callback&, std::shared_ptr<const T>, const bus::SampleInfo&>) {
+      erased = std::move(callback);  // takes the shared object: may keep or republish it without a copy
+    } else if constexpr (std::is_invocable_v<Callback&, const T&, const bus::SampleInfo&>) {
+      erased = [cb = std::move(callback)](std::shared_ptr<const T> s, const bus::SampleInfo& info) mutable { cb(*s, info); };
     } else {
       static_assert(std::is_invocable_v<Callback&, const T&>, "callback must take (const T&) or (const T&, const SampleInfo&)");
-      erased = [cb = std::move(callback)](const T& s, const bus::SampleInfo&) mutable { cb(s); };
+      erased = [cb = std::move(callback)](std::shared_ptr<const T> s, const bus::SampleInfo&) mutable { cb(*s); };
     }
     auto queue = std::make_shared<detail::TypedQueue<T>>(topic, static_cast<std::size_t>(qos.depth), std::move(erased), core_);
     core_->registerQueue(queue);
     // The bus callback holds the queue; the queue only a weak reference to the executor.
-    return participant.subscribe<T>(topic, qos, [queue](const T& sample, const bus::SampleInfo& info) {
-      queue->push(sample, info, queue);
+    return participant.subscribeShared<T>(topic, qos, [queue](std::shared_ptr<const T> sample, const bus::SampleInfo& info) {
+      queue->push(std::move(sample), info, queue);
     });
   }
 
