@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace ddsnav::planner {
 
@@ -14,6 +15,34 @@ bool CollisionWorld::isSegmentFree(const Vec3& a, const Vec3& b) const {
     if (!isFree(a + (b - a) * (static_cast<double>(i) / steps))) return false;
   }
   return true;
+}
+
+std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step) {
+  if (!p.allFinite()) throw std::invalid_argument("nearestFreePosition: the position must be finite");
+  if (!std::isfinite(max_distance) || max_distance < 0.0) throw std::invalid_argument("nearestFreePosition: max_distance must be finite and >= 0");
+  if (!std::isfinite(step) || !(step > 0.0)) throw std::invalid_argument("nearestFreePosition: step must be finite and > 0");
+  if (world.isFree(p)) return p;
+  const bool flat = world.dimensions() == 2;
+  const int n = static_cast<int>(std::floor(max_distance / step));
+  const double side = 2.0 * n + 1.0;
+  if ((flat ? side * side : side * side * side) > 1e6) throw std::invalid_argument("nearestFreePosition: more than 1e6 lattice points");
+  struct Offset {
+    double distance;
+    Vec3 d;
+  };
+  std::vector<Offset> offsets;
+  for (int k = flat ? 0 : -n; k <= (flat ? 0 : n); ++k)
+    for (int j = -n; j <= n; ++j)
+      for (int i = -n; i <= n; ++i) {
+        const Vec3 d(i * step, j * step, k * step);
+        const double distance = d.norm();
+        if (distance > 0.0 && distance <= max_distance) offsets.push_back({distance, d});
+      }
+  // Nearest first; among equals the lattice order above, so the answer does not depend on the sort.
+  std::stable_sort(offsets.begin(), offsets.end(), [](const Offset& a, const Offset& b) { return a.distance < b.distance; });
+  for (const Offset& o : offsets)
+    if (world.isFree(p + o.d)) return p + o.d;
+  return std::nullopt;
 }
 
 }  // namespace ddsnav::planner

@@ -21,6 +21,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 
 namespace ddsnav::planner {
 namespace {
@@ -40,7 +41,8 @@ struct Cell {
 // Throws std::runtime_error naming what is wrong.
 class BinaryOcTreeReader {
  public:
-  explicit BinaryOcTreeReader(const std::vector<std::uint8_t>& bytes) : bytes_(bytes) {}
+  // With free_leaves false, only occupied leaves reach `leaf` (all that an optimistic world uses).
+  BinaryOcTreeReader(const std::vector<std::uint8_t>& bytes, bool free_leaves) : bytes_(bytes), free_leaves_(free_leaves) {}
 
   // `header(resolution)` runs once the header is read, before the first `leaf`.
   template <class HeaderFn, class LeafFn>
@@ -102,28 +104,31 @@ class BinaryOcTreeReader {
       out[1] = static_cast<std::uint16_t>(corner[1] + ((i & 2) ? half : 0));
       out[2] = static_cast<std::uint16_t>(corner[2] + ((i & 4) ? half : 0));
     };
-    bool any = false;
-    for (unsigned i = 0; i < 8; ++i) {  // leaves first, in child order, as OctoMap reads them
-      const unsigned code = (bits >> (2 * i)) & 3u;
-      if (code == 0) continue;
-      any = true;
-      ++nodes_;
-      if (code == 3) continue;
+    // Two bits per child, (low, high): 01 free leaf, 10 occupied leaf, 11 inner node. Only the children that
+    // matter are visited (bit tricks, not a loop over all 8): a 3-D map is millions of nodes, mostly free.
+    const unsigned low = bits & 0x5555u, high = (bits >> 1) & 0x5555u;
+    const unsigned present = low | high, inner = low & high;
+    unsigned leaves = high & ~low;  // occupied
+    if (free_leaves_) leaves |= low & ~high;
+    nodes_ += std::popcount(present);
+    for (unsigned m = leaves; m != 0; m &= m - 1) {  // leaves first, in child order, as OctoMap reads them
+      const unsigned i = static_cast<unsigned>(std::countr_zero(m)) / 2;
       std::uint16_t c[3];
       childCorner(i, c);
-      leaf(c, depth + 1, /*occupied=*/code == 2);  // bit pattern (low, high) = (0, 1): occupied
+      leaf(c, depth + 1, /*occupied=*/((high >> (2 * i)) & 1u) != 0);
     }
-    for (unsigned i = 0; i < 8; ++i) {
-      if (((bits >> (2 * i)) & 3u) != 3u) continue;
-      if (depth + 1 >= 16) fail("an inner node below the finest level");
+    if (inner != 0 && depth + 1 >= 16) fail("an inner node below the finest level");
+    for (unsigned m = inner; m != 0; m &= m - 1) {
       std::uint16_t c[3];
-      childCorner(i, c);
+      childCorner(static_cast<unsigned>(std::countr_zero(m)) / 2, c);
       readNode(c, depth + 1, leaf);
     }
+    const bool any = present != 0;
     return any;
   }
 
   const std::vector<std::uint8_t>& bytes_;
+  const bool free_leaves_;
   std::size_t pos_ = 0;
   long long nodes_ = 0;
 };
@@ -329,7 +334,7 @@ class OctoMapWorld final : public CollisionWorld {
   // per brick, not per voxel, and the number of bricks is capped (max_bricks): a coarse leaf — one 63-byte
   // message can hold a leaf 2^14 voxels wide — is never expanded without bound.
   void load(const std::vector<std::uint8_t>& bytes) {
-    BinaryOcTreeReader reader(bytes);
+    BinaryOcTreeReader reader(bytes, /*free_leaves=*/unknown_blocked_);
     Cell occupied_lo{}, occupied_hi{}, free_lo{}, free_hi{};
     auto region = [&](double margin, Cell& lo, Cell& hi) {
       lo = {cellCoord(bmin_.x() - margin), cellCoord(bmin_.y() - margin), dims_ == 2 ? 0 : cellCoord(bmin_.z() - margin)};
@@ -363,6 +368,7 @@ class OctoMapWorld final : public CollisionWorld {
       const auto& occ = bricks_[i].occupied;
       if (std::none_of(occ.begin(), occ.end(), [](std::uint64_t w) { return w != 0; })) continue;
       occupied_bricks_.push_back(i);
+      groups_[pack(bricks_[i].bx >> 3, bricks_[i].by >> 3, bricks_[i].bz >> 3)].push_back(i);
       // The brick's occupied voxels' box from its masks: word = z layer, byte = y row, bit in byte = x.
       std::uint64_t any_z = 0;
       int z_lo = 8, z_hi = -1;
@@ -468,26 +474,51 @@ class OctoMapWorld final : public CollisionWorld {
     return best;
   }
 
-  // Distance from p to the nearest occupied voxel: rings of bricks around p's brick, nearest first, until
-  // the next ring cannot hold anything closer; a plain scan of all occupied bricks once that is cheaper.
+  // Distance from p to the nearest occupied voxel. The occupied bricks are grouped by 8x8x8 bricks (groups_,
+  // 64 voxels a side): rings of groups around p's group, nearest first, until the next ring cannot hold
+  // anything closer — a handful of hash probes where a ring of bricks took thousands (a point 10 m above the
+  // terrain is 13 brick rings away) —; a plain scan of all occupied bricks once that is cheaper. Inside a
+  // group only the bricks whose box is nearer than the best so far are scanned.
   double nearestOccupied(const Vec3& p) const {
     if (occupied_bricks_.empty()) return kInf;
     const Cell pc = cellOf(p);
-    const std::int64_t px = pc.x >> 3, py = pc.y >> 3, pz = pc.z >> 3;
-    const double brick_size = 8.0 * resolution_;
+    const std::int64_t gx = pc.x >> 6, gy = pc.y >> 6, gz = pc.z >> 6;
+    const double group_size = 64.0 * resolution_;
     double best = kInf;
+    auto visitGroup = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+      constexpr std::int64_t kg = kCellLimit / 64;
+      if (x < -kg || x >= kg || y < -kg || y >= kg || z < -kg || z >= kg) return;
+      const Cell group_lo{x * 64, y * 64, dims_ == 2 ? 0 : z * 64};
+      const Cell group_hi{group_lo.x + 63, group_lo.y + 63, dims_ == 2 ? 0 : group_lo.z + 63};
+      if (distanceToCells(p, group_lo, group_hi) >= best) return;
+      const auto it = groups_.find(pack(x, y, z));
+      if (it == groups_.end()) return;
+      // Nearest brick first, so that the first voxels found prune the rest of the group.
+      thread_local std::vector<std::pair<double, std::uint32_t>> near;
+      near.clear();
+      for (std::uint32_t i : it->second) {
+        const Brick& b = bricks_[i];
+        const Cell lo{std::int64_t(b.bx) * 8, std::int64_t(b.by) * 8, std::int64_t(b.bz) * 8};
+        const Cell hi{lo.x + 7, lo.y + 7, lo.z + 7};
+        if (const double d = distanceToCells(p, lo, hi); d < best) near.emplace_back(d, i);
+      }
+      std::sort(near.begin(), near.end());
+      for (const auto& [d, i] : near) {
+        if (d >= best) break;
+        best = nearestInBrick(p, bricks_[i], best);
+      }
+    };
     for (std::int64_t k = 0;; ++k) {
-      if (k >= 1 && best <= double(k - 1) * brick_size) return best;
+      if (k >= 1 && best <= double(k - 1) * group_size) return best;
       const std::int64_t side = 2 * k + 1;
-      const double ring_cells = dims_ == 2 ? double(side * side) : double(side * side * side);
-      if (ring_cells > 2.0 * double(occupied_bricks_.size())) break;
+      const double ring_groups = k == 0 ? 1.0 : dims_ == 2 ? double(8 * k) : double(side * side * side - (side - 2) * (side - 2) * (side - 2));
+      if (ring_groups > 2.0 * double(groups_.size())) break;
       const std::int64_t zk = dims_ == 2 ? 0 : k;
       for (std::int64_t dz = -zk; dz <= zk; ++dz)
-        for (std::int64_t dy = -k; dy <= k; ++dy)
-          for (std::int64_t dx = -k; dx <= k; ++dx) {
-            if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != k) continue;  // the ring only
-            if (const Brick* b = findBrick(px + dx, py + dy, pz + dz)) best = nearestInBrick(p, *b, best);
-          }
+        for (std::int64_t dy = -k; dy <= k; ++dy) {
+          const bool face = std::abs(dz) == k || std::abs(dy) == k;  // the whole row lies on the ring
+          for (std::int64_t dx = -k; dx <= k; dx += (face || k == 0) ? 1 : 2 * k) visitGroup(gx + dx, gy + dy, gz + dz);
+        }
     }
     for (std::uint32_t i : occupied_bricks_) {
       const Brick& b = bricks_[i];
@@ -510,6 +541,7 @@ class OctoMapWorld final : public CollisionWorld {
   std::size_t slot_mask_ = 0;
   std::vector<Brick> bricks_;
   std::vector<std::uint32_t> occupied_bricks_;
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> groups_;  // packed group -> its occupied bricks
   Cell occ_lo_{kCellLimit, kCellLimit, kCellLimit}, occ_hi_{-kCellLimit, -kCellLimit, -kCellLimit};  // occupied voxels' box
 };
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
+#include <cmath>
 #include <sstream>
 
 namespace ddsnav::planner {
@@ -87,6 +88,32 @@ TEST(FusedWorld, ContactListsMergeNearestFirstWithDistinctIds) {
     if (near[i].id % 2 == 0) any_voxel = true;
   }
   EXPECT_TRUE(any_voxel);
+}
+
+// A vehicle that stands against a mapped wall (its ball touches the wall's voxels) plans from the nearest
+// free state, a small step back on its own side of the wall — never through it.
+TEST(FusedWorld, AStartAgainstTheMapMovesToTheNearestFreeStateOnItsSide) {
+  const auto world = fused(UnknownSpace::Optimistic, {});
+  const Vec3 against(9.62, 4, 2);  // 0.38 m from the wall's voxels (x >= 10), robot radius 0.5
+  ASSERT_FALSE(world->isFree(against));
+  const auto moved = nearestFreePosition(*world, against, kRadius, 0.05);
+  ASSERT_TRUE(moved.has_value());
+  EXPECT_TRUE(world->isFree(*moved));
+  EXPECT_LE(moved->x(), 9.5 + 1e-9);                 // on the near side
+  EXPECT_NEAR((*moved - against).norm(), 0.15, 1e-9);  // no farther than needed: 9.52 still touches
+  // A free position is its own answer; one inside the wall has no free state within the robot radius
+  // (0.6 m to either side), so it gets none rather than one behind the wall.
+  EXPECT_EQ(*nearestFreePosition(*world, Vec3(3, 4, 2), kRadius, 0.05), Vec3(3, 4, 2));
+  EXPECT_FALSE(nearestFreePosition(*world, Vec3(10.1, 4, 2), kRadius, 0.05).has_value());
+  // An obstacle ellipsoid counts as well: the state comes out of the ellipsoid's reach.
+  const auto with_ball = fused(UnknownSpace::Optimistic, {ball(1, {5, 4, 2}, 1.0)});
+  const auto out = nearestFreePosition(*with_ball, Vec3(5, 5.3, 2), kRadius, 0.05);
+  ASSERT_TRUE(out.has_value());
+  EXPECT_GE((*out - Vec3(5, 4, 2)).norm(), 1.5 - 1e-6);
+  EXPECT_THROW(nearestFreePosition(*world, Vec3(std::nan(""), 0, 0), 0.5, 0.05), std::invalid_argument);
+  EXPECT_THROW(nearestFreePosition(*world, against, -1.0, 0.05), std::invalid_argument);
+  EXPECT_THROW(nearestFreePosition(*world, against, 0.5, 0.0), std::invalid_argument);
+  EXPECT_THROW(nearestFreePosition(*world, against, 100.0, 0.01), std::invalid_argument);
 }
 
 TEST(FusedWorld, RefusesMismatchedSources) {

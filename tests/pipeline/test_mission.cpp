@@ -7,6 +7,10 @@
 // neither reached its goal (gart_terrain_3d: perception tiles the hills with thousands of tracks; the cluttered
 // field: the vehicle stalls after its eighth plan). They are DISABLED_ until then, so the default run does not
 // fail on them; run them with `build/bin/mission_tests --gtest_also_run_disabled_tests` under the DDS lock.
+// The cluttered field after the mission2d branch's replanning work (2026-12-01, docs/benchmarks/mission.md):
+// of 9 runs at load 10-37 across the branch's commits, 5 reached the goal and 3 of those without touching an
+// obstacle; the failures were obstacles seen late (true clearance -0.05 to -0.32 m, then every start in
+// collision) and the 2.5 x oracle timeout. Not reliable enough yet for CI under ctest -j2.
 
 #include <ddsnav/testing/harness.hpp>
 

@@ -1,7 +1,7 @@
 // DDS Security on each vendor, with real component processes: secured participants talk; one without
 // credentials neither reads a sample nor gets one accepted; an identity cannot publish a topic its
 // permissions lack; bad credentials stop a participant before it starts; the secured demo reaches the goal.
-// Domains 131..136 (the 250..259 range given to this suite is above the RTPS maximum of 232).
+// Domains 131..136, and leased ones for the newer tests (the 250..259 range given to this suite is above the RTPS maximum of 232).
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/security/security.hpp>
 #include <ddsnav/testing/harness.hpp>
@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <regex>
 #include <thread>
 
@@ -39,7 +40,7 @@ struct Credentials {
                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
   Credentials() {
     fs::remove_all(dir);
-    security::initDirectory(dir.string(), {});
+    security::initDirectory(dir.string(), {.grants = security::stockGrants()});
     security::addIdentity(dir.string(), {"test-harness", {"system/status", "ddsnav_internal/*"}, {"*"}},
                           security::Validity::fromNow(1));
   }
@@ -142,6 +143,30 @@ TEST_P(SecureBus, AnIdentityCannotPublishOrReadATopicItsPermissionsLack) {
   EXPECT_NE(read_error.find("planning/path"), std::string::npos) << read_error;
 }
 
+static std::size_t threadCount() {
+  return static_cast<std::size_t>(std::distance(fs::directory_iterator("/proc/self/task"), fs::directory_iterator()));
+}
+
+// Cyclone keeps a domain's threads (receive, timed events, the security plugins' handshakes and
+// encryption) while the domain exists; had it outlived the last participant, they would still run when
+// main returns and exit handlers free what they use (OpenSSL's cipher tables: the secured launcher's
+// SIGSEGV at exit). After the last participant every thread it brought is gone.
+TEST(SecureCyclone, NoThreadOutlivesTheLastParticipant) {
+  Credentials keys;
+  ddsnav::testing::DomainLease domain;
+  const std::size_t before = threadCount();
+  for (int round = 0; round < 2; ++round) {  // and the domain can be made again afterwards
+    {
+      bus::Participant sim({.vendor = bus::Vendor::CycloneDDS, .domain_id = domain.id(), .name = "sim",
+                            .security_dir = keys.dir.string()});
+      auto states = sim.publisher<msg::VehicleState>("vehicle/state", bus::Qos::sensorData());
+      states.publish(msg::VehicleState{});
+      EXPECT_GT(threadCount(), before);
+    }
+    EXPECT_EQ(threadCount(), before) << "round " << round;
+  }
+}
+
 TEST_P(SecureBus, BadCredentialsStopTheParticipantBeforeItStarts) {
   const bus::Vendor vendor = GetParam();
   Credentials keys;
@@ -150,7 +175,8 @@ TEST_P(SecureBus, BadCredentialsStopTheParticipantBeforeItStarts) {
   const bus::ParticipantOptions expired{.vendor = vendor, .domain_id = kPermissionsDomain + vendorIndex(vendor),
                                         .name = "expired", .security_dir = keys.dir.string()};
   std::string error = busError([&] { bus::Participant p(expired); });
-  EXPECT_NE(error.find("identities/expired/cert.pem' has expired"), std::string::npos) << error;
+  EXPECT_NE(error.find("identities/expired/cert"), std::string::npos) << error;  // cert.pem, cert-cyclonedds.pem
+  EXPECT_NE(error.find("has expired"), std::string::npos) << error;
   EXPECT_NE(error.find("participant 'expired' not created"), std::string::npos) << error;
   // An identity that is not in the directory: no fall-back to an unsecured participant.
   error = busError([&] { bus::Participant p({.vendor = vendor, .domain_id = 0, .name = "nobody", .security_dir = keys.dir.string()}); });
@@ -170,13 +196,11 @@ TEST_P(SecureBus, BadCredentialsStopTheParticipantBeforeItStarts) {
   fs::remove_all(other);
 }
 
-TEST_P(SecureBus, TheSecuredDemoReachesTheGoal) {
-  const bus::Vendor vendor = GetParam();
-  // Open: on Cyclone the demo reaches the goal (summary.json says so) but the secured launcher then dies
-  // with SIGSEGV (status 11) while tearing down, in 2 of the last 3 runs; to be found before this counts.
-  if (vendor == bus::Vendor::CycloneDDS) GTEST_SKIP() << "secured Cyclone launcher crashes at exit (open issue)";
+// The secured demo on `domain`, every process on `vendor`: reaches the goal, with obstacles seen, and
+// every process (the launcher too) exits 0.
+static void runSecuredDemo(int domain, bus::Vendor vendor) {
   Credentials keys;
-  harness::Harness h(kDemoDomain + vendorIndex(vendor), vendor);
+  harness::Harness h(domain, vendor);
   const fs::path out = keys.dir.string() + "_out";
   fs::remove_all(out);
   h.start({.name = "launcher",
@@ -187,6 +211,8 @@ TEST_P(SecureBus, TheSecuredDemoReachesTheGoal) {
   const auto deadline = std::chrono::steady_clock::now() + 200s;
   while (h.running("launcher") && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(200ms);
   ASSERT_FALSE(h.running("launcher")) << "the secured demo did not end within 200 s\n" << h.log("launcher");
+  // On Cyclone the launcher once died with SIGSEGV after a clean teardown (its domain's threads outlived
+  // main and met OpenSSL's exit cleanup); the exit status is what would show it again.
   const int status = h.stop("launcher");
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status << "\n" << h.log("launcher");
   std::ifstream summary_file(out / "summary.json");
@@ -196,6 +222,10 @@ TEST_P(SecureBus, TheSecuredDemoReachesTheGoal) {
   EXPECT_TRUE(summary.value("goal_reached", false)) << summary.dump(2);
   EXPECT_GT(summary.value("obstacles", 0), 0) << summary.dump(2);
   fs::remove_all(out);
+}
+
+TEST_P(SecureBus, TheSecuredDemoReachesTheGoal) {
+  runSecuredDemo(kDemoDomain + vendorIndex(GetParam()), GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(Vendors, SecureBus, ::testing::Values(bus::Vendor::FastDDS, bus::Vendor::CycloneDDS), vendorLabel);

@@ -363,6 +363,39 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
   return false;
 }
 
+// ---- lead-in ------------------------------------------------------------------------------------------
+
+// A start moving at `heading`: puts a point `length` ahead along it after the start, the longest of a few
+// candidates (halving down to 0.5 m) whose two new edges are collision free with `min_clearance` and
+// whose corner at the new point is at most a right angle and can be rounded at `turn_radius` (both edges
+// at least radius x tan(corner / 2) long: a tighter corner is a near stop, and the tracker then deviates). Returns the points unchanged when none is.
+std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double length, double turn_radius,
+                         const CollisionWorld& world, double min_clearance) {
+  if (points.size() < 2 || !(length > 0)) return points;
+  const Vec3 direction(std::cos(heading), std::sin(heading), 0.0);
+  const Vec3& start = points.front();
+  for (double l = length; l >= std::min(0.5, length) - 1e-9; l *= 0.5) {
+    const Vec3 ahead = start + l * direction;
+    // The first point after the start that lies beyond the lead-in (the ones it passes are dropped).
+    std::size_t next = 1;
+    while (next + 1 < points.size() && (points[next] - start).dot(direction) <= l) ++next;
+    const Vec3 onward = points[next] - ahead;
+    if (onward.norm() < 1e-6) continue;
+    // The corner at the new point must be roundable at the turn radius: a tighter one is a near stop.
+    const double corner = std::acos(std::clamp(onward.normalized().dot(direction), -1.0, 1.0));
+    const double tangent = turn_radius * std::tan(0.5 * corner);
+    if (corner > 0.5 * std::numbers::pi || l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) continue;
+    if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !world.isSegmentFree(ahead, points[next])) continue;
+    const double need = std::min(min_clearance, world.clearance(start));
+    if (!clearanceAtLeast(world, start, ahead, need) || !clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next]))))
+      continue;
+    std::vector<Vec3> out{start, ahead};
+    out.insert(out.end(), points.begin() + static_cast<std::ptrdiff_t>(next), points.end());
+    return out;
+  }
+  return points;
+}
+
 // ---- time parametrisation ------------------------------------------------------------------------
 
 struct Profile {
@@ -405,12 +438,14 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
     cap[i] = std::min(cap[i], limit);
     cap[i + 1] = std::min(cap[i + 1], limit);
   }
-  cap.front() = cap.back() = 0.0;  // start and end at rest
+  cap.front() = std::min(cap.front(), cfg.initial_speed);  // start at the vehicle's speed (0: at rest)
+  cap.back() = 0.0;                                        // end at rest
 
   // Forward-backward pass: the fastest profile under the caps with |ds/dt change| <= max_accel.
   Profile prof;
   auto& v = prof.speed;
   v.assign(n, 0.0);
+  v.front() = cap.front();
   for (std::size_t i = 0; i + 1 < n; ++i) v[i + 1] = std::min(cap[i + 1], std::sqrt(v[i] * v[i] + 2 * cfg.max_accel * ds[i]));
   for (std::size_t i = n - 1; i-- > 0;) v[i] = std::min(v[i], std::sqrt(v[i + 1] * v[i + 1] + 2 * cfg.max_accel * ds[i]));
 
@@ -547,9 +582,11 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   if (config.shortcut) points = shortcutPolyline(points, world, config.shortcut_clearance);
   points = keepAwayFromObstacles(points, world, config.clearance_target, 0.5, config.end_tolerance);
   points = dropCollinear(points);
+  const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
+  if (config.initial_speed > 0 && config.initial_heading)
+    points = leadIn(points, *config.initial_heading, std::max(2 * radius, 1.0), radius, world, config.shortcut_clearance);
   traj.report.shortcut_waypoints = points.size();
 
-  const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
   Corners corners = makeCorners(points, radius, world, config.clearance_target);
   const double step = std::min(0.05, world.checkResolution());
 

@@ -180,7 +180,32 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
   return cmd;
 }
 
-ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& world) const {
+double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {
+  if (!position.allFinite() || !(within_s > 0) || status_.updates > 0) return 0.0;
+  const auto& s = trajectory_.samples;
+  // The nearest point of the trajectory's first within_s seconds; a later part passing nearby (a loop
+  // back) is not considered.
+  double best_d = std::numeric_limits<double>::infinity();
+  double best_time = 0.0;
+  std::size_t best_segment = 0;
+  for (std::size_t i = 0; i + 1 < s.size() && s[i].time <= within_s; ++i) {
+    const Vec3 a = s[i].position, ab = s[i + 1].position - a;
+    const double len2 = ab.squaredNorm();
+    const double f = len2 > 0 ? std::clamp((position - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    const double d = (position - (a + f * ab)).norm();
+    if (d < best_d - 1e-9) {
+      best_d = d;
+      best_time = s[i].time + f * (s[i + 1].time - s[i].time);
+      best_segment = i;
+    }
+  }
+  if (best_time <= 0.0) return 0.0;
+  status_.reference_time = std::min(best_time, trajectory_.duration());
+  last_segment_ = best_segment;
+  return status_.reference_time;
+}
+
+ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& world, double min_horizon_s) const {
   ReplanDecision out;
   if (status_.goal_reached) return out;
   if (std::abs(status_.cross_track_error) > config_.replan_deviation) {
@@ -191,7 +216,8 @@ ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& wor
     return out;
   }
   const auto& s = trajectory_.samples;
-  const double until = status_.reference_time + config_.replan_horizon;
+  const double horizon = std::isfinite(min_horizon_s) ? std::max(config_.replan_horizon, min_horizon_s) : config_.replan_horizon;
+  const double until = status_.reference_time + horizon;
   for (std::size_t i = last_segment_; i < s.size() && s[i].time <= until; ++i) {
     if (world.isFree(s[i].position)) continue;
     std::ostringstream m;

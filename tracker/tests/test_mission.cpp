@@ -119,6 +119,19 @@ TEST(Mission, UnansweredRequestIsRepeatedAfterItsTimeoutAndCounted) {
   EXPECT_EQ(m.attempts(), 2);
 }
 
+// On a sped-up clock the planner's wall-time budget lasts longer in mission seconds: the answer timeout
+// grows with the clock's speed (at speed 4 a 3 s wall timeout is 12 simulated seconds).
+TEST(Mission, AnswerTimeoutFollowsTheClockSpeed) {
+  Mission m = started();
+  m.setClockSpeed(4.0);
+  EXPECT_DOUBLE_EQ(m.config().answerTimeoutS(), 12.0);
+  EXPECT_EQ(m.update(11 * kSecond, at(0), true, std::nullopt).action, MissionAction::Wait);
+  EXPECT_EQ(m.update(12 * kSecond + 1000, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  m.setClockSpeed(std::nan(""));  // ignored
+  m.setClockSpeed(0.0);           // ignored
+  EXPECT_DOUBLE_EQ(m.config().answerTimeoutS(), 12.0);
+}
+
 TEST(Mission, GivesUpAfterMaxAttemptsWithoutAnswers) {
   Mission m = started();  // attempt 1 at t = 0
   std::int64_t t = 0;

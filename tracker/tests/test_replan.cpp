@@ -107,6 +107,11 @@ TEST(ReplanGate, OnlyTheHorizonIsChecked) {
   EXPECT_GT(d.penetration, 0.5);  // the sample is inside the 1 m sphere
   ReplanGate gate;
   EXPECT_EQ(gate.check(d, s.trajectory, 0).action, ReplanAction::ReplanAhead);
+  // The caller's planning time widens a short horizon (never narrows one): a slow plan needs the block
+  // seen earlier.
+  EXPECT_TRUE(near.checkReplan(*block, t_block + 1.0).needed);
+  EXPECT_FALSE(near.checkReplan(*block, 2.0).needed);
+  EXPECT_TRUE(far.checkReplan(*block, 2.0).needed);
 }
 
 TEST(ReplanGate, RefusesBadPolicies) {

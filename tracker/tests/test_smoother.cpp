@@ -275,3 +275,46 @@ TEST(Smoother, GrazingPlannerEdgeGetsADetour) {
   for (const auto& s : t.samples) EXPECT_TRUE(world.isFree(s.position));
   EXPECT_GE(t.report.min_clearance, 0.0);
 }
+
+// A replan ahead starts moving: with initial_speed the trajectory begins at that speed, tangent to the
+// vehicle's heading through a lead-in (no turn in place), where the start at rest would stop the vehicle.
+TEST(Smoother, AMovingStartKeepsItsSpeedAndHeading) {
+  const auto sc = scenario2d(60, 0.3, "");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = limits(2.0, 0.5);
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;
+  const auto path = pathOf({{5, 5, 0}, {20, 15, 0}, {40, 15, 0}});  // first edge 34 degrees off the heading
+  const Trajectory at_rest = smoothPath(path, *world, l, cfg);
+  EXPECT_DOUBLE_EQ(at_rest.samples.front().speed, 0.0);
+  EXPECT_GT(std::abs(at_rest.initial_turn), 0.2);
+
+  cfg.initial_speed = 1.5;
+  const Trajectory moving = smoothPath(path, *world, l, cfg);
+  for (const auto& s : moving.samples) {  // expectDrivable, but for the start at rest
+    EXPECT_TRUE(world->isFree(s.position)) << "t=" << s.time;
+    EXPECT_LE(s.speed, l.v_max + 1e-9) << "t=" << s.time;
+    EXPECT_LE(std::abs(s.yaw_rate), l.omega_max + 1e-9) << "t=" << s.time;
+  }
+  EXPECT_EQ(moving.report.samples_in_collision, 0u);
+  EXPECT_NEAR(moving.samples.front().speed, 1.5, 1e-6);
+  EXPECT_NEAR(moving.initial_turn, 0.0, 1e-6);
+  EXPECT_NEAR(moving.samples.front().heading, 0.0, 1e-6);
+  for (const auto& s : moving.samples)
+    if (s.time > 0 && s.time < moving.duration() - 3.0) EXPECT_GT(s.speed, 0.5) << "stopped at t=" << s.time;
+  EXPECT_LT(moving.duration(), at_rest.duration());
+}
+
+// No room for a lead-in (a wall right ahead of the heading): the trajectory starts at rest and turns.
+TEST(Smoother, AMovingStartWithoutRoomStartsAtRest) {
+  const auto sc = scenario2d(60, 0.3, "  - {type: box, min: [5.6, 0], max: [7, 60]}\n");  // 0.3 m of room ahead
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = limits(2.0, 0.5);
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;  // facing the wall
+  cfg.initial_speed = 1.5;
+  const Trajectory t = smoothPath(pathOf({{5, 5, 0}, {5, 30, 0}}), *world, l, cfg);
+  expectDrivable(t, *world, l, cfg);
+  EXPECT_DOUBLE_EQ(t.samples.front().speed, 0.0);
+  EXPECT_NEAR(std::abs(t.initial_turn), std::numbers::pi / 2, 1e-6);
+}

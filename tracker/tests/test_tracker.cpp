@@ -188,3 +188,31 @@ TEST(ClosedLoop, ThreeDimensionalClimb) {
   EXPECT_NEAR(r.track.back().position.z(), 3.0, 0.1);
   EXPECT_EQ(r.track_states_in_collision, 0u);
 }
+
+// A trajectory switched to late (planned from a predicted start the vehicle has passed) is followed from
+// the vehicle's projection, not from its start behind the vehicle.
+TEST(Tracker, SkipsToTheVehicleOnALateSwitch) {
+  auto sc = scenario2d(40, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;
+  cfg.initial_speed = 0.8;
+  auto traj = smoothPath(pathOf({{1, 5, 0}, {35, 5, 0}}), *world, *sc.vehicle, cfg);
+  VehicleState s;
+  s.position = {3.0, 5.05, 0};  // 2 m past the start
+  s.v = 0.8;
+  TrajectoryTracker late(traj, *sc.vehicle);
+  const double skipped = late.skipToVehicle(s.position, 5.0);
+  EXPECT_GT(skipped, 1.0);
+  EXPECT_NEAR(traj.at(skipped).position.x(), 3.0, 0.05);
+  late.update(s, 0.05);
+  EXPECT_NEAR(late.status().along_track_error, 0.0, 0.1);
+  // Only the first within_s seconds are searched, and not once the trajectory is being followed.
+  TrajectoryTracker bounded(traj, *sc.vehicle);
+  EXPECT_LT(bounded.skipToVehicle({30.0, 5.0, 0}, 2.0), 2.0 + 0.1);
+  EXPECT_DOUBLE_EQ(late.skipToVehicle({20.0, 5.0, 0}, 30.0), 0.0);
+  // A vehicle at (or behind) the start skips nothing.
+  TrajectoryTracker on_time(traj, *sc.vehicle);
+  EXPECT_DOUBLE_EQ(on_time.skipToVehicle({0.5, 5.0, 0}, 5.0), 0.0);
+  EXPECT_DOUBLE_EQ(on_time.status().reference_time, 0.0);
+}

@@ -158,7 +158,7 @@ Transport resolveTransport(const ParticipantOptions& options) {
     std::string identity = options.identity;
     if (identity.empty()) identity = options.name.starts_with("ddsnav-") ? options.name.substr(7) : options.name;
     try {
-      t.security = security::credentialsFor(dir, identity);
+      t.security = security::credentialsFor(dir, identity, std::string(vendorName(options.vendor)));
     } catch (const security::SecurityError& e) {
       throw BusError(std::string("security: ") + e.what() + "; participant '" + options.name + "' not created");
     }

@@ -36,16 +36,33 @@ std::string domainConfig(const Transport& t) {
 std::string errorText(dds_return_t rc) { return dds_strretcode(rc); }
 
 // A domain's configuration is fixed when the process first creates it; later participants share it, so
-// one with other network settings is refused rather than silently given the first one's.
-void ensureDomain(int domain_id, const Transport& transport) {
-  static std::mutex mutex;
-  static std::map<int, std::string> created;
+// one with other network settings is refused rather than silently given the first one's. The domain is
+// deleted with its last participant: its threads (receive, timed events, the security plugins' handshakes
+// and encryption) must be gone before main returns, or they run on while exit handlers tear down what
+// they use -- OpenSSL's OPENSSL_cleanup freed the cipher tables under a secured launcher's send thread
+// (SIGSEGV after a clean shutdown, docs/security.md).
+struct DomainUse {
+  std::string config;
+  dds_entity_t entity = 0;  // 0: it existed already (not ours to delete)
+  int participants = 0;
+};
+std::mutex& domainsMutex() {
+  static auto* mutex = new std::mutex;  // never destroyed: a participant may outlive static destructors
+  return *mutex;
+}
+std::map<int, DomainUse>& domains() {
+  static auto* map = new std::map<int, DomainUse>;
+  return *map;
+}
+
+void acquireDomain(int domain_id, const Transport& transport) {
   const std::string config = domainConfig(transport);
-  std::lock_guard lock(mutex);
-  if (auto it = created.find(domain_id); it != created.end()) {
-    if (it->second != config)
+  std::lock_guard lock(domainsMutex());
+  if (auto it = domains().find(domain_id); it != domains().end()) {
+    if (it->second.config != config)
       throw BusError("Cyclone DDS domain " + std::to_string(domain_id) +
                      " already exists in this process with other network settings; one process uses one network per domain");
+    ++it->second.participants;
     return;
   }
   dds_entity_t domain = dds_create_domain(static_cast<dds_domainid_t>(domain_id), config.c_str());
@@ -53,7 +70,16 @@ void ensureDomain(int domain_id, const Transport& transport) {
     throw BusError("Cyclone DDS could not create domain " + std::to_string(domain_id) +
                    (transport.loopback() ? std::string() : " on network interface '" + transport.interface + "'") + ": " +
                    errorText(domain));
-  created.emplace(domain_id, config);
+  domains().emplace(domain_id, DomainUse{config, domain > 0 ? domain : 0, 1});
+}
+
+// After the participant's own dds_delete: the last one out deletes the domain, which joins its threads.
+void releaseDomain(int domain_id) {
+  std::lock_guard lock(domainsMutex());
+  auto it = domains().find(domain_id);
+  if (it == domains().end() || --it->second.participants > 0) return;
+  if (it->second.entity > 0) dds_delete(it->second.entity);
+  domains().erase(it);
 }
 
 // The builtin plugins (Debian installs them outside the library path; CMake found them) and the files.
@@ -242,12 +268,13 @@ class CycloneReader : public ReaderImpl {
 class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
  public:
   CycloneCore(const ParticipantOptions& options, const Transport& transport, DiscoverySink sink)
-      : sink_(std::move(sink)), secured_(transport.security.has_value()) {
-    ensureDomain(options.domain_id, transport);
+      : sink_(std::move(sink)), secured_(transport.security.has_value()), domain_id_(options.domain_id) {
+    acquireDomain(options.domain_id, transport);
     QosHandle qos;
     dds_qset_entity_name(qos.qos, options.name.c_str());
     if (transport.security) addSecurity(qos.qos, *transport.security);
     participant_ = dds_create_participant(static_cast<dds_domainid_t>(options.domain_id), qos.qos, nullptr);
+    if (participant_ < 0) releaseDomain(domain_id_);
     if (participant_ < 0)
       throw BusError("Cyclone DDS could not create a participant on domain " + std::to_string(options.domain_id) +
                      (transport.security ? " with DDS Security (" + transport.security->identity_certificate + ")" : "") +
@@ -259,6 +286,7 @@ class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
   ~CycloneCore() {
     dds_delete(participant_);  // and everything in it, waiting for running listeners
     for (auto& [name, st] : sertypes_) ddsi_sertype_unref(const_cast<ddsi_sertype*>(st));
+    releaseDomain(domain_id_);
   }
 
   std::shared_ptr<WriterImpl> createWriter(const EndpointSpec& spec) {
@@ -384,6 +412,7 @@ class CycloneCore : public std::enable_shared_from_this<CycloneCore> {
 
   DiscoverySink sink_;
   bool secured_ = false;
+  int domain_id_ = 0;
   dds_entity_t participant_ = 0;
   std::mutex mutex_;
   std::map<std::string, dds_entity_t> topics_;

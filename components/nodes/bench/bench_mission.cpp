@@ -180,7 +180,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> scenarios;
   std::string configs = std::string(DDSNAV_SOURCE_DIR) + "/configs";
   std::string out_dir = "out/bench-mission";
-  std::string planner_name = "gart";
+  std::string planner_name = "gart-lazy";
   double speed = 4.0;
   int domain = 140;
   double oracle_budget = 5.0;

@@ -16,6 +16,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <optional>
@@ -31,6 +32,10 @@ struct Observations {
   std::vector<msg::Path> paths;
   std::optional<msg::Trajectory> trajectory;
   std::optional<msg::TrackingStatus> status;
+  // |cross-track error| over every control/tracking sample heard: the tracker's own mean and max start over
+  // with each trajectory, the run's cover all of them.
+  double cross_track_sum = 0.0, cross_track_max = 0.0;
+  std::size_t cross_track_samples = 0;
   std::optional<msg::OccupancyMap> map;
   std::string failure;  // "component: detail" of the first component that reported LIFECYCLE_FAILED
   std::size_t clouds = 0;
@@ -68,8 +73,8 @@ nodes::RunObservations toRunObservations(const std::string& scenario, double ela
   }
   run.track = seen.track;
   if (seen.status)
-    run.tracking = nodes::TrackingSummary{seen.status->mean_cross_track_error(), seen.status->max_cross_track_error(),
-                                          seen.status->progress()};
+    run.tracking = nodes::TrackingSummary{seen.cross_track_sum / static_cast<double>(std::max<std::size_t>(1, seen.cross_track_samples)),
+                                          seen.cross_track_max, seen.status->progress()};
   if (seen.map) run.map = nodes::MapSummary{seen.map->octree().size(), seen.map->resolution()};
   return run;
 }
@@ -150,6 +155,9 @@ class MonitorComponent : public runtime::Component {
     subs_.push_back(subscribe(runtime::topics::tracking, [this](const msg::TrackingStatus& m) {
       if (const auto error = nodes::checkTrackingStatus(m); !error.empty()) return bad_statuses_.drop(error);
       seen_.status = m;
+      seen_.cross_track_sum += std::abs(m.cross_track_error());
+      seen_.cross_track_max = std::max(seen_.cross_track_max, std::abs(m.cross_track_error()));
+      ++seen_.cross_track_samples;
     }));
     // Only the map's size and resolution are reported: those are checked (its octree is the planner's business).
     subs_.push_back(subscribe(runtime::topics::octomap, [this](const msg::OccupancyMap& m) {

@@ -105,11 +105,21 @@ class PlannerComponent : public runtime::Component {
     }
     if (!world)
       return fail(request, kind_ == nodes::WorldKind::Map     ? "no map/octomap received yet"
-                           : kind_ == nodes::WorldKind::Fused ? "no map/octomap and perception/obstacles received yet"
+                           : kind_ == nodes::WorldKind::Fused ? "no perception/obstacles received yet, or still waiting for the first map/octomap (first_map_wait_s)"
                                                               : "no perception/obstacles received yet");
     planner::PlanProblem problem;
     problem.world = world.get();
     problem.start = nodes::fromMsg(request.start());
+    // A vehicle right next to a mapped surface is "in collision" with the map's voxels while it physically
+    // is not (docs/world-model.md): plan from the nearest free state within the robot radius instead.
+    if (const double reach = scenario_.robot_radius; reach > 0.0 && !world->isFree(problem.start.position)) {
+      if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0)) {
+        spdlog::info("request {}: the start ({:.2f}, {:.2f}, {:.2f}) is in collision in the planner's world; planning from the nearest "
+                     "free state, {:.2f} m away", request.request_id(), problem.start.position.x(), problem.start.position.y(),
+                     problem.start.position.z(), (*moved - problem.start.position).norm());
+        problem.start.position = *moved;
+      }
+    }
     problem.goal = nodes::fromMsg(request.goal()).position;
     problem.goal_radius = request.goal_radius();
     problem.vehicle = scenario_.vehicle;

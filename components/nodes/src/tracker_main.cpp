@@ -4,7 +4,10 @@
 // obstacles truly block the rest of the trajectory within the horizon (tracker::ReplanGate: hysteresis,
 // and a start predicted along the trajectory, which the vehicle keeps flying meanwhile). The mission's
 // decisions (when to ask, retry, give up, when the goal is reached) are tracker::Mission's; this file
-// carries them out.
+// carries them out. The slow steps — the replan check against a world snapshot and smoothing a new path —
+// run on a worker (std::async) so that the control loop keeps commanding the vehicle at its rate meanwhile:
+// a control loop blocked for a second at speed 4 leaves the vehicle on its last command for 4 simulated
+// seconds (it drove into an obstacle that way).
 
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
@@ -20,6 +23,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <optional>
 
 using namespace ddsnav;
@@ -41,7 +45,7 @@ class TrackerComponent : public runtime::Component {
     tracker::SmootherConfig smoother;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
-          planner(p.declare<std::string>("planner", "gart", {.doc = "planner asked for in each request (docs/planners.md)"})),
+          planner(p.declare<std::string>("planner", "gart-lazy", {.doc = "planner asked for in each request (docs/planners.md)"})),
           world(p),
           control_rate_hz(p.declare<double>("control_rate_hz", 20.0, {.above = 0, .max = 1000, .unit = "Hz", .doc = "controller rate"})),
           time_budget_s(p.declare<double>("time_budget_s", 5.0, {.above = 0, .unit = "s", .doc = "time budget of each plan request"})),
@@ -130,13 +134,25 @@ class TrackerComponent : public runtime::Component {
     if (!d.warning.empty()) spdlog::warn("{}", d.warning);
     switch (d.action) {
       case tracker::MissionAction::RequestPlan: {
+        tracker::VehicleState from = d.from;
+        std::optional<tracker::TrajectorySample> ahead;
+        // A retry (or a repeat of a lost request) while the vehicle flies on: like a replan ahead, it starts
+        // where the vehicle will be on its trajectory when the plan is ready, not where it is now.
+        if (mission_.driving() && follower_ && (d.reason == "retrying" || d.reason == "no answer")) {
+          const double at = follower_->status().reference_time + replan_gate_.expectedPlanningTime();
+          if (at < follower_->trajectory().duration()) {
+            ahead = follower_->trajectory().at(at);
+            from.position = ahead->position;
+            from.heading = tracker::wrapAngle(ahead->heading);
+          }
+        }
         msg::PlanRequest request;
         msg::Header header;
         header.stamp_ns(clock().nowNs());
         header.frame_id(nodes::kWorldFrame);
         request.header(header);
         request.request_id(d.request_id);
-        request.start(nodes::toMsg(planner::State{d.from.position, d.from.heading}));
+        request.start(nodes::toMsg(planner::State{from.position, from.heading}));
         request.goal(nodes::toMsg(planner::State{scenario_.goal, 0.0}));
         request.goal_radius(scenario_.goal_radius);
         request.planner(params_.planner);
@@ -145,8 +161,10 @@ class TrackerComponent : public runtime::Component {
         request.reason(d.reason);
         spdlog::info("requesting plan {} with {} ({})", d.request_id, params_.planner, d.reason);
         requested_at_ns_ = clock().nowNs();
-        request_heading_ = d.from.heading;
+        request_heading_ = from.heading;
+        request_speed_ = ahead ? ahead->speed : 0.0;  // a replan ahead sets its predicted speed after this
         switch_at_.reset();  // set again by a replan ahead, after this
+        if (ahead) switch_at_ = ahead->time;
         next_trajectory_.reset();
         requests_.publish(request);
         return false;
@@ -158,39 +176,111 @@ class TrackerComponent : public runtime::Component {
     }
   }
 
-  // The answer to the current request, smoothed into the trajectory to follow; false when it cannot be.
-  bool smooth(const msg::Path& path, const tracker::VehicleState& state) {
-    try {
-      auto world = currentWorld(state.position);
-      if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
-      smoother_config_.initial_heading = request_heading_;
-      const auto smooth_started = std::chrono::steady_clock::now();
-      auto trajectory = tracker::smoothPath(nodes::statesOf(path), *world, limits_, smoother_config_);
-      if (const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - smooth_started).count(); took > 0.25)
-        spdlog::warn("smoothing plan {} took {:.3f} s: the vehicle held its last command meanwhile", path.request_id(), took);
-      const double latency = static_cast<double>(clock().nowNs() - requested_at_ns_) * 1e-9;
-      spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, ready {:.3f} s after its request",
-                   path.request_id(), trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
-                   trajectory.report.min_clearance, latency);
-      replan_gate_.planReady(latency);
-      if (follower_ && switch_at_ && follower_->status().reference_time < *switch_at_) {
-        next_trajectory_ = std::move(trajectory);
-        next_since_ns_ = clock().nowNs();
-      } else {
-        switchTrajectory(std::move(trajectory), path.request_id());
-        switch_at_.reset();
+  struct Smoothed {
+    std::uint32_t request_id = 0;
+    std::optional<tracker::Trajectory> trajectory;  // none: it could not be smoothed (logged)
+  };
+
+  // Smooths the answer to the current request on the worker; adoptSmoothed() takes the result.
+  void startSmoothing(const msg::Path& path, const tracker::VehicleState& state) {
+    smoother_config_.initial_heading = request_heading_;
+    smoother_config_.initial_speed = request_speed_;
+    smoothing_ = std::async(std::launch::async, [this, states = nodes::statesOf(path), id = path.request_id(),
+                                                 position = state.position, config = smoother_config_] {
+      Smoothed out{id, std::nullopt};
+      try {
+        auto world = currentWorld(position);
+        if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
+        out.trajectory = tracker::smoothPath(states, *world, limits_, config);
+      } catch (const std::exception& e) {
+        spdlog::warn("cannot smooth plan {}: {}", id, e.what());
       }
-      return true;
-    } catch (const std::exception& e) {
-      spdlog::warn("cannot smooth plan {}: {}", path.request_id(), e.what());
-      return false;
-    }
+      return out;
+    });
   }
 
-  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id) {
+  // The smoothed answer becomes the trajectory to follow (now, or at its predicted start); false when it
+  // could not be smoothed.
+  bool adoptSmoothed(Smoothed smoothed, const tracker::VehicleState& state) {
+    if (!smoothed.trajectory) return false;
+    auto& trajectory = *smoothed.trajectory;
+    // A plan from a predicted start the vehicle reaches at speed must be flown through; one that starts at
+    // rest (no lead-in along the heading was free) would make it overshoot its start. Asked again (ahead, or
+    // from rest once the block is close enough to stop for it).
+    if (request_speed_ > 0.5 && trajectory.samples.front().speed < 0.1) {
+      spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown", smoothed.request_id, request_speed_);
+      return false;
+    }
+    const double latency = static_cast<double>(clock().nowNs() - requested_at_ns_) * 1e-9;
+    spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s, ready {:.3f} s after its request",
+                 smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
+                 trajectory.report.min_clearance, trajectory.samples.front().speed, latency);
+    replan_gate_.planReady(latency);
+    if (follower_ && switch_at_ && follower_->status().reference_time < *switch_at_) {
+      next_trajectory_ = std::move(trajectory);
+      next_since_ns_ = clock().nowNs();
+    } else {
+      switchTrajectory(std::move(trajectory), smoothed.request_id, state);
+      switch_at_.reset();
+    }
+    return true;
+  }
+
+  static constexpr double kAtRest = 0.05;  // m/s: the vehicle has stopped
+
+  // The clock's speed (simulated seconds per wall second) over the last few seconds, for the mission's
+  // answer timeout: the planner's budget is wall time.
+  void measureClockSpeed() {
+    const auto wall = std::chrono::steady_clock::now();
+    const std::int64_t now = clock().nowNs();
+    if (speed_window_clock_ns_ == 0) {
+      speed_window_clock_ns_ = now, speed_window_wall_ = wall;
+      return;
+    }
+    const double wall_s = std::chrono::duration<double>(wall - speed_window_wall_).count();
+    if (wall_s < 3.0) return;
+    mission_.setClockSpeed(static_cast<double>(now - speed_window_clock_ns_) * 1e-9 / wall_s);
+    speed_window_clock_ns_ = now, speed_window_wall_ = wall;
+  }
+
+  template <class T>
+  static bool ready(const std::future<T>& f) {
+    return f.valid() && f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  }
+
+  // The replan check of the trajectory being flown, on the worker: a copy of the follower (its trajectory
+  // and where it is on it), checked against a world snapshot at the vehicle's position.
+  struct Checked {
+    std::uint64_t trajectory_serial = 0;
+    double reference_time = 0.0;
+    tracker::ReplanDecision decision;
+    double took_s = 0.0;
+  };
+  void startCheck(const tracker::VehicleState& state) {
+    // At least as far ahead as a plan takes, twice, plus the stop margin: a slow vehicle with a long-range
+    // sensor (the AUV: 2 m/s, a 200 m sonar; a plan of 600 m took 49 simulated seconds at speed 10) must
+    // see the block while there is time to plan around it ahead.
+    const double horizon = 2 * replan_gate_.expectedPlanningTime() + params_.replan.stop_margin_s;
+    checking_ = std::async(std::launch::async, [this, follower = *follower_, serial = trajectory_serial_, position = state.position, horizon] {
+      const auto started = std::chrono::steady_clock::now();
+      Checked out{serial, follower.status().reference_time, {}, 0.0};
+      if (const auto world = currentWorld(position)) out.decision = follower.checkReplan(*world, horizon);
+      out.took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      return out;
+    });
+  }
+
+  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id, const tracker::VehicleState& state) {
     trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
     follower_.emplace(std::move(trajectory), limits_, params_.tracker);
+    ++trajectory_serial_;  // a check still running on the previous one is stale
     replan_gate_.reset();
+    // A plan from a predicted start that came later than predicted: the vehicle has flown past that start
+    // meanwhile, so the reference begins at the vehicle's projection, not behind it.
+    if (request_speed_ > 0) {
+      const double skipped = follower_->skipToVehicle(state.position, 2.0 * replan_gate_.expectedPlanningTime() + 2.0);
+      if (skipped > 0) spdlog::info("trajectory {}: the switch came late, the reference starts {:.2f} s in, at the vehicle", request_id, skipped);
+    }
   }
 
   void control() {
@@ -208,8 +298,30 @@ class TrackerComponent : public runtime::Component {
       planner_seen_ = true;
     }
     const std::optional<tracker::VehicleState> state = vehicle_;
+    measureClockSpeed();
+    if (stopping_for_ && state) {
+      stop();
+      const double stopping_s = static_cast<double>(clock().nowNs() - stopping_since_ns_) * 1e-9;
+      if (std::abs(state->v) > kAtRest && stopping_s < 10.0) return;
+      act(mission_.replan(clock().nowNs(), *state, *stopping_for_));
+      stopping_for_.reset();
+      return;
+    }
+    std::optional<tracker::MissionDecision> decision;
+    // A smoothing finished on the worker: the mission hears whether it gave a trajectory (a result for an
+    // older request than the current one is stale and dropped).
+    if (ready(smoothing_) && state) {
+      Smoothed smoothed = smoothing_.get();
+      if (smoothed.request_id == mission_.requestId()) decision = mission_.pathSmoothed(clock().nowNs(), *state, adoptSmoothed(std::move(smoothed), *state));
+    }
+    if (!decision) decision = missionUpdate(state);
+    if (!act(*decision)) return;
+    drive(*state, dt);
+  }
+
+  tracker::MissionDecision missionUpdate(const std::optional<tracker::VehicleState>& state) {
     std::optional<msg::Path> path;
-    path.swap(new_path_);
+    if (!smoothing_.valid()) path.swap(new_path_);  // one answer at a time: a newer one waits for the smoothing
     std::optional<tracker::PlanAnswer> answer;
     if (path) {
       answer.emplace();
@@ -225,12 +337,19 @@ class TrackerComponent : public runtime::Component {
       }
     }
     auto decision = mission_.update(clock().nowNs(), state, world_source_.available(), answer);
-    if (decision.action == tracker::MissionAction::SmoothPath) decision = mission_.pathSmoothed(clock().nowNs(), *state, smooth(*path, *state));
-    if (!act(decision)) return;
+    if (decision.action != tracker::MissionAction::SmoothPath) return decision;
+    startSmoothing(*path, *state);
+    // Meanwhile the vehicle keeps flying the current trajectory (a replan ahead), or stays stopped.
+    tracker::MissionDecision meanwhile;
+    meanwhile.action = mission_.driving() && follower_ ? tracker::MissionAction::Drive : tracker::MissionAction::Wait;
+    return meanwhile;
+  }
 
+  void drive(const tracker::VehicleState& current, double dt) {
+    const std::optional<tracker::VehicleState> state = current;
     if (next_trajectory_ && (follower_->status().reference_time >= *switch_at_ ||
                              static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > 2.0)) {
-      switchTrajectory(std::move(*next_trajectory_), mission_.requestId());
+      switchTrajectory(std::move(*next_trajectory_), mission_.requestId(), *state);
       next_trajectory_.reset();
       switch_at_.reset();
     }
@@ -258,29 +377,45 @@ class TrackerComponent : public runtime::Component {
       stop();
       follower_.reset();
       act(next);
-    } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory_) {
-      const auto check_started = std::chrono::steady_clock::now();
-      const auto world = currentWorld(state->position);
-      const auto replan = world ? follower_->checkReplan(*world) : tracker::ReplanDecision{};
-      if (const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - check_started).count(); took > 0.25)
-        spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check): the vehicle held its last command meanwhile", took);
+    } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory_ && !checking_.valid()) {
+      startCheck(*state);
+    }
+    if (ready(checking_)) {
+      Checked checked = checking_.get();
+      if (checked.took_s > 1.0) spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check)", checked.took_s);
+      // Only a check of the trajectory still flown counts, and only while no new one waits for its switch;
+      // while one is smoothed only a stop counts (react).
+      if (follower_ && checked.trajectory_serial == trajectory_serial_ && !next_trajectory_) react(checked, *state);
+    }
+  }
+
+  void react(Checked checked, const tracker::VehicleState& current) {
+    const std::optional<tracker::VehicleState> state = current;
+    {
+      // The vehicle flew on while the check ran: the blocked sample is that much closer.
+      auto replan = checked.decision;
+      replan.time_ahead = std::max(0.0, replan.time_ahead - (follower_->status().reference_time - checked.reference_time));
       const auto verdict = replan_gate_.check(replan, follower_->trajectory(), follower_->status().reference_time);
       if (verdict.action == tracker::ReplanAction::StopAndReplan) {
+        // Stop, and ask from where the vehicle comes to rest: a plan from where it started braking would
+        // begin metres behind it (v^2 / 2a), and one still on its way from a predicted start ahead would
+        // begin where it never arrives. A newer request supersedes that one.
         stop();
         follower_.reset();
         switch_at_.reset();
-        if (mission_.awaitingPlan()) {  // a plan is on its way already: wait for it here
-          spdlog::warn("stopping to wait for plan {}: {}", mission_.requestId(), verdict.reason);
-          mission_.hold();
-        } else {
-          act(mission_.replan(clock().nowNs(), *state, verdict.reason));
-        }
-      } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan()) {
+        next_trajectory_.reset();
+        mission_.hold();
+        if (mission_.awaitingPlan()) spdlog::warn("stopping; plan {} is superseded: {}", mission_.requestId(), verdict.reason);
+        stopping_for_ = verdict.reason;
+        stopping_since_ns_ = clock().nowNs();
+      } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan() && !smoothing_.valid()) {
         tracker::VehicleState from = *state;
         from.position = verdict.start.position;
         from.heading = tracker::wrapAngle(verdict.start.heading);
+        from.v = verdict.start.speed;
         act(mission_.replanAhead(clock().nowNs(), from, verdict.reason));
         switch_at_ = verdict.start.time;
+        request_speed_ = verdict.start.speed;
       }
     }
   }
@@ -301,12 +436,20 @@ class TrackerComponent : public runtime::Component {
   tracker::ReplanGate replan_gate_;
   std::int64_t requested_at_ns_ = 0;  // the current request's time, for the gate's planning-time estimate
   double request_heading_ = 0.0;      // its start heading: the new trajectory starts there
+  double request_speed_ = 0.0;        // and speed: > 0 for a replan ahead, flown through without a stop
   std::optional<tracker::TrajectoryTracker> follower_;
   // A replan from a predicted start: the new trajectory waits until the vehicle's reference on the current
   // one reaches that start (switch_at_, s of the current trajectory), so a plan ready early is not flown
   // from behind its start; a late one is switched to at once.
   std::optional<double> switch_at_;
   std::optional<tracker::Trajectory> next_trajectory_;
+  std::future<Smoothed> smoothing_;
+  std::optional<std::string> stopping_for_;  // a stop-and-replan's reason, until the vehicle is at rest
+  std::int64_t stopping_since_ns_ = 0;
+  std::int64_t speed_window_clock_ns_ = 0;
+  std::chrono::steady_clock::time_point speed_window_wall_;
+  std::future<Checked> checking_;
+  std::uint64_t trajectory_serial_ = 0;
   std::int64_t next_since_ns_ = 0;
   std::int64_t last_step_ns_ = 0;
   msg::TrackingStatus last_status_;

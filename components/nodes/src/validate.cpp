@@ -64,16 +64,25 @@ std::string checkObstacleArray(const msg::ObstacleArray& array, const std::strin
 }
 
 std::string checkOccupancyMap(const msg::OccupancyMap& map, const std::string& frame, const planner::Scenario& scenario) {
-  if (auto error = checkFrame(map.header(), frame); !error.empty()) return error;
-  if (!(map.resolution() > 0.0) || !std::isfinite(map.resolution()))
-    return fmt::format("resolution is {}, expected a positive finite number of metres", map.resolution());
+  return buildOccupancyMap(map, frame, scenario, planner::OctoMapWorldOptions{}).error;
+}
+
+CheckedMap buildOccupancyMap(const msg::OccupancyMap& map, const std::string& frame, const planner::Scenario& scenario,
+                             const planner::OctoMapWorldOptions& options) {
+  CheckedMap out;
+  if (out.error = checkFrame(map.header(), frame); !out.error.empty()) return out;
+  if (!(map.resolution() > 0.0) || !std::isfinite(map.resolution())) {
+    out.error = fmt::format("resolution is {}, expected a positive finite number of metres", map.resolution());
+    return out;
+  }
   // The octree bytes are only understood by parsing them: build the world the planner would build.
   try {
-    planner::makeOctoMapWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius, map.octree());
+    out.world = planner::makeOctoMapWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius,
+                                          map.octree(), options);
   } catch (const std::exception& e) {
-    return e.what();
+    out.error = e.what();
   }
-  return {};
+  return out;
 }
 
 std::string checkVehicleState(const msg::VehicleState& state, const std::string& frame) {

@@ -9,6 +9,32 @@
 
 namespace ddsnav::nodes {
 
+namespace {
+
+// A snapshot of the shared map world: the same answers, with its own validity-check count and check
+// resolution (segments are sampled here, so no user changes the shared world's setting).
+class SharedWorld final : public planner::CollisionWorld {
+ public:
+  explicit SharedWorld(std::shared_ptr<const planner::CollisionWorld> world) : world_(std::move(world)) {}
+  int dimensions() const override { return world_->dimensions(); }
+  planner::Vec3 boundsMin() const override { return world_->boundsMin(); }
+  planner::Vec3 boundsMax() const override { return world_->boundsMax(); }
+  double robotRadius() const override { return world_->robotRadius(); }
+  bool isFree(const planner::Vec3& p) const override {
+    countCheck();
+    return world_->isFree(p);
+  }
+  double clearance(const planner::Vec3& p) const override { return world_->clearance(p); }
+  std::vector<planner::NearbyObstacle> obstaclesNear(const planner::Vec3& p, double range) const override {
+    return world_->obstaclesNear(p, range);
+  }
+
+ private:
+  std::shared_ptr<const planner::CollisionWorld> world_;
+};
+
+}  // namespace
+
 WorldKind parseWorldKind(const std::string& text, const std::string& param) {
   if (text == "obstacles") return WorldKind::Obstacles;
   if (text == "map") return WorldKind::Map;
@@ -25,11 +51,22 @@ WorldParameters::WorldParameters(runtime::Parameters& params)
       unknown(planner::parseUnknownSpace(params.declare<std::string>(
           "unknown_space", "optimistic",
           {.doc = "how the map's never-observed space counts (map and fused worlds): free or occupied",
-           .choices = {"optimistic", "conservative"}}))) {}
+           .choices = {"optimistic", "conservative"}}))),
+      first_map_wait_s(params.declare<double>(
+          "first_map_wait_s", 5.0,
+          {.min = 0, .max = 3600, .unit = "s",
+           .doc = "fused world: how long after the first perception/obstacles it waits for the first map/octomap before it is planned on without one (optimistic only)"})) {}
+
+bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unknown, double since_first_obstacles_s,
+                     double first_map_wait_s) {
+  if (!has_obstacles) return false;
+  if (has_map) return true;
+  return unknown == planner::UnknownSpace::Optimistic && since_first_obstacles_s >= first_map_wait_s;
+}
 
 WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario)
-    : kind_(world.kind), scenario_(scenario), unknown_(world.unknown) {
-  // On the component's executor: the arrays and maps are checked there, not on a DDS thread.
+    : kind_(world.kind), scenario_(scenario), unknown_(world.unknown), first_map_wait_s_(world.first_map_wait_s), clock_(ctx.clock()) {
+  // On the component's executor: the arrays are checked there, not on a DDS thread.
   obstacles_sub_ = ctx.subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& a) {
     const auto error = checkObstacleArray(a, kWorldFrame);
     std::lock_guard lock(mutex_);
@@ -41,33 +78,48 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       return;
     }
     obstacles_ = a;
+    if (!first_obstacles_ns_) first_obstacles_ns_ = clock_.nowNs();
   });
   if (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) {
+    // A map is parsed into its world on the map worker: a 3-D octree takes long enough (tens to hundreds of
+    // ms) that doing it on the executor held up the planner's requests and the tracker's control loop. A
+    // newer map supersedes one still waiting to be built.
     map_sub_ = ctx.subscribe(runtime::topics::octomap, [this](const msg::OccupancyMap& m) {
-      // Parsed outside the lock: a large octree takes a while, and snapshot() must not wait for it.
-      const auto error = checkOccupancyMap(m, kWorldFrame, scenario_);
-      std::lock_guard lock(mutex_);
-      if (!error.empty()) {
-        ++dropped_maps_;
-        spdlog::warn("map/octomap: dropping a map of {} bytes (stamp {} ns): {}; keeping the {} ({} dropped so far)",
-                     m.octree().size(), m.header().stamp_ns(), error, map_ ? "last good map" : "world empty", dropped_maps_);
-        return;
-      }
-      map_ = m;
-      structure_stale_ = true;
+      map_worker_.submit(0, [this, m](std::stop_token stop) {
+        if (!stop.stop_requested()) buildMap(m);
+      });
     });
   }
 }
 
+void WorldSource::buildMap(const msg::OccupancyMap& m) {
+  planner::OctoMapWorldOptions options;
+  options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
+  auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, options);
+  std::lock_guard lock(mutex_);
+  if (!checked.error.empty()) {
+    ++dropped_maps_;
+    spdlog::warn("map/octomap: dropping a map of {} bytes (stamp {} ns): {}; keeping the {} ({} dropped so far)", m.octree().size(),
+                 m.header().stamp_ns(), checked.error, map_world_ ? "last good map" : "world empty", dropped_maps_);
+    return;
+  }
+  map_world_ = std::move(checked.world);
+}
+
 bool WorldSource::available() const {
   std::lock_guard lock(mutex_);
+  return availableLocked();
+}
+
+bool WorldSource::availableLocked() const {
   switch (kind_) {
     case WorldKind::Scenario: return true;
     case WorldKind::Obstacles: return obstacles_.has_value();
-    case WorldKind::Map: return map_.has_value();
-    // No map yet is all unknown space: free under the optimistic policy (the obstacles alone), blocked
-    // under the conservative one (nothing to plan in until the first map).
-    case WorldKind::Fused: return obstacles_.has_value() && (map_.has_value() || unknown_ == planner::UnknownSpace::Optimistic);
+    case WorldKind::Map: return map_world_ != nullptr;
+    case WorldKind::Fused: {
+      const double waited = first_obstacles_ns_ ? static_cast<double>(clock_.nowNs() - *first_obstacles_ns_) * 1e-9 : 0.0;
+      return fusedWorldReady(obstacles_.has_value(), map_world_ != nullptr, unknown_, waited, first_map_wait_s_);
+    }
   }
   return false;
 }
@@ -87,42 +139,25 @@ std::size_t WorldSource::droppedMaps() const {
   return dropped_maps_;
 }
 
-std::shared_ptr<const planner::CollisionWorld> WorldSource::structureLocked() const {
-  if (structure_stale_ && map_) {
-    planner::OctoMapWorldOptions options;
-    options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
-    const auto& s = scenario_;
-    structure_ = planner::makeOctoMapWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, map_->octree(), options);
-    structure_stale_ = false;
-  }
-  return structure_;
-}
-
 std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Vec3& robot_position) const {
   const auto& s = scenario_;
-  std::lock_guard lock(mutex_);
-  switch (kind_) {
-    case WorldKind::Scenario:
-      return planner::makeScenarioWorld(s);
-    case WorldKind::Obstacles:
-    case WorldKind::Fused: {
-      if (!obstacles_) return nullptr;
-      if (kind_ == WorldKind::Fused && !map_ && unknown_ == planner::UnknownSpace::Conservative) return nullptr;
-      auto ellipses = toEllipsoidObstacles(*obstacles_);
-      if (const auto cleared = clearFootprint(ellipses, robot_position, s.robot_radius, s.dimensions))
-        spdlog::debug("ignoring {} obstacle ellipse(s) that cover the robot", cleared);
-      auto obstacles = planner::makeEllipsoidWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, std::move(ellipses));
-      if (kind_ == WorldKind::Obstacles || !map_) return obstacles;
-      return planner::makeFusedWorld(structureLocked(), std::move(obstacles));
-    }
-    case WorldKind::Map: {
-      if (!map_) return nullptr;
-      planner::OctoMapWorldOptions options;
-      options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
-      return planner::makeOctoMapWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, map_->octree(), options);
-    }
+  std::shared_ptr<const planner::CollisionWorld> map_world;
+  std::vector<planner::EllipsoidObstacle> ellipses;
+  {
+    std::lock_guard lock(mutex_);
+    if (kind_ == WorldKind::Scenario) return planner::makeScenarioWorld(s);
+    if (!availableLocked()) return nullptr;
+    map_world = map_world_;
+    if (kind_ != WorldKind::Map) ellipses = toEllipsoidObstacles(*obstacles_);
   }
-  return nullptr;
+  // The map's world is shared and immutable: a Map snapshot is a view of it (its own validity-check
+  // count and check resolution), a Fused one pairs it with this snapshot's obstacles.
+  if (kind_ == WorldKind::Map) return std::make_unique<SharedWorld>(std::move(map_world));
+  if (const auto cleared = clearFootprint(ellipses, robot_position, s.robot_radius, s.dimensions))
+    spdlog::debug("ignoring {} obstacle ellipse(s) that cover the robot", cleared);
+  auto obstacles = planner::makeEllipsoidWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, std::move(ellipses));
+  if (kind_ == WorldKind::Obstacles || !map_world) return obstacles;
+  return planner::makeFusedWorld(std::move(map_world), std::move(obstacles));
 }
 
 }  // namespace ddsnav::nodes

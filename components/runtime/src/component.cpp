@@ -129,6 +129,12 @@ class ContextImpl : public Context {
     publishState(msg::LIFECYCLE_CONFIGURING);
   }
 
+  // The component's own name (the instance may be called otherwise): what the topic table lists.
+  void setComponent(const std::string& component) { component_ = component; }
+  void checkTopicUse(const std::string& name, TopicUse use) override {
+    if (const auto error = topicUseError(component_, name, use); !error.empty()) throw std::logic_error(error);
+  }
+
   const std::string& name() const override { return name_; }
   Parameters& params() override { return params_; }
   bus::Participant& bus() override { return *participant_; }
@@ -302,6 +308,7 @@ class ContextImpl : public Context {
   std::string ns_;
   std::map<std::string, std::string> remaps_;
   std::set<std::string> used_;
+  std::string component_;
 
   double heartbeat_period_ = 1.0;
   std::thread heartbeat_;
@@ -416,6 +423,7 @@ std::optional<int> prepare(const ComponentInfo& info, int argc, char** argv, boo
     else if (!peers.empty() || multicast)
       throw bus::BusError("--peers / --multicast need --network INTERFACE");
     out.ctx = std::make_unique<ContextImpl>(instance, Parameters::load(config, overrides), logger);
+    out.ctx->setComponent(name);
     out.ctx->setNames(ns, remaps);
   } catch (const std::exception& e) {
     logger->error("{}", e.what());

@@ -7,6 +7,7 @@
 #include <openssl/pem.h>
 #include <openssl/pkcs7.h>
 #include <openssl/rand.h>
+#include <openssl/sha.h>
 #include <openssl/x509.h>
 #include <openssl/x509v3.h>
 #include <tinyxml2.h>
@@ -241,27 +242,78 @@ std::string topicsXml(const char* element, const std::vector<std::string>& topic
   return x + "</topics></" + element + ">\n";
 }
 
-std::string permissionsXml(const Grant& grant, const Validity& validity) {
+struct CaFiles {
+  Cert cert;
+  Key key;
+};
+
+// One grant per certificate subject of the identity (its Fast DDS and its Cyclone DDS certificate), the
+// same rules in each.
+std::string permissionsXml(const Grant& grant, const std::vector<std::string>& common_names, const Validity& validity) {
   std::string x = std::string(kXmlHeader) + "permissions.xsd\">\n  <permissions>\n";
-  x += "    <grant name=\"" + xmlEscape(grant.name) + "\">\n";
-  x += "      <subject_name>CN=" + xmlEscape(grant.name) + "</subject_name>\n";
-  x += "      <validity><not_before>" + utcText(validity.not_before) + "</not_before><not_after>" +
-       utcText(validity.not_after) + "</not_after></validity>\n";
-  x += "      <allow_rule>\n" + domainsXml("        ") + topicsXml("publish", grant.publish) +
-       topicsXml("subscribe", grant.subscribe) + "      </allow_rule>\n";
-  x += "      <default>DENY</default>\n    </grant>\n  </permissions>\n</dds>\n";
+  for (const std::string& cn : common_names) {
+    x += "    <grant name=\"" + xmlEscape(cn) + "\">\n";
+    x += "      <subject_name>CN=" + xmlEscape(cn) + "</subject_name>\n";
+    x += "      <validity><not_before>" + utcText(validity.not_before) + "</not_before><not_after>" +
+         utcText(validity.not_after) + "</not_after></validity>\n";
+    x += "      <allow_rule>\n" + domainsXml("        ") + topicsXml("publish", grant.publish) +
+         topicsXml("subscribe", grant.subscribe) + "      </allow_rule>\n";
+    x += "      <default>DENY</default>\n    </grant>\n";
+  }
+  x += "  </permissions>\n</dds>\n";
   return x;
+}
+
+// Mixed vendors secured. DDS Security makes a participant's GUID prefix from its certificate: a 1 bit,
+// then the first 47 bits of SHA-256 over the subject name's DER. Of two participants the one with the
+// lower GUID starts the handshake, and the starter picks the key agreement: Fast DDS 2.9 always picks
+// DH+MODP-2048-256 (it has no property to choose; later releases do) and sends its public key in a form
+// Cyclone DDS 0.10 cannot decode ("Failed to convert octet sequence to ASN1 integer"), while Cyclone
+// picks ECDH, which both do. So every identity gets a certificate per vendor over the same key, the
+// subject's common name NAME or NAME.N with the first N that puts the hash's first byte below 0x80 for
+// Cyclone and at or above it for Fast DDS: every Cyclone participant's GUID is then lower than every
+// Fast DDS one's, and Cyclone starts every mixed handshake (docs/security.md, "Interoperability").
+bool subjectHashIsLow(X509* cert) {
+  unsigned char* der = nullptr;
+  const int size = i2d_X509_NAME(X509_get_subject_name(cert), &der);
+  if (size <= 0) throw SecurityError("cannot encode a certificate subject: " + opensslError());
+  unsigned char digest[SHA256_DIGEST_LENGTH];
+  SHA256(der, static_cast<std::size_t>(size), digest);
+  OPENSSL_free(der);
+  return digest[0] < 0x80;
+}
+
+struct VendorCertificate {
+  std::string common_name;
+  Cert cert;
+};
+
+VendorCertificate certificateWithLowHash(bool low, const std::string& name, EVP_PKEY* key, const CaFiles& ca,
+                                         const Validity& validity);
+
+// Whether `cn` names identity `name`: NAME itself, or NAME.N (a certificate ground for one vendor).
+bool commonNameOf(const std::string& cn, const std::string& name) {
+  if (cn == name) return true;
+  if (cn.size() <= name.size() + 1 || cn.compare(0, name.size(), name) != 0 || cn[name.size()] != '.') return false;
+  return cn.find_first_not_of("0123456789", name.size() + 1) == std::string::npos;
+}
+
+std::string commonNameOfCertificate(X509* cert) {
+  X509_NAME* name = X509_get_subject_name(cert);
+  const int at = X509_NAME_get_index_by_NID(name, NID_commonName, -1);
+  if (at < 0) return "";
+  const unsigned char* text = nullptr;
+  const int size = ASN1_STRING_to_UTF8(const_cast<unsigned char**>(&text), X509_NAME_ENTRY_get_data(X509_NAME_get_entry(name, at)));
+  if (size < 0) return "";
+  std::string cn(reinterpret_cast<const char*>(text), static_cast<std::size_t>(size));
+  OPENSSL_free(const_cast<unsigned char*>(text));
+  return cn;
 }
 
 void checkName(const std::string& name) {
   if (name.empty() || name.size() > 64 || name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_-") != std::string::npos)
     throw SecurityError("identity name '" + name + "': expected 1-64 characters of a-z, 0-9, '_' and '-'");
 }
-
-struct CaFiles {
-  Cert cert;
-  Key key;
-};
 
 CaFiles loadCa(const std::string& dir) {
   CaFiles ca{loadCertificate(dir + "/ca.pem", "CA certificate"), loadKey(dir + "/ca.key.pem")};
@@ -285,6 +337,17 @@ bool parseUtc(const char* text, std::time_t& out) {
   return true;
 }
 
+VendorCertificate certificateWithLowHash(bool low, const std::string& name, EVP_PKEY* key, const CaFiles& ca,
+                                         const Validity& validity) {
+  // Each try succeeds with probability 1/2; 64 failures in a row do not happen (2^-64).
+  for (int n = 0; n < 64; ++n) {
+    const std::string cn = n == 0 ? name : name + "." + std::to_string(n);
+    Cert cert = newCertificate(cn, key, ca.cert.get(), ca.key.get(), validity, false);
+    if (subjectHashIsLow(cert.get()) == low) return {cn, std::move(cert)};
+  }
+  throw SecurityError("no certificate subject for identity '" + name + "' hashes as needed (64 tries)");
+}
+
 }  // namespace
 
 Validity Validity::fromNow(int days) {
@@ -303,10 +366,12 @@ void addIdentity(const std::string& dir_text, const Grant& grant, const Validity
   fs::create_directories(id, ec);
   if (ec) throw SecurityError("cannot create '" + id.string() + "': " + ec.message());
   Key key = newKey();
-  Cert cert = newCertificate(grant.name, key.get(), ca.cert.get(), ca.key.get(), validity, false);
+  VendorCertificate fastdds = certificateWithLowHash(false, grant.name, key.get(), ca, validity);
+  VendorCertificate cyclone = certificateWithLowHash(true, grant.name, key.get(), ca, validity);
   writeFile(id / "key.pem", pemOf(key.get()), true);
-  writeFile(id / "cert.pem", pemOf(cert.get()));
-  const std::string permissions = permissionsXml(grant, validity);
+  writeFile(id / "cert.pem", pemOf(fastdds.cert.get()));
+  writeFile(id / "cert-cyclonedds.pem", pemOf(cyclone.cert.get()));
+  const std::string permissions = permissionsXml(grant, {fastdds.common_name, cyclone.common_name}, validity);
   writeFile(id / "permissions.xml", permissions);
   writeFile(id / "permissions.p7s", smimeSign(permissions, ca.cert.get(), ca.key.get()));
 }
@@ -357,6 +422,9 @@ void checkCredentials(const Credentials& c, const std::string& identity) {
 
   Cert cert = loadCertificate(c.identity_certificate, "identity certificate");
   checkValidityNow(cert.get(), c.identity_certificate, "identity certificate");
+  const std::string cn = commonNameOfCertificate(cert.get());
+  if (!commonNameOf(cn, identity))
+    throw SecurityError("identity certificate '" + c.identity_certificate + "' is for CN=" + cn + ", not identity '" + identity + "'");
   {
     Store store = storeWith(identity_ca.get());
     StoreCtx ctx(X509_STORE_CTX_new());
@@ -384,7 +452,7 @@ void checkCredentials(const Credentials& c, const std::string& identity) {
     throw SecurityError("permissions '" + c.permissions + "' do not parse as XML: " + perm.ErrorStr());
   const tinyxml2::XMLElement* grants = perm.RootElement() ? perm.RootElement()->FirstChildElement("permissions") : nullptr;
   if (grants == nullptr) throw SecurityError("permissions '" + c.permissions + "': expected <dds><permissions>");
-  const std::string subject = "CN=" + identity;
+  const std::string subject = "CN=" + cn;
   for (const auto* g = grants->FirstChildElement("grant"); g != nullptr; g = g->NextSiblingElement("grant")) {
     const auto* s = g->FirstChildElement("subject_name");
     if (s == nullptr || s->GetText() == nullptr || subject != s->GetText()) continue;
@@ -404,14 +472,16 @@ void checkCredentials(const Credentials& c, const std::string& identity) {
   throw SecurityError("permissions '" + c.permissions + "': no grant for subject " + subject);
 }
 
-Credentials credentialsFor(const std::string& dir_text, const std::string& identity) {
+Credentials credentialsFor(const std::string& dir_text, const std::string& identity, const std::string& vendor) {
   const fs::path dir = absoluteDir(dir_text);
   if (!fs::is_directory(dir)) throw SecurityError("security directory '" + dir.string() + "' does not exist");
   const fs::path id = dir / "identities" / identity;
   if (identity.empty() || !fs::is_directory(id))
     throw SecurityError("security directory '" + dir.string() + "' has no identity '" + identity + "' (expected " +
                         id.string() + "/; `ddsnav security init` creates one per component name)");
-  Credentials c{(dir / "ca.pem").string(),           (id / "cert.pem").string(),       (id / "key.pem").string(),
+  // Cyclone's own certificate where the directory has one (made before it: the shared one, mixed pairs may fail).
+  const fs::path cert = vendor == "cyclonedds" && fs::exists(id / "cert-cyclonedds.pem") ? id / "cert-cyclonedds.pem" : id / "cert.pem";
+  Credentials c{(dir / "ca.pem").string(),           cert.string(),                    (id / "key.pem").string(),
                 (dir / "ca.pem").string(),           (dir / "governance.p7s").string(), (id / "permissions.p7s").string()};
   checkCredentials(c, identity);
   return c;

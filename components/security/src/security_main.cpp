@@ -11,7 +11,7 @@ int main(int argc, char** argv) {
   CLI::App app{"ddsnav security: DDS Security credentials (docs/security.md)"};
   app.require_subcommand(1);
   std::string dir, identity;
-  security::InitOptions init;
+  security::InitOptions init{.grants = security::stockGrants()};
   auto* init_cmd = app.add_subcommand("init", "create a CA, identities, governance and permissions in DIR");
   init_cmd->add_option("DIR", dir, "directory to create")->required();
   init_cmd->add_option("--days", init.valid_days, "validity of identities and permissions, days")

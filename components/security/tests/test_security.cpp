@@ -1,14 +1,18 @@
 // The credentials directory: what `ddsnav security init` writes passes the checks a participant runs, and
 // each kind of bad input is refused with a message naming the file.
+#include <ddsnav/runtime/topics.hpp>
 #include <ddsnav/security/security.hpp>
 
 #include <gtest/gtest.h>
 #include <openssl/bio.h>
 #include <openssl/pem.h>
 #include <openssl/pkcs7.h>
+#include <openssl/sha.h>
+#include <openssl/x509.h>
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -23,7 +27,7 @@ class SecurityDir : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = fs::temp_directory_path() / ("ddsnav_security_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
-    security::initDirectory(dir_.string(), {});
+    security::initDirectory(dir_.string(), {.grants = security::stockGrants()});
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
   static fs::path dir_;
@@ -94,8 +98,90 @@ TEST_F(SecurityDir, PermissionsGrantExactlyTheTableTopicsAndDenyTheRest) {
   EXPECT_NE(governance.find("<data_protection_kind>ENCRYPT"), std::string::npos);
 }
 
+// The grants are the topic table read per component: every (component, topic, direction) the table lists
+// is granted, and nothing a stock component has is missing from the table (bar the bus's own topics).
+TEST(StockGrants, AreTheTopicTableReadPerComponent) {
+  auto grantOf = [](const std::string& name) -> const security::Grant& {
+    for (const auto& g : security::stockGrants())
+      if (g.name == name) return g;
+    throw std::runtime_error("no grant for " + name);
+  };
+  auto has = [](const std::vector<std::string>& topics, const std::string& t) {
+    return std::find(topics.begin(), topics.end(), t) != topics.end();
+  };
+  for (const std::string& component : runtime::stockComponents()) {
+    const security::Grant& g = grantOf(component);
+    for (const auto& row : runtime::stockTopics()) {
+      EXPECT_EQ(has(g.publish, row.name), runtime::topicUseError(component, row.name, runtime::TopicUse::Publish).empty())
+          << component << " publish " << row.name;
+      EXPECT_EQ(has(g.subscribe, row.name), runtime::topicUseError(component, row.name, runtime::TopicUse::Subscribe).empty())
+          << component << " subscribe " << row.name;
+    }
+    for (const auto* list : {&g.publish, &g.subscribe})
+      for (const auto& t : *list)
+        EXPECT_TRUE(t == "ddsnav_internal/*" || runtime::findStockTopic(t) != nullptr) << component << ": " << t;
+  }
+  // What the demo needs, spelled out once (the secured demo test runs it for real).
+  EXPECT_TRUE(has(grantOf("sim").publish, "system/clock"));
+  EXPECT_TRUE(has(grantOf("tracker").subscribe, "map/octomap"));
+  EXPECT_TRUE(has(grantOf("monitor").subscribe, "planning/request"));
+  EXPECT_TRUE(has(grantOf("perception").publish, "system/status"));
+  EXPECT_FALSE(has(grantOf("perception").publish, "control/cmd_vel"));
+  EXPECT_TRUE(has(grantOf("record").subscribe, "*"));
+  EXPECT_TRUE(has(grantOf("play").publish, "*"));
+}
+
+// A stock component opening a topic the table does not list for it is refused at start (Context), with
+// the table named; a component of the user's own is not checked.
+TEST(StockGrants, ATopicUseTheTableLacksIsAnError) {
+  EXPECT_EQ(runtime::topicUseError("perception", "perception/obstacles", runtime::TopicUse::Publish), "");
+  EXPECT_EQ(runtime::topicUseError("perception", "sensors/points", runtime::TopicUse::Subscribe), "");
+  const std::string error = runtime::topicUseError("perception", "control/cmd_vel", runtime::TopicUse::Publish);
+  EXPECT_NE(error.find("perception publishes 'control/cmd_vel'"), std::string::npos) << error;
+  EXPECT_NE(error.find("components/runtime/src/topics.cpp"), std::string::npos) << error;
+  EXPECT_NE(runtime::topicUseError("mapper", "mapper/debug", runtime::TopicUse::Publish).find("not in the stock topic table"),
+            std::string::npos);
+  EXPECT_EQ(runtime::topicUseError("closest_obstacle", "control/cmd_vel", runtime::TopicUse::Publish), "");
+}
+
+// The first byte of SHA-256 over the certificate subject's DER: what DDS Security makes the GUID from.
+int subjectHashFirstByte(const std::string& pem_file) {
+  BIO* bio = BIO_new_file(pem_file.c_str(), "r");
+  X509* cert = PEM_read_bio_X509(bio, nullptr, nullptr, nullptr);
+  BIO_free(bio);
+  if (cert == nullptr) return -1;
+  unsigned char* der = nullptr;
+  const int size = i2d_X509_NAME(X509_get_subject_name(cert), &der);
+  unsigned char digest[SHA256_DIGEST_LENGTH];
+  SHA256(der, static_cast<std::size_t>(size), digest);
+  OPENSSL_free(der);
+  X509_free(cert);
+  return digest[0];
+}
+
+// Every identity's Cyclone certificate hashes below every Fast DDS one (so Cyclone starts every mixed
+// handshake); both are of the same key and granted the same topics.
+TEST_F(SecurityDir, EachIdentityHasACertificatePerVendorOrderedForMixedHandshakes) {
+  for (const security::Grant& g : security::stockGrants()) {
+    const security::Credentials fast = security::credentialsFor(dir_.string(), g.name, "fastdds");
+    const security::Credentials cyclone = security::credentialsFor(dir_.string(), g.name, "cyclonedds");
+    EXPECT_EQ(fast.identity_certificate, (dir_ / "identities" / g.name / "cert.pem").string());
+    EXPECT_EQ(cyclone.identity_certificate, (dir_ / "identities" / g.name / "cert-cyclonedds.pem").string());
+    EXPECT_EQ(fast.private_key, cyclone.private_key);
+    EXPECT_GE(subjectHashFirstByte(fast.identity_certificate), 0x80) << g.name;
+    EXPECT_LT(subjectHashFirstByte(cyclone.identity_certificate), 0x80) << g.name;
+  }
+}
+
+TEST_F(SecurityDir, ACertificateOfAnotherIdentityIsRefused) {
+  security::addIdentity(dir_.string(), {"swapped", {"a"}, {}}, security::Validity::fromNow(1));
+  fs::copy_file(dir_ / "identities/mapper/cert.pem", dir_ / "identities/swapped/cert.pem", fs::copy_options::overwrite_existing);
+  const std::string error = errorOf(dir_, "swapped");
+  EXPECT_NE(error.find("not identity 'swapped'"), std::string::npos) << error;
+}
+
 TEST_F(SecurityDir, ARefusedDirectoryIsNotOverwritten) {
-  EXPECT_THROW(security::initDirectory(dir_.string(), {}), security::SecurityError);
+  EXPECT_THROW(security::initDirectory(dir_.string(), {.grants = security::stockGrants()}), security::SecurityError);
 }
 
 TEST_F(SecurityDir, UnknownIdentityAndMissingFilesNameThePath) {
@@ -127,7 +213,7 @@ TEST_F(SecurityDir, PermissionsSignedByAnotherCaAreRefused) {
   const std::string error = errorOf(dir_, "foreign");
   EXPECT_NE(error.find("identities/foreign/permissions.p7s': signature does not verify"), std::string::npos) << error;
   // An identity certificate from another CA is refused as well.
-  fs::copy_file(other / "identities/mapper/cert.pem", dir_ / "identities/foreign/cert.pem", fs::copy_options::overwrite_existing);
+  fs::copy_file(other / "identities/foreign/cert.pem", dir_ / "identities/foreign/cert.pem", fs::copy_options::overwrite_existing);
   EXPECT_NE(errorOf(dir_, "foreign").find("is not issued by the identity CA"), std::string::npos);
   fs::remove_all(other);
 }

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,17 @@ class CollisionWorld {
   double check_resolution_ = 0.05;
   mutable std::atomic<std::uint64_t> checks_{0};
 };
+
+// The free position nearest to `p` within `max_distance` (inside the bounds, isFree), searched on a lattice of
+// `step` around p (a disc in 2-D, a ball in 3-D; z is kept in 2-D), nearest first; p itself when it is free;
+// none when no lattice point is. For a start that a map puts "in collision" because the robot stands right
+// next to a surface it has mapped (a hit marks its whole voxel, range noise moves it): planning from there is
+// planning from one small step away from that surface, on its near side — unlike clearing the voxels around
+// the robot, which opens a hole in a one-voxel-thick surface that a plan can pass through
+// (docs/world-model.md, "A start the map puts in collision"). std::invalid_argument for a non-finite p, a
+// negative or non-finite max_distance, a step that is not positive and finite, or a lattice of more than
+// 1e6 points.
+std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step);
 
 // Exact geometry of a scenario's obstacles.
 std::unique_ptr<CollisionWorld> makeScenarioWorld(const Scenario& scenario);

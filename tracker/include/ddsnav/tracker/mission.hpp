@@ -9,6 +9,7 @@
 #include "ddsnav/tracker/vehicle.hpp"
 
 #include <cstdint>
+#include <cmath>
 #include <optional>
 #include <string>
 
@@ -23,8 +24,13 @@ struct MissionConfig {
   double replan_check_period_s = 0.5;  // s of driving between two replan checks
   bool wait_for_world = true;          // no first request before the planner's world exists
 
-  // A request unanswered this long counts as lost (e.g. the planner restarted): twice the budget + 2 s.
-  double answerTimeoutS() const { return 2 * time_budget_s + 2; }
+  // Simulated seconds per wall second of the clock the mission runs on (1 on wall time). The planner's
+  // time budget is wall time, so on a sped-up clock its answer takes `clock_speed` times longer in
+  // the mission's seconds; the component measures it and keeps it current (Mission::setClockSpeed).
+  double clock_speed = 1.0;
+  // A request unanswered this long (mission clock) counts as lost (e.g. the planner restarted): twice the
+  // budget + 2 s of wall time.
+  double answerTimeoutS() const { return (2 * time_budget_s + 2) * clock_speed; }
 };
 
 // The planner's answer to a request (planning/path), reduced to what the mission decides on.
@@ -98,6 +104,10 @@ class Mission {
   MissionDecision replanAhead(std::int64_t now_ns, const VehicleState& predicted, const std::string& why);
   // Stop driving, keep waiting for the current request (the block came too close while it was planned).
   void hold() { driving_ = false; }
+  // The clock's measured speed (MissionConfig::clock_speed); ignored unless a finite number >= 1e-3.
+  void setClockSpeed(double simulated_per_wall_second) {
+    if (std::isfinite(simulated_per_wall_second) && simulated_per_wall_second >= 1e-3) config_.clock_speed = simulated_per_wall_second;
+  }
   // A request is unanswered or a retry is due: no new replan is asked for meanwhile.
   bool awaitingPlan() const { return pending_since_ns_.has_value() || retry_at_ns_.has_value(); }
 

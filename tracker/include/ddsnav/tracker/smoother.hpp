@@ -46,6 +46,12 @@ struct SmootherConfig {
   int max_fallback_iterations = 40;  // rounds of local repair: halve nearby corners, or detour the polyline
   // Heading the vehicle has at the start; when set, the trajectory starts by turning in place from it.
   std::optional<double> initial_heading;
+  // Speed (m/s) the vehicle has at the start: a replan from a point ahead on the trajectory being flown
+  // starts moving, so the new trajectory must not begin at rest (the vehicle would stop at every switch).
+  // With initial_heading set, a straight lead-in along that heading is put first when it is collision free,
+  // so the curve leaves the start tangent to the vehicle's heading and no turn in place is needed; where it
+  // is not, the trajectory starts at rest with the turn. 0: start at rest.
+  double initial_speed = 0.0;
   bool compute_clearance = true;     // fill report.min_clearance (one clearance query per sample)
 };
 

@@ -81,7 +81,15 @@ class TrajectoryTracker {
 
   // Whether the vehicle should ask for a new plan: cross-track error beyond replan_deviation, or a sample
   // of the remaining trajectory (within replan_horizon) no longer free in `world` (new obstacles).
-  ReplanDecision checkReplan(const planner::CollisionWorld& world) const;
+  // `min_horizon_s`: check at least this far ahead (the caller's planning time: a block found later than
+  // a plan takes cannot be planned around ahead).
+  ReplanDecision checkReplan(const planner::CollisionWorld& world, double min_horizon_s = 0.0) const;
+
+  // Moves the reference forward to the vehicle's projection on the first `within_s` seconds of the
+  // trajectory, when the vehicle is already past its start: a trajectory planned from a predicted start
+  // that arrives late would otherwise begin behind the vehicle, and the controller would pull it back (a
+  // deviation replan after every late switch). Returns the seconds skipped (0 when none).
+  double skipToVehicle(const Vec3& position, double within_s);
 
  private:
   struct Projection {

@@ -4,12 +4,14 @@
 // deep inside a planner or tracker callback.
 
 #include <ddsnav/msg/messages.hpp>
+#include <ddsnav/planner/collision_world.hpp>
 #include <ddsnav/planner/scenario.hpp>
 
 #include <Eigen/Core>
 
 #include <chrono>
 #include <cstddef>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -25,6 +27,14 @@ std::string checkObstacleArray(const msg::ObstacleArray& array, const std::strin
 // Empty when `map` is in frame `frame`, has a positive finite resolution and its bytes are a binary
 // OctoMap octree the planner can build a world of for `scenario`; otherwise what is wrong.
 std::string checkOccupancyMap(const msg::OccupancyMap& map, const std::string& frame, const planner::Scenario& scenario);
+// The same checks, keeping the world they build (with `options`: the unknown-space policy) instead of
+// throwing it away: `world` is set exactly when `error` is empty.
+struct CheckedMap {
+  std::string error;
+  std::unique_ptr<planner::CollisionWorld> world;
+};
+CheckedMap buildOccupancyMap(const msg::OccupancyMap& map, const std::string& frame, const planner::Scenario& scenario,
+                             const planner::OctoMapWorldOptions& options);
 
 // Empty when `state` is in frame `frame` (empty: any) and every number in it (position, heading,
 // velocity, yaw rate) is finite; otherwise the first bad field, e.g. "position.z is nan".

@@ -30,9 +30,18 @@ WorldKind parseWorldKind(const std::string& text, const std::string& param = "wo
 struct WorldParameters {
   WorldKind kind = WorldKind::Obstacles;
   planner::UnknownSpace unknown = planner::UnknownSpace::Optimistic;
+  double first_map_wait_s = 5.0;  // `first_map_wait_s`: see fusedWorldReady
   WorldParameters() = default;
   explicit WorldParameters(runtime::Parameters& params);
 };
+
+// Whether the fused world can be planned on (docs/world-model.md, "Before the first map"): once the
+// obstacles have arrived and so has the first map; without a map, under the optimistic policy only after
+// `first_map_wait_s` has passed since the first obstacles (a sensor that sees nothing makes no map, and the
+// obstacles alone are then the world), never under the conservative one. Waiting matters because a plan
+// made on the obstacles alone crosses terrain and walls the first scans have already seen.
+bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unknown, double since_first_obstacles_s,
+                     double first_map_wait_s);
 
 class WorldSource {
  public:
@@ -41,9 +50,9 @@ class WorldSource {
   WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario);
   WorldKind kind() const { return kind_; }
 
-  // False until the world's input has arrived (always true for the scenario world; for the fused one the
-  // obstacles, and the map too under the conservative policy: before the first map, everything is unknown,
-  // which the optimistic policy plans through on the obstacles alone).
+  // False until the world's input has arrived (always true for the scenario world; for the fused one see
+  // fusedWorldReady: the obstacles and the first map, or, optimistically, the obstacles alone once the
+  // first map is first_map_wait_s late).
   bool available() const;
   // A snapshot of the newest world, seen from a robot at `robot_position`: obstacle ellipses that would
   // cover the robot there are left out (see clearFootprint). nullptr when not available(). Inputs are
@@ -56,18 +65,22 @@ class WorldSource {
   std::size_t droppedMaps() const;
 
  private:
-  std::shared_ptr<const planner::CollisionWorld> structureLocked() const;
+  void buildMap(const msg::OccupancyMap& map);
+  bool availableLocked() const;
 
   WorldKind kind_;
   const planner::Scenario& scenario_;
   planner::UnknownSpace unknown_;
+  double first_map_wait_s_;
+  const runtime::Clock& clock_;
   mutable std::mutex mutex_;
-  // The fused world's structure, built from map_ once per map (not per snapshot: a 3-D map takes a while).
-  mutable std::shared_ptr<const planner::CollisionWorld> structure_;
-  mutable bool structure_stale_ = true;
+  // The newest map as a collision world, built once per map (not per snapshot: a 3-D map takes a while)
+  // on map_worker_, so neither the executor nor a snapshot waits for it; snapshots share it.
+  std::shared_ptr<const planner::CollisionWorld> map_world_;
   std::optional<msg::ObstacleArray> obstacles_;
-  std::optional<msg::OccupancyMap> map_;
+  std::optional<std::int64_t> first_obstacles_ns_;  // component clock
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;
+  runtime::Worker map_worker_{"map"};  // after what its jobs use, before the subscriptions that feed it
   bus::Subscription obstacles_sub_, map_sub_;
 };
 

@@ -109,12 +109,18 @@ class Context {
   }
   template <class T, class Callback>
   bus::Subscription subscribe(const std::string& name, const bus::Qos& qos, Callback callback) {
+    checkTopicUse(name, TopicUse::Subscribe);
     return executor().subscribe<T>(bus(), topic(name), qos, std::move(callback));
   }
   template <class T>
   bus::Publisher<T> publisher(const Topic<T>& t) {
+    checkTopicUse(t.name, TopicUse::Publish);
     return bus().publisher<T>(topic(t.name), t.qos);
   }
+
+  // Every topic opened through the two above (its name before remapping): a stock component may open a
+  // stock topic only as the topic table lists it (topicUseError); throws std::logic_error otherwise.
+  virtual void checkTopicUse(const std::string& name, TopicUse use) { (void)name, (void)use; }
 };
 
 // The base of a component class (see the top of this file).

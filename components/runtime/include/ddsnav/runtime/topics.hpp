@@ -29,8 +29,15 @@ struct TopicRow {
   std::string type;     // the idl struct, e.g. "PointCloud"
   std::string profile;  // "sensorData" | "state" | "commands" (bus::Qos's constructors)
   bus::Qos qos;
-  std::string flow;     // producer -> consumers, for the docs
+  std::string flow;     // producer -> consumers, for the docs (made from the two lists below and a note)
+  // The stock components that publish and subscribe it ("*": any process). The DDS Security grants are
+  // made from these lists (components/security), and a stock component that opens a topic otherwise
+  // fails at start (topicUseError), so a new topic or subscription cannot be left out of the grants.
+  std::vector<std::string> publishers;
+  std::vector<std::string> subscribers;
 };
+
+enum class TopicUse { Publish, Subscribe };
 
 namespace topics {
 // QoS by intent (bus::Qos): sensor data best effort keep last 5, state reliable transient local depth 1,
@@ -52,6 +59,11 @@ inline const Topic<msg::Clock> clock{"system/clock", bus::Qos::sensorData(1)};
 const std::vector<TopicRow>& stockTopics();
 // The row of `name`, also when `name` carries a namespace ("uav1/sensors/points"); nullptr when none.
 const TopicRow* findStockTopic(std::string_view name);
+// The components the table names (as publisher or subscriber of some topic), in table order.
+std::vector<std::string> stockComponents();
+// Empty when stock component `component` may open `topic` (its own name for it, before remapping) as
+// `use` per the table, or when `component` is not a stock one; else the complaint naming both and the table.
+std::string topicUseError(std::string_view component, std::string_view topic, TopicUse use);
 // The Markdown table of docs/architecture.md (topic | type | QoS | producer -> consumers).
 std::string topicTable();
 

@@ -2,14 +2,15 @@
 // component name and the signed governance and permissions documents that both vendors' builtin plugins
 // (PKI-DH authentication, Access-Permissions, AES-GCM-GMAC) read. No DDS header here; OpenSSL only.
 //
-//   security::initDirectory("keys", {});                        // `ddsnav security init keys`
+//   security::initDirectory("keys", {.grants = security::stockGrants()});  // `ddsnav security init keys`
 //   security::Credentials c = security::credentialsFor("keys", "mapper");  // checks every file, or throws
 //   // c.identity_certificate, c.permissions, ... are absolute paths handed to the vendor as file: URIs
 //
 // Layout of a directory (docs/security.md):
 //   ca.pem, ca.key.pem                       the CA: signs identities and both documents (identity CA = permissions CA)
 //   governance.xml, governance.p7s           domain rules for all: authentication required, everything encrypted
-//   identities/NAME/cert.pem, key.pem        one identity per component name (subject CN=NAME)
+//   identities/NAME/cert.pem, key.pem        one identity per component name (subject CN=NAME or CN=NAME.N)
+//   identities/NAME/cert-cyclonedds.pem      the same identity's certificate for Cyclone DDS (same key)
 //   identities/NAME/permissions.xml, .p7s    what NAME may publish and subscribe
 #pragma once
 
@@ -33,8 +34,9 @@ struct Grant {
   std::vector<std::string> subscribe;
 };
 
-// The stock component names and the topics each publishes and subscribes (from the node sources), plus the
-// bus's own plumbing topics that every participant needs. This is ddsnav's topic table for security.
+// The stock component names and the topics each publishes and subscribes, made from the runtime's topic
+// table (runtime::stockTopics()), plus the tools' wildcards and the bus's own plumbing topics that every
+// participant needs. Defined in the library ddsnav_security_grants (it links the runtime).
 const std::vector<Grant>& stockGrants();
 
 using Clock = std::chrono::system_clock;
@@ -54,7 +56,7 @@ inline constexpr int kMaxValidityDays = 36500;
 
 struct InitOptions {
   int valid_days = 365;                       // identities and permissions; the CA gets 10 years more
-  std::vector<Grant> grants = stockGrants();
+  std::vector<Grant> grants;                  // one identity each: e.g. stockGrants()
   bool overwrite = false;                     // false: refuse a directory that already holds a CA
 };
 
@@ -79,7 +81,11 @@ struct Credentials {
 // validity, the identity certificate issued by the identity CA and matching its key, both documents
 // signed by the permissions CA and well-formed, a grant for the identity's subject that is valid now.
 // Throws SecurityError naming the first file that fails.
-Credentials credentialsFor(const std::string& dir, const std::string& identity);
+// `vendor` ("fastdds" | "cyclonedds"): each identity has a certificate per vendor (cert.pem for Fast DDS,
+// cert-cyclonedds.pem for Cyclone; same key, subjects CN=NAME or CN=NAME.N), so that Cyclone starts every
+// mixed-vendor handshake: the only order in which Fast DDS 2.9 and Cyclone DDS 0.10 agree on a key
+// (docs/security.md).
+Credentials credentialsFor(const std::string& dir, const std::string& identity, const std::string& vendor = "fastdds");
 
 // The same checks on explicit paths.
 void checkCredentials(const Credentials& credentials, const std::string& identity);
