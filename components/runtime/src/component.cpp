@@ -350,6 +350,9 @@ namespace {
 
 // One component's command line, parsed and checked: its context (not started yet) and bus options.
 struct Prepared {
+  // Kept for the component's lifetime: OptionsHook users keep CLI::Option pointers (e.g. record's
+  // "was --max-file-s given?") and read them after parsing.
+  std::unique_ptr<CLI::App> app;
   std::unique_ptr<ContextImpl> ctx;
   bus::ParticipantOptions bus;
   std::string instance;
@@ -359,7 +362,8 @@ struct Prepared {
 // when the process should end here (--help, --describe, a bad option), else fills `out`.
 std::optional<int> prepare(const ComponentInfo& info, int argc, char** argv, bool intra_process, Prepared& out) {
   const std::string& name = info.name;
-  CLI::App app{"ddsnav component " + name};
+  out.app = std::make_unique<CLI::App>("ddsnav component " + name);
+  CLI::App& app = *out.app;
   std::string dds, config, log_level = "info", ns;
   // The launcher names each process it starts; a process started by hand is named after its component.
   const char* launched_as = std::getenv("DDSNAV_COMPONENT_NAME");
