@@ -5,6 +5,7 @@
 // that runs its whole 5 s budget (rrtstar without goal bias towards a 1 um goal region: never reached).
 //   ddsnav-bench-busy [--clouds 40] [--domain 232] [--dds fastdds] [--scenario configs/scenarios/demo_2d.yaml]
 // Opens DDS participants: run it under a domain lock on a shared machine.
+#include "bench_common.hpp"
 #include <ddsnav/bus/bus.hpp>
 #include <ddsnav/msg/messages.hpp>
 
@@ -27,19 +28,10 @@
 using namespace ddsnav;
 using namespace std::chrono_literals;
 
+using bench::binDir;
+using bench::percentile;
+
 namespace {
-
-std::string binDir() {
-  char buffer[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buffer, sizeof buffer - 1);
-  std::string path(buffer, n > 0 ? static_cast<std::size_t>(n) : 0);
-  return path.substr(0, path.rfind('/'));
-}
-
-double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[std::min(v.size() - 1, static_cast<std::size_t>(p * double(v.size() - 1) + 0.5))];
-}
 
 // Two round obstacles seen from (3, 3): a planar scan's worth of points on their near sides.
 msg::PointCloud makeCloud(std::int64_t stamp) {

@@ -9,6 +9,7 @@
 //
 // Each run takes the DDS domain given (run it under the DDS test lock when others run DDS tests).
 
+#include "bench_common.hpp"
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/mission_latency.hpp"
 
@@ -42,19 +43,14 @@ extern char** environ;
 using namespace ddsnav;
 namespace fs = std::filesystem;
 
+using bench::binDir;
+
 namespace {
 
 const std::vector<std::string> kDefaultScenarios = {"demo_2d",      "gart_cluttered_2d", "gart_terrain_3d", "auv_coastal",
                                                     "auv_harbour",  "bugtrap_1.0",       "stunnel_1.0"};
 const std::vector<std::string> kRecordedTopics = {"sensors/points", "perception/obstacles", "map/octomap",
                                                   "planning/request", "planning/path", "control/trajectory"};
-
-std::string binDir() {
-  char buffer[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buffer, sizeof(buffer) - 1);
-  if (n <= 0) return ".";
-  return fs::path(std::string(buffer, static_cast<std::size_t>(n))).parent_path().string();
-}
 
 // A child process with stdout and stderr in `log`.
 pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {

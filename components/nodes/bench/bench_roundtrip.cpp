@@ -3,6 +3,7 @@
 // library (delivery both ways, executor, worker hand-over, world snapshot). Every vendor pair.
 //   ddsnav-bench-roundtrip [--requests 200] [--domain 230] [--scenario configs/scenarios/demo_2d.yaml]
 // Opens DDS participants: run it under the DDS test lock on a shared machine.
+#include "bench_common.hpp"
 #include <ddsnav/bus/bus.hpp>
 #include <ddsnav/msg/messages.hpp>
 
@@ -22,19 +23,10 @@
 using namespace ddsnav;
 using namespace std::chrono_literals;
 
+using bench::binDir;
+using bench::percentile;
+
 namespace {
-
-std::string binDir() {
-  char buffer[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buffer, sizeof buffer - 1);
-  std::string path(buffer, n > 0 ? static_cast<std::size_t>(n) : 0);
-  return path.substr(0, path.rfind('/'));
-}
-
-double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[std::min(v.size() - 1, static_cast<std::size_t>(p * (v.size() - 1) + 0.5))];
-}
 
 }  // namespace
 
