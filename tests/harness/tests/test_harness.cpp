@@ -10,7 +10,9 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <chrono>
 #include <fstream>
+#include <thread>
 #include <regex>
 
 using namespace ddsnav;
@@ -51,6 +53,11 @@ TEST(HarnessLaunch, StartsEveryProcessOfTheFileGatedOnReadiness) {
   EXPECT_EQ(names, (std::vector<std::string>{"first", "second"}));
   EXPECT_TRUE(h.running("first"));
   EXPECT_TRUE(h.running("second"));
+  // Readiness comes over system/status; the process's "ready on cyclonedds" log line may reach its file a moment
+  // later, so the log is read until it holds the line (bounded).
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (h.log("second").find("cyclonedds") == std::string::npos && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(50ms);
   EXPECT_NE(h.log("second").find("cyclonedds"), std::string::npos) << h.log("second");
   EXPECT_TRUE(h.rateWithin<msg::VehicleState>("vehicle/state", bus::Qos::sensorData(), 20.0, 50.0, 2s));
 }
