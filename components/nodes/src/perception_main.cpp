@@ -3,7 +3,8 @@
 // and the tracked set is published (transient local, so a late planner gets it). With structure_extent_m > 0,
 // clusters larger than that (terrain, walls: the mapper's octree holds them for the fused world) are no
 // obstacles, and tracks of them are dropped from what is published; at most max_obstacles are published,
-// the nearest to the sensor (docs/world-model.md).
+// the nearest to the sensor (docs/world-model.md). Tracks entirely farther than forget_radius_m from the
+// cloud's sensor_origin are forgotten, so the tracker's memory stays bounded on any drive.
 
 #include "ddsnav/nodes/convert.hpp"
 #include <ddsnav/bus/printable.hpp>
@@ -30,6 +31,7 @@ class PerceptionComponent : public runtime::Component {
     perception::DetectorParams detector;
     std::string frame;
     std::int64_t max_obstacles;
+    double forget_radius;
     explicit Params(runtime::Parameters& p) {
       const perception::DetectorParams d;
       detector.voxel_size = p.declare<double>("voxel_size", d.voxel_size, {.above = 0, .unit = "m", .doc = "voxel grid leaf size"});
@@ -49,6 +51,11 @@ class PerceptionComponent : public runtime::Component {
       detector.structure_extent = p.declare<double>(
           "structure_extent_m", 0.0,
           {.min = 0, .max = 1e6, .unit = "m", .doc = "clusters with a longer box diagonal are structure, not obstacles (0: none)"});
+      // Derived from max_range (as declared above): see TrackerParams::matching and docs/perception.md.
+      forget_radius = p.declare<double>(
+          "forget_radius_m", perception::TrackerParams::matching(detector).forget_radius,
+          {.above = 0, .max = 1e6, .unit = "m",
+           .doc = "tracks entirely farther from the cloud's sensor origin are forgotten (default max_range + 4 cluster_tolerance)"});
       max_obstacles = p.declare<std::int64_t>("max_obstacles", 1500, {.min = 1, .max = 1000000, .doc = "most obstacles published per array"});
       frame = p.declare<std::string>("frame", nodes::kWorldFrame, {.doc = "frame_id clouds must carry"});
     }
@@ -58,7 +65,7 @@ class PerceptionComponent : public runtime::Component {
       : Component(ctx),
         params_(ctx.params()),
         // The tracker groups evidence by the same voxel size, tolerance and piece size as the detector.
-        tracker_params_(validated(params_.detector)),
+        tracker_params_(validated(params_.detector, params_.forget_radius)),
         detector_(params_.detector),
         obstacle_tracker_(tracker_params_),
         obstacles_(publisher(runtime::topics::obstacles)),
@@ -85,8 +92,9 @@ class PerceptionComponent : public runtime::Component {
     return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
   }
 
-  static perception::TrackerParams validated(const perception::DetectorParams& detector) {
-    const auto tracker = perception::TrackerParams::matching(detector);
+  static perception::TrackerParams validated(const perception::DetectorParams& detector, double forget_radius) {
+    auto tracker = perception::TrackerParams::matching(detector);
+    tracker.forget_radius = forget_radius;
     try {
       detector.validate();  // both name the other parameters as the user spells them
       tracker.validate();
@@ -115,7 +123,7 @@ class PerceptionComponent : public runtime::Component {
       const auto started = std::chrono::steady_clock::now();
       const double started_cpu = threadCpuMs();
       const auto detections = detector_.detect(points, origin);
-      const auto& tracked = obstacle_tracker_.update(detections);
+      const auto& tracked = obstacle_tracker_.update(detections, origin);  // forgets what is out of reach
       const bool planar = tracked.empty() ? nodes::isPlanarCloud(points) : tracked.front().dimensions == 2;
       if (!detector_.structure().empty()) obstacle_tracker_.markStructure(detector_.structure(), planar ? 2 : 3);
       const auto published = obstacle_tracker_.discreteObstacles(origin, static_cast<std::size_t>(params_.max_obstacles));

@@ -111,7 +111,7 @@ nlohmann::json demoDrive(const std::string& scenario_path, const std::string& sv
       const auto found = detector.detect(cloud.points, cloud.origin);
       detect_cpu.push_back(threadCpuMs() - cpu);
       cpu = threadCpuMs();
-      tracker.update(found);
+      tracker.update(found, cloud.origin);
       track_cpu.push_back(threadCpuMs() - cpu);
       detections += found.size();
     }
@@ -230,13 +230,13 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
     const double t_ours = msSince(start), c_ours = threadCpuMs() - cpu;
     start = Clock::now();
     cpu = threadCpuMs();
-    tracker.update(found);
+    tracker.update(found, cloud.origin);
     const double c_track = threadCpuMs() - cpu, t_track = msSince(start);
     cpu = threadCpuMs();
-    exact_tracker.update(found);
+    exact_tracker.update(found, cloud.origin);
     const double c_exact_track = threadCpuMs() - cpu;
     cpu = threadCpuMs();
-    reference_tracker.update(found);
+    reference_tracker.update(found, cloud.origin);
     const double c_ref_track = threadCpuMs() - cpu;
     {
       // Refitting every change, the tracker keeps the reference's tracks (ids, voxel counts, centres);

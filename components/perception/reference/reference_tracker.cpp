@@ -47,6 +47,7 @@ struct ReferenceObstacleTracker::Evidence {
     Eigen::Vector3f mean;     // running mean of the voxel centroids seen in this cell
     Eigen::Vector3f bearing;  // beam direction of the latest sighting (range-noise term)
     std::uint32_t hits;
+    Eigen::Vector3f added_at;  // the position it was added at (its cells)
   };
   struct Track {
     int dims = 2;
@@ -84,11 +85,62 @@ ReferenceObstacleTracker::~ReferenceObstacleTracker() = default;
 ReferenceObstacleTracker::ReferenceObstacleTracker(ReferenceObstacleTracker&&) noexcept = default;
 ReferenceObstacleTracker& ReferenceObstacleTracker::operator=(ReferenceObstacleTracker&&) noexcept = default;
 
+const std::vector<ObstacleEllipsoid>& ReferenceObstacleTracker::update(std::span<const ObstacleEllipsoid> detections,
+                                                                       const Eigen::Vector3d& sensor_origin) {
+  last_ = {};
+  forget(sensor_origin);
+  for (const auto& detection : detections) absorb(detection);
+  refitChanged();
+  return tracks_;
+}
+
+void ReferenceObstacleTracker::forget(const Eigen::Vector3d& sensor_origin) {
+  if (!(params_.forget_radius < std::numeric_limits<double>::infinity())) return;
+  auto& ev = *evidence_;
+  const double radius2 = params_.forget_radius * params_.forget_radius;
+  std::vector<char> near(ev.tracks.size());
+  for (std::size_t t = 0; t < ev.tracks.size(); ++t) {
+    Eigen::Vector3d origin = sensor_origin;
+    if (ev.tracks[t].dims == 2) origin.z() = 0.0;
+    near[t] = std::any_of(ev.tracks[t].voxels.begin(), ev.tracks[t].voxels.end(), [&](const Evidence::Voxel& v) {
+      return (v.mean.cast<double>() - origin).squaredNorm() <= radius2;
+    });
+  }
+  if (std::all_of(near.begin(), near.end(), [](char n) { return n != 0; })) return;
+  std::vector<Evidence::Track> kept;
+  std::vector<ObstacleEllipsoid> kept_tracks;
+  for (std::size_t t = 0; t < ev.tracks.size(); ++t) {
+    if (!near[t]) continue;
+    kept.push_back(std::move(ev.tracks[t]));
+    kept_tracks.push_back(std::move(tracks_[t]));
+  }
+  last_.forgotten = ev.tracks.size() - kept.size();
+  ev.tracks = std::move(kept);
+  tracks_ = std::move(kept_tracks);
+  ev.owner.clear();
+  ev.nearby.clear();
+  ev.coarse.clear();
+  for (std::uint32_t t = 0; t < ev.tracks.size(); ++t) {
+    const int dims = ev.tracks[t].dims;
+    for (std::uint32_t i = 0; i < ev.tracks[t].voxels.size(); ++i) {
+      const Eigen::Vector3f& at = ev.tracks[t].voxels[i].added_at;
+      CellKey key;
+      if (cellOf(at, params_.voxel_size, dims, key)) ev.owner.emplace(key, Evidence::VoxelRef{t, i});
+      if (cellOf(at, params_.association_distance, dims, key)) ev.nearby[key].push_back({t, i});
+      if (cellOf(at, Evidence::kCoarseCell, dims, key)) ev.coarse.insert(key);
+    }
+  }
+}
+
 const std::vector<ObstacleEllipsoid>& ReferenceObstacleTracker::update(std::span<const ObstacleEllipsoid> detections) {
   last_ = {};
   for (const auto& detection : detections) absorb(detection);
+  refitChanged();
+  return tracks_;
+}
 
-  // Refit every track whose evidence changed, with the detector's model.
+// Refit every track whose evidence changed, with the detector's model.
+void ReferenceObstacleTracker::refitChanged() {
   auto& ev = *evidence_;
   for (std::size_t t = 0; t < ev.tracks.size(); ++t) {
     auto& track = ev.tracks[t];
@@ -104,7 +156,6 @@ const std::vector<ObstacleEllipsoid>& ReferenceObstacleTracker::update(std::span
     estimate.support = std::move(support);
     tracks_[t] = std::move(estimate);
   }
-  return tracks_;
 }
 
 void ReferenceObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
@@ -149,7 +200,7 @@ void ReferenceObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     previous_track = t;
     auto& track = ev.tracks[t];
     const auto index = static_cast<std::uint32_t>(track.voxels.size());
-    track.voxels.push_back({s.position, s.bearing, 1});
+    track.voxels.push_back({s.position, s.bearing, 1, s.position});
     track.changed = true;
     ev.owner.emplace(key, Evidence::VoxelRef{t, index});
     CellKey near_key;

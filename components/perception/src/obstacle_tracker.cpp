@@ -34,7 +34,7 @@ std::uint64_t hashOf(const CellKey& k) {
 }
 
 // A flat open-addressing (linear probing) map from cells to small values: one contiguous array,
-// no node per entry, no erase (the tracker never forgets evidence). std::unordered_map's node
+// no node per entry, no erase (forgetting rebuilds the maps instead). std::unordered_map's node
 // lookups were most of the 3-D tracker's time.
 template <typename Value>
 class CellMap {
@@ -211,12 +211,17 @@ struct ObstacleTracker::Evidence {
   struct Node {
     Eigen::Vector3f mean;
     std::uint32_t hits;
-    std::uint32_t track, voxel;
-    std::uint32_t next_nearby;  // kNone ends the association cell's list
+    std::uint32_t track, voxel;  // track kNone: the track was forgotten (skipped until the rebuild)
+    std::uint32_t next_nearby;   // kNone ends the association cell's list
   };
 
   std::vector<Track> tracks;
   std::vector<Node> nodes;
+  // Per node: the position it was added at, which chose its cells (a rebuild must use the same ones:
+  // the running mean may round across a cell border).
+  std::vector<Eigen::Vector3f> added_at;
+  std::size_t forgotten_nodes = 0;  // nodes of forgotten tracks still in the lookup structures
+  static constexpr std::size_t kMinRebuild = 4096;  // forgotten nodes below this never trigger a rebuild
   std::vector<std::uint32_t> must_refit;                      // tracks to refit at the end of this update
   std::deque<std::pair<std::uint64_t, std::uint32_t>> stale;  // (stale_since, track), oldest first
   std::uint64_t updates = 0;
@@ -234,6 +239,7 @@ struct ObstacleTracker::Evidence {
   std::vector<char> assigned;
   std::vector<std::uint64_t> failed_at;  // events count when the first pass could not place a voxel
   std::vector<std::pair<float, std::uint32_t>> candidates;
+  std::vector<std::uint32_t> renumbered;  // forget: old track index -> new one (kNone: forgotten)
   std::vector<Eigen::Vector3f> leftover_points;
   std::vector<SupportPoint> leftovers;
   Clusters groups, pieces;
@@ -249,6 +255,8 @@ TrackerParams TrackerParams::matching(const DetectorParams& detector) {
   p.max_segment_width = detector.max_segment_width > 0.0 ? detector.max_segment_width : p.max_segment_length;
   p.range_noise_sigma = detector.range_noise_sigma;
   p.enclose_points = detector.enclose_points;
+  // No voxel of a scan lies beyond max_range, so none can reach a track beyond this (see the header).
+  p.forget_radius = detector.max_range + 4.0 * detector.cluster_tolerance;
   return p;
 }
 
@@ -266,6 +274,7 @@ void TrackerParams::validate() const {
   require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
   require(max_voxels_per_track >= 1, "max_voxels_per_track", ">= 1");
   require(max_deferred_refits >= 1, "max_deferred_refits", ">= 1");
+  require(forget_radius > 0.0, "forget_radius", "> 0 m (infinity: never forget)");
 }
 
 ObstacleTracker::ObstacleTracker(const TrackerParams& params) : params_(params) {
@@ -276,8 +285,113 @@ ObstacleTracker::~ObstacleTracker() = default;
 ObstacleTracker::ObstacleTracker(ObstacleTracker&&) noexcept = default;
 ObstacleTracker& ObstacleTracker::operator=(ObstacleTracker&&) noexcept = default;
 
+const std::vector<ObstacleEllipsoid>& ObstacleTracker::update(std::span<const ObstacleEllipsoid> detections,
+                                                             const Eigen::Vector3d& sensor_origin) {
+  last_ = {};
+  forget(sensor_origin);
+  return associate(detections);
+}
+
 const std::vector<ObstacleEllipsoid>& ObstacleTracker::update(std::span<const ObstacleEllipsoid> detections) {
   last_ = {};
+  return associate(detections);
+}
+
+namespace {
+// True when every voxel of a track lies farther than radius from `origin`. The track's box (in its own
+// frame, holding every voxel) decides most tracks; only those near the sphere are checked voxel by voxel,
+// with the same arithmetic as the reference.
+bool entirelyFarther(std::span<const SupportPoint> voxels, const Eigen::Matrix3f& frame, const Eigen::Vector3f& lo,
+                     const Eigen::Vector3f& hi, const Eigen::Vector3d& origin, double radius) {
+  const double centre = ((frame * (0.5f * (lo + hi))).cast<double>() - origin).norm();
+  const double half_diagonal = 0.5 * static_cast<double>((hi - lo).norm());
+  // float rounding of the box and frame: generous against positions' 24-bit mantissas
+  const double slack = 1e-3 + 1e-5 * (centre + origin.norm() + half_diagonal);
+  if (centre - half_diagonal > radius + slack) return true;
+  if (centre + half_diagonal < radius - slack) return false;
+  const double radius2 = radius * radius;
+  for (const SupportPoint& v : voxels)
+    if ((v.position.cast<double>() - origin).squaredNorm() <= radius2) return false;
+  return true;
+}
+}  // namespace
+
+void ObstacleTracker::forget(const Eigen::Vector3d& sensor_origin) {
+  auto& ev = *evidence_;
+  const double radius = params_.forget_radius;
+  if (!(radius < std::numeric_limits<double>::infinity()) || ev.tracks.empty()) return;
+  auto& renumbered = ev.renumbered;
+  renumbered.resize(ev.tracks.size());
+  std::uint32_t kept = 0;
+  std::size_t forgotten_voxels = 0;
+  for (std::size_t t = 0; t < ev.tracks.size(); ++t) {
+    const auto& track = ev.tracks[t];
+    Eigen::Vector3d origin = sensor_origin;
+    if (track.dims == 2) origin.z() = 0.0;
+    if (entirelyFarther(track.voxels, track.frame, track.lo, track.hi, origin, radius)) {
+      renumbered[t] = kNone;
+      forgotten_voxels += track.voxels.size();
+    } else {
+      renumbered[t] = kept++;
+    }
+  }
+  if (kept == ev.tracks.size()) return;
+  last_.forgotten = ev.tracks.size() - kept;
+  // Keep the creation order (ids ascending, and the tie order of association candidates).
+  for (std::size_t t = 0; t < ev.tracks.size(); ++t) {
+    const std::uint32_t to = renumbered[t];
+    if (to == kNone || to == t) continue;
+    ev.tracks[to] = std::move(ev.tracks[t]);
+    tracks_[to] = std::move(tracks_[t]);
+  }
+  ev.tracks.erase(ev.tracks.begin() + kept, ev.tracks.end());
+  tracks_.erase(tracks_.begin() + kept, tracks_.end());
+  for (auto& node : ev.nodes)
+    if (node.track != kNone) node.track = renumbered[node.track];
+  std::deque<std::pair<std::uint64_t, std::uint32_t>> stale;
+  for (const auto& [since, t] : ev.stale)
+    if (renumbered[t] != kNone) stale.emplace_back(since, renumbered[t]);
+  ev.stale.swap(stale);
+  ev.forgotten_nodes += forgotten_voxels;
+  if (ev.forgotten_nodes < Evidence::kMinRebuild || ev.forgotten_nodes <= ev.nodes.size() - ev.forgotten_nodes) return;
+
+  // Rebuild the lookup structures from the live nodes, each in the cells it was added to.
+  std::vector<Evidence::Node> nodes;
+  std::vector<Eigen::Vector3f> added_at;
+  nodes.reserve(ev.nodes.size() - ev.forgotten_nodes);
+  added_at.reserve(nodes.capacity());
+  CellGrid owner, nearby;
+  CellMap<bool> coarse;
+  const double tol = params_.association_distance;
+  for (std::size_t n = 0; n < ev.nodes.size(); ++n) {
+    Evidence::Node node = ev.nodes[n];
+    if (node.track == kNone) continue;
+    const auto index = static_cast<std::uint32_t>(nodes.size());
+    const Eigen::Vector3f& at = ev.added_at[n];
+    const int dims = ev.tracks[node.track].dims;
+    node.next_nearby = kNone;
+    CellKey key;
+    if (cellOf(at, params_.voxel_size, dims, key)) owner.emplace(key, index);
+    if (cellOf(at, tol, dims, key)) {
+      std::uint32_t& head = nearby.emplace(key, index);
+      if (head != index) {
+        node.next_nearby = head;
+        head = index;
+      }
+    }
+    if (cellOf(at, Evidence::kCoarseCell, dims, key)) coarse.emplace(key, true);
+    nodes.push_back(node);
+    added_at.push_back(at);
+  }
+  ev.nodes.swap(nodes);
+  ev.added_at.swap(added_at);
+  ev.owner = std::move(owner);
+  ev.nearby = std::move(nearby);
+  ev.coarse = std::move(coarse);
+  ev.forgotten_nodes = 0;
+}
+
+const std::vector<ObstacleEllipsoid>& ObstacleTracker::associate(std::span<const ObstacleEllipsoid> detections) {
   auto& ev = *evidence_;
   ++ev.updates;
   for (const auto& detection : detections) absorb(detection);
@@ -332,6 +446,7 @@ std::size_t ObstacleTracker::markStructure(std::span<const Eigen::Vector3f> voxe
     const int n = ev.nearby.neighbourhood(cell, heads);
     for (int k = 0; k < n; ++k)
       for (std::uint32_t node = heads[k]; node != kNone; node = ev.nodes[node].next_nearby) {
+        if (ev.nodes[node].track == kNone) continue;  // forgotten
         auto& track = ev.tracks[ev.nodes[node].track];
         if (track.structure) continue;
         track.structure = true;
@@ -472,7 +587,8 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     track.voxels.push_back({s.position, s.bearing});
     changedVoxel(t, s.position);
     ev.nodes.push_back({s.position, 1, t, index, kNone});
-    ev.owner.emplace(key, node);
+    ev.added_at.push_back(s.position);
+    ev.owner.emplace(key, node) = node;  // a live owner would have refreshed; a forgotten one gives way
     CellKey near_key;
     if (cellOf(s.position, tol, dims, near_key)) {
       // Prepend to the cell's list (the candidate order does not matter: candidates are sorted).
@@ -487,7 +603,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   // A voxel in a cell a track owns refreshes it (the centroid averages the noise out over scans).
   auto refresh = [&](const SupportPoint& s, const CellKey& key) {
     const std::uint32_t* owned = ev.owner.find(key);
-    if (owned == nullptr) return false;
+    if (owned == nullptr || ev.nodes[*owned].track == kNone) return false;
     ++events;
     Evidence::Node& node = ev.nodes[*owned];
     previous_track = node.track;
@@ -536,6 +652,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
         const std::uint32_t* owned = ev.owner.find(adjacent);
         if (owned == nullptr) continue;
         const Evidence::Node& v = ev.nodes[*owned];
+        if (v.track == kNone) continue;
         if ((v.mean - s.position).squaredNorm() >= tol2) continue;
         if (accepts(v.track, s)) {
           addVoxel(v.track, s, key);
@@ -577,7 +694,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       for (std::uint32_t n = head; n != kNone; n = ev.nodes[n].next_nearby) {
         const Evidence::Node& ref = ev.nodes[n];
         const float d2 = (ref.mean - s.position).squaredNorm();
-        if (d2 >= tol2) continue;
+        if (d2 >= tol2 || ref.track == kNone) continue;
         auto found = std::find_if(ev.candidates.begin(), ev.candidates.end(),
                                   [&](const auto& cand) { return cand.second == ref.track; });
         if (found == ev.candidates.end()) {

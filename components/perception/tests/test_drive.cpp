@@ -98,7 +98,7 @@ TEST(Drive, Demo2dEllipsesStayOnTheObstaclesAtEveryScan) {
   }
   for (const auto& pose : poses) {
     const auto cloud = sensor.scan(pose, 0.1 * static_cast<double>(step));
-    const auto& tracked = tracker.update(detector.detect(cloud.points, cloud.origin));
+    const auto& tracked = tracker.update(detector.detect(cloud.points, cloud.origin), cloud.origin);
     peak = std::max(peak, tracked.size());
     const std::string where = " at scan " + std::to_string(step) + ", vehicle (" + std::to_string(pose.position.x()) +
                               ", " + std::to_string(pose.position.y()) + ")";
@@ -192,7 +192,7 @@ TEST(Drive, GartTerrain3dEllipsoidsStayOnTheHills) {
   std::size_t step = 0, voxels = 0;
   for (const auto& pose : poses) {
     const auto cloud = sensor.scan(pose);
-    const auto& tracked = tracker.update(detector.detect(cloud.points, cloud.origin));
+    const auto& tracked = tracker.update(detector.detect(cloud.points, cloud.origin), cloud.origin);
     const std::string where = " at scan " + std::to_string(step);
     voxels = 0;
     for (const auto& t : tracked) {

@@ -18,6 +18,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -93,6 +94,7 @@ void expectSameStats(const TrackerUpdateStats& a, const TrackerUpdateStats& b, i
   EXPECT_EQ(a.refreshed_voxels, b.refreshed_voxels) << "scan " << scan;
   EXPECT_EQ(a.added_voxels, b.added_voxels) << "scan " << scan;
   EXPECT_EQ(a.ignored, b.ignored) << "scan " << scan;
+  EXPECT_EQ(a.forgotten, b.forgotten) << "scan " << scan;
 }
 
 // The 2-D demo drive (720-beam scanner, 2 cm range noise, 1 % NaN/inf) from (3, 3) to (8, 30) in `scans`
@@ -157,6 +159,49 @@ TEST(TrackerEquivalence, CityLidarDriveGivesExactlyTheReferenceTracks) {
   EXPECT_GT(fast.obstacles().size(), 100u);
   EXPECT_GT(total_refreshed, 1000u);
   EXPECT_GT(total_added, 100u);
+}
+
+// Forgetting: with a radius well inside the sensor's range, tracks left behind are dropped (and the
+// lookup structures rebuilt) while the drive goes on re-seeing parts of them; both trackers drop the same
+// tracks and keep the same evidence, and every voxel stays inside its ellipse.
+TEST(TrackerEquivalence, CityDriveForgettingBeyondARadiusGivesExactlyTheReferenceTracks) {
+  const planner::Scenario world = sim::makeCityBlock(1);
+  auto config = sim::RangeSensorConfig::lidar3d(16, 1800, -15.0, 15.0, 60.0);
+  config.range_noise_sigma = 0.02;
+  config.invalid_fraction = 0.005;
+  config.seed = 5;
+  sim::RangeSensor sensor(world, config);
+  DetectorParams params;
+  params.beam_spacing = 2.0 * std::numbers::pi / 1800;
+  ObstacleDetector detector(params);
+  TrackerParams forgetting = TrackerParams::matching(params);
+  forgetting.forget_radius = 12.0;
+  ObstacleTracker fast(exact(forgetting));
+  ObstacleTracker deferred(forgetting);
+  reference::ReferenceObstacleTracker ref(forgetting);
+  std::size_t forgotten = 0;
+  std::uint64_t last_id = 0;  // the newest id before this scan
+  for (int k = 0; k < 14; ++k) {
+    const sim::SensorPose pose{{-20.0 + 3.0 * k, 0.8 * std::sin(0.3 * k), 1.8}, 0.15 * std::sin(0.2 * k)};
+    const auto cloud = sensor.scan(pose, k * 0.1);
+    const auto detections = detector.detect(cloud.points, cloud.origin, 3);
+    deferred.update(detections, cloud.origin);
+    expectSameTracks(fast.update(detections, cloud.origin), ref.update(detections, cloud.origin), k);
+    expectSameStats(fast.lastUpdate(), ref.lastUpdate(), k);
+    expectSameEvidence(deferred, ref.obstacles(), k);
+    expectEveryVoxelEnclosed(deferred, k);
+    forgotten += ref.lastUpdate().forgotten;
+    ASSERT_FALSE(ref.obstacles().empty());
+    for (const auto& t : ref.obstacles()) {  // what was kept (not new in this scan) has a voxel within the radius
+      if (t.id > last_id) continue;
+      const bool near = std::any_of(t.support.begin(), t.support.end(), [&](const SupportPoint& v) {
+        return (v.position.cast<double>() - cloud.origin).norm() <= forgetting.forget_radius;
+      });
+      ASSERT_TRUE(near) << "scan " << k << " id " << t.id;
+    }
+    last_id = ref.obstacles().back().id;
+  }
+  EXPECT_GT(forgotten, 100u);
 }
 
 // The 2-D demo drive: the 2-D association order (face neighbours before the previous voxel) and the dims

@@ -2,10 +2,10 @@
 // Keeps obstacles across scans, on evidence: every track owns a bounded set of voxel centroids
 // (world frame, one per voxel cell) and its ellipse/ellipsoid is refitted from them with the same
 // Gaussian + sensor noise + chi-square model as a detection. Ids are stable; the set grows as the
-// vehicle discovers the world.
+// vehicle discovers the world, and shrinks as it leaves tracks behind beyond forget_radius.
 //
 //   ObstacleTracker tracker(TrackerParams::matching(detector_params));
-//   for (each cloud) { auto& world = tracker.update(detector.detect(cloud.points, cloud.origin)); }
+//   for (each cloud) { auto& world = tracker.update(detector.detect(cloud.points, cloud.origin), cloud.origin); }
 //
 // Association is per voxel of a detection's `support`, never by overlapping ellipses:
 //   1. a voxel whose cell a track already owns refreshes that track's centroid there (running mean);
@@ -26,6 +26,14 @@
 // at most max_refit_delay updates later (oldest first, at most max_deferred_refits per update).
 // Association never reads the ellipses, so the evidence is exactly what refitting every change
 // (max_refit_delay = 0, the reference behaviour) gives, and no seen voxel is ever outside its ellipse.
+//
+// State stays bounded: update(detections, sensor_origin) first forgets every track whose voxels are
+// all farther than forget_radius from the sensor (in the plane for 2-D tracks) — evidence the sensor
+// can no longer refresh. With the default of matching() (max_range + 4 association distances) no
+// voxel of this scan can reach a forgotten track (association reaches one distance, markStructure's
+// neighbourhood at most 2 sqrt(3)), so the tracks kept are exactly those of a tracker that never
+// forgets. Forgotten voxels leave the lookup structures lazily: they are skipped at once and the
+// structures are rebuilt once they outnumber the live ones (memory at most about twice the live set).
 
 #include <ddsnav/perception/obstacle.hpp>
 
@@ -33,6 +41,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <span>
 #include <vector>
@@ -54,6 +63,9 @@ struct TrackerParams {
   // the current ellipse always refits at once.
   unsigned max_refit_delay = 4;
   std::size_t max_deferred_refits = 2000;  // per update, oldest first; the rest wait for the next one
+  // m; update(detections, sensor_origin) forgets tracks with every voxel farther than this from the
+  // sensor (infinity: keep everything; matching() gives max_range + 4 association distances).
+  double forget_radius = std::numeric_limits<double>::infinity();
 
   // The tracker parameters that match a detector's (voxel size, tolerance, segment length, noise).
   static TrackerParams matching(const DetectorParams& detector);
@@ -69,6 +81,7 @@ struct TrackerUpdateStats {
   std::size_t refitted = 0;      // tracks refitted in this update (grown, or a voxel left the ellipse)
   std::size_t refitted_late = 0; // ...of which refresh-only tracks whose refit had been deferred
   std::size_t deferred = 0;      // refresh-only tracks still showing an older (enclosing) ellipse
+  std::size_t forgotten = 0;     // tracks dropped as entirely farther than forget_radius from the sensor
 };
 
 class ObstacleTracker {
@@ -78,8 +91,12 @@ class ObstacleTracker {
   ObstacleTracker(ObstacleTracker&&) noexcept;
   ObstacleTracker& operator=(ObstacleTracker&&) noexcept;
 
-  // Associates one scan's detections (which must carry `support`, as ObstacleDetector's do);
+  // Forgets the tracks entirely farther than forget_radius from sensor_origin (the cloud's), then
+  // associates one scan's detections (which must carry `support`, as ObstacleDetector's do);
   // returns all tracked obstacles (ids >= 1, in creation order, each with its voxels as `support`).
+  const std::vector<ObstacleEllipsoid>& update(std::span<const ObstacleEllipsoid> detections,
+                                               const Eigen::Vector3d& sensor_origin);
+  // The same without a sensor origin: nothing is forgotten, the state grows with the world seen.
   const std::vector<ObstacleEllipsoid>& update(std::span<const ObstacleEllipsoid> detections);
 
   const std::vector<ObstacleEllipsoid>& obstacles() const { return tracks_; }
@@ -104,6 +121,8 @@ class ObstacleTracker {
 
  private:
   struct Evidence;
+  const std::vector<ObstacleEllipsoid>& associate(std::span<const ObstacleEllipsoid> detections);
+  void forget(const Eigen::Vector3d& sensor_origin);
   void absorb(const ObstacleEllipsoid& detection);
   void refit(std::size_t index);
 

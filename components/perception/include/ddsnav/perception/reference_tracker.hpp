@@ -1,7 +1,8 @@
 #pragma once
 // The straightforward ObstacleTracker (std::unordered_map evidence, refit of every changed track from
 // all its voxels), kept verbatim from before the optimisation as the oracle of
-// tracker_equivalence_test: the optimised tracker must produce exactly its tracks.
+// tracker_equivalence_test: the optimised tracker must produce exactly its tracks. It forgets tracks by
+// the same rule (update with a sensor origin), in the plainest way: drop them and rebuild its maps.
 
 #include <ddsnav/perception/obstacle_tracker.hpp>
 
@@ -21,6 +22,10 @@ class ReferenceObstacleTracker {
   // Associates one scan's detections (which must carry `support`, as ObstacleDetector's do);
   // returns all tracked obstacles (ids >= 1, in creation order, each with its voxels as `support`).
   const std::vector<perception::ObstacleEllipsoid>& update(std::span<const perception::ObstacleEllipsoid> detections);
+  // First drops every track whose voxels are all farther than params.forget_radius from sensor_origin
+  // (in the plane for 2-D tracks), then as above.
+  const std::vector<perception::ObstacleEllipsoid>& update(std::span<const perception::ObstacleEllipsoid> detections,
+                                                           const Eigen::Vector3d& sensor_origin);
 
   const std::vector<perception::ObstacleEllipsoid>& obstacles() const { return tracks_; }
   const perception::TrackerUpdateStats& lastUpdate() const { return last_; }
@@ -29,6 +34,8 @@ class ReferenceObstacleTracker {
  private:
   struct Evidence;
   void absorb(const perception::ObstacleEllipsoid& detection);
+  void forget(const Eigen::Vector3d& sensor_origin);
+  void refitChanged();
 
   perception::TrackerParams params_;
   std::vector<perception::ObstacleEllipsoid> tracks_;
