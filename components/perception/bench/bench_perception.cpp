@@ -199,13 +199,18 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
 
   // The default tracker (refresh-only refits deferred), the same tracker refitting every change
   // (max_refit_delay 0), and the reference it must reproduce.
-  perception::ObstacleTracker tracker(perception::TrackerParams::matching(params));
-  perception::TrackerParams exact_params = perception::TrackerParams::matching(params);
+  // All three forget what lies beyond the lidar's range (+ 4 tolerances), as perception configured with
+  // max_range = the sensor's would; the detector keeps its default max_range (detection unchanged).
+  perception::TrackerParams tracker_params = perception::TrackerParams::matching(params);
+  tracker_params.forget_radius = config.max_range + 4.0 * params.cluster_tolerance;
+  perception::ObstacleTracker tracker(tracker_params);
+  perception::TrackerParams exact_params = tracker_params;
   exact_params.max_refit_delay = 0;
   perception::ObstacleTracker exact_tracker(exact_params);
-  perception::reference::ReferenceObstacleTracker reference_tracker(perception::TrackerParams::matching(params));
+  perception::reference::ReferenceObstacleTracker reference_tracker(tracker_params);
   std::vector<double> pcl_cpu, ours_cpu, sim_cpu, track_cpu, exact_track_cpu, ref_track_cpu, total_cpu, total_ms;
   std::size_t track_mismatches = 0, exact_mismatches = 0, not_enclosed = 0;
+  std::size_t forgotten = 0, most_tracks = 0;
   std::size_t refreshed = 0, added = 0, created = 0, refitted = 0, refitted_late = 0, deferred = 0;
   std::vector<double> sim_ms, pcl_ms, ours_ms, voxel_ms, cluster_ms, split_ms, fit_ms;
   size_t points = 0, voxels = 0, mismatches = 0, obstacles = 0, clusters = 0;
@@ -263,6 +268,8 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
       }
     }
     if (k >= 0) {
+      forgotten += tracker.lastUpdate().forgotten;
+      most_tracks = std::max(most_tracks, tracker.obstacles().size());
       refreshed += tracker.lastUpdate().refreshed_voxels;
       added += tracker.lastUpdate().added_voxels;
       created += tracker.lastUpdate().created;
@@ -312,8 +319,9 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
               summarize(fit_ms).median, clusters / scans, obstacles / scans);
   const Summary trk = summarize(track_cpu);
   std::printf("         tracker.update (cpu ms): median %.2f, p90 %.2f; per scan %zu voxels refreshed, %zu added to tracks,"
-              " %zu new tracks; %zu tracks after the drive\n",
-              trk.median, trk.p90, refreshed / scans, added / scans, created / scans, tracker.obstacles().size());
+              " %zu new tracks; %zu tracks after the drive (most %zu, %zu forgotten beyond %.1f m)\n",
+              trk.median, trk.p90, refreshed / scans, added / scans, created / scans, tracker.obstacles().size(),
+              most_tracks, forgotten, tracker_params.forget_radius);
   std::printf("         tracker refits per scan: %zu (%zu of them deferred ones), %zu refresh-only tracks showing an"
               " older enclosing ellipse; every voxel inside its ellipse %zu/%d, same evidence as the reference %zu/%d\n",
               refitted / scans, refitted_late / scans, deferred / scans, scans - not_enclosed, scans,
