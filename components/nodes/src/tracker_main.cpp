@@ -72,6 +72,11 @@ class TrackerComponent : public runtime::Component {
           "replan_horizon_m", {.min = 0, .max = 1e5, .unit = "m",
                                .doc = "trajectory length ahead checked for obstacles; default: the simulator's default sensor range for the scenario (docs/tracking.md)"});
       smoother.sample_dt = p.declare<double>("sample_dt", smoother.sample_dt, {.above = 0, .unit = "s", .doc = "trajectory sample spacing"});
+      // Perceived obstacles grow as more of them is scanned: on gart_cluttered_2d ellipses grew by 0.05-0.32 m
+      // next to trajectories kept 0.16-0.2 m away, the vehicle touched them and then stood inside the
+      // planner's world. 0.5 m covers that growth; narrower passages are still crossed in their middle.
+      smoother.clearance_target = p.declare<double>(
+          "clearance_target", 0.5, {.min = 0, .max = 100, .unit = "m", .doc = "the smoother moves the path this far from obstacles where there is room (docs/tracking.md)"});
     }
   };
 
