@@ -327,6 +327,8 @@ class TrackerComponent : public runtime::Component {
       stop();
       const double stopping_s = static_cast<double>(clock().nowNs() - stopping_since_ns_) * 1e-9;
       if (std::abs(state->v) > kAtRest && stopping_s < 10.0) return;
+      if (std::abs(state->v) > kAtRest)
+        spdlog::warn("the vehicle is not at rest after {:.1f} s ({:.2f} m/s): asking from here", stopping_s, state->v);
       act(mission_.replan(clock().nowNs(), *state, *stopping_for_));
       stopping_for_.reset();
       return;
@@ -379,6 +381,15 @@ class TrackerComponent : public runtime::Component {
     }
     const auto command = follower_->update(*state, dt);
     const auto& status = follower_->status();
+    // A line every 10 s of driving, so a run that creeps along one trajectory says why in the log (the
+    // reference held back by max_lead, a slow vehicle, a small command).
+    if (clock().nowNs() - last_progress_log_ns_ > 10'000'000'000LL) {
+      last_progress_log_ns_ = clock().nowNs();
+      spdlog::info("driving trajectory {}: reference at {:.1f} of {:.1f} s, progress {:.0f} %, along-track {:.2f} m, cross-track {:.2f} m, "
+                   "vehicle at {:.2f} m/s (vz {:.2f}), command {:.2f} m/s (vz {:.2f})",
+                   mission_.requestId(), status.reference_time, follower_->trajectory().duration(), 100 * status.progress,
+                   status.along_track_error, status.cross_track_error, state->v, state->vz, command.v, command.vz);
+    }
     commands_.publish(nodes::toMsg(command, clock().nowNs()));
     const auto next = mission_.tracked(clock().nowNs(), *state, status, dt);
     msg::TrackingStatus out;
@@ -430,6 +441,7 @@ class TrackerComponent : public runtime::Component {
         next_trajectory_.reset();
         mission_.hold();
         if (mission_.awaitingPlan()) spdlog::warn("stopping; plan {} is superseded: {}", mission_.requestId(), verdict.reason);
+        else spdlog::info("stopping to replan once at rest: {}", verdict.reason);  // the request follows at rest
         stopping_for_ = verdict.reason;
         stopping_since_ns_ = clock().nowNs();
       } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan() && !smoothing_.valid()) {
@@ -477,6 +489,7 @@ class TrackerComponent : public runtime::Component {
   std::uint64_t trajectory_serial_ = 0;
   std::int64_t next_since_ns_ = 0;
   double next_wait_limit_s_ = 2.0;
+  std::int64_t last_progress_log_ns_ = 0;
   std::int64_t last_step_ns_ = 0;
   msg::TrackingStatus last_status_;
   std::chrono::steady_clock::time_point started_;
