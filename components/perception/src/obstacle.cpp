@@ -102,16 +102,24 @@ ObstacleEllipsoid fitCore(std::size_t n, PointAt point, BearingAt bearing, int d
   if (n == 0) throw std::invalid_argument("fitEllipsoid: empty cluster");
 
   // Shifted sums (about the first point) keep the covariance accurate far from the world origin.
+  // Both sums of outer products are symmetric: only the upper triangles are summed (the products
+  // d_i d_j and d_j d_i are the same number, so this is the full product's result, bit for bit).
   const Eigen::Vector3d ref = point(0);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d outer = Eigen::Matrix3d::Zero(), noise = Eigen::Matrix3d::Zero();
+  double oxx = 0, oxy = 0, oxz = 0, oyy = 0, oyz = 0, ozz = 0;
+  double nxx = 0, nxy = 0, nxz = 0, nyy = 0, nyz = 0, nzz = 0;
   for (std::size_t k = 0; k < n; ++k) {
     const Eigen::Vector3d d = point(k) - ref;
     sum += d;
-    outer.noalias() += d * d.transpose();
+    oxx += d.x() * d.x(), oxy += d.x() * d.y(), oxz += d.x() * d.z();
+    oyy += d.y() * d.y(), oyz += d.y() * d.z(), ozz += d.z() * d.z();
     const Eigen::Vector3d u = bearing(k);
-    noise.noalias() += u * u.transpose();
+    nxx += u.x() * u.x(), nxy += u.x() * u.y(), nxz += u.x() * u.z();
+    nyy += u.y() * u.y(), nyz += u.y() * u.z(), nzz += u.z() * u.z();
   }
+  Eigen::Matrix3d outer, noise;
+  outer << oxx, oxy, oxz, oxy, oyy, oyz, oxz, oyz, ozz;
+  noise << nxx, nxy, nxz, nxy, nyy, nyz, nxz, nyz, nzz;
   const Eigen::Vector3d mean_offset = sum / static_cast<double>(n);
   Eigen::Matrix3d covariance = outer / static_cast<double>(n) - mean_offset * mean_offset.transpose();
   covariance += params.range_noise_sigma * params.range_noise_sigma / static_cast<double>(n) * noise;

@@ -98,8 +98,9 @@ class CellGrid {
     return *value == kNone ? nullptr : value;
   }
   // The values of the 3 x 3 x 3 cells around c (3 x 3 in 2-D) in the order dx, dy, dz from -1 to
-  // 1 (kNone where absent); returns how many. At most 8 block lookups instead of 27 cell lookups.
-  int neighbourhood(const CellKey& c, std::array<std::uint32_t, 27>& out) {
+  // 1 (kNone where absent, or where bit k of `wanted` is clear: those are not looked up); returns
+  // how many. At most 8 block lookups instead of 27 cell lookups.
+  int neighbourhood(const CellKey& c, std::array<std::uint32_t, 27>& out, std::uint32_t wanted = ~0u) {
     const int dz_lo = c.dims == 3 ? -1 : 0, dz_hi = c.dims == 3 ? 1 : 0;
     const std::int32_t bx0 = (c.x - 1) >> 2, by0 = (c.y - 1) >> 2, bz0 = (c.z + dz_lo) >> 2;
     std::array<const Block*, 8> near{};
@@ -108,6 +109,10 @@ class CellGrid {
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = dz_lo; dz <= dz_hi; ++dz) {
+          if (!((wanted >> n) & 1u)) {
+            out[n++] = kNone;
+            continue;
+          }
           const CellKey cell{c.x + dx, c.y + dy, c.z + dz, c.dims};
           const int b = ((cell.x >> 2) - bx0) | (((cell.y >> 2) - by0) << 1) | (((cell.z >> 2) - bz0) << 2);
           if (!looked[b]) {
@@ -541,12 +546,11 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     CellKey c;
     if (!cellOf(s.position, tol, dims, c)) return false;
     ev.candidates.clear();
-    std::array<std::uint32_t, 27> heads;
-    ev.nearby.neighbourhood(c, heads);
     // A neighbour cell whose box is at least the association distance away cannot hold a voxel within
     // it (a voxel's mean stays inside the voxel cell it was added in, so inside this box up to
-    // cell_drift): its list is not walked. Only cells that could hold a candidate are visited, so the
-    // candidates are the same. About a quarter of the 27 cells of a 3-D neighbourhood are skipped.
+    // cell_drift): it is neither looked up nor walked. Only cells that could hold a candidate are
+    // visited, so the candidates are the same. About a quarter of the 27 cells of a 3-D neighbourhood
+    // are skipped.
     const double p[3] = {s.position.x(), s.position.y(), s.position.z()};
     const std::int32_t ci[3] = {c.x, c.y, c.z};
     double below[3], above[3];
@@ -555,16 +559,21 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       above[a] = std::max(0.0, static_cast<double>(ci[a] + 1) * tol - p[a] - cell_drift);
     }
     const int dz_lo = dims == 3 ? -1 : 0, dz_hi = dims == 3 ? 1 : 0;
+    std::uint32_t wanted = 0;
     int k = 0;
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = dz_lo; dz <= dz_hi; ++dz) {
-          const std::uint32_t head = heads[k++];
-          if (head == kNone) continue;
+        for (int dz = dz_lo; dz <= dz_hi; ++dz, ++k) {
           const double gx = dx < 0 ? below[0] : dx > 0 ? above[0] : 0.0;
           const double gy = dy < 0 ? below[1] : dy > 0 ? above[1] : 0.0;
           const double gz = dz < 0 ? below[2] : dz > 0 ? above[2] : 0.0;
-          if (gx * gx + gy * gy + gz * gz >= tol * tol) continue;
+          if (gx * gx + gy * gy + gz * gz < tol * tol) wanted |= 1u << k;
+        }
+    std::array<std::uint32_t, 27> heads;
+    const int cells = ev.nearby.neighbourhood(c, heads, wanted);
+    for (k = 0; k < cells; ++k) {
+      const std::uint32_t head = heads[k];
+      if (head == kNone) continue;
       for (std::uint32_t n = head; n != kNone; n = ev.nodes[n].next_nearby) {
         const Evidence::Node& ref = ev.nodes[n];
         const float d2 = (ref.mean - s.position).squaredNorm();
@@ -577,7 +586,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
           found->first = std::min(found->first, d2);
         }
       }
-        }
+    }
     std::sort(ev.candidates.begin(), ev.candidates.end());
     for (const auto& [d2, t] : ev.candidates) {
       if (!accepts(t, s)) continue;
