@@ -102,6 +102,7 @@ void Recorder::closeFile() {
   writer_->addMetadata("ddsnav.recording_end",
                        {{"end_time_ns", std::to_string(nowNs())}, {"error", error_}, {"not_discovered", not_discovered}});
   writer_->close();
+  for (auto& buffer : writer_->takeReleasedBuffers()) recycle(std::move(buffer));
   writer_.reset();
   files_written_.push_back(file_path_);
 }
@@ -342,8 +343,11 @@ void Recorder::writerLoop() {
       item.topic->written.fetch_add(1, std::memory_order_relaxed);
       const std::uint64_t total = total_written_.fetch_add(1) + 1;
       try {
-        writer_->write(item.topic->channel, item.log_time, item.publish_time, item.payload);
-        bytes_written_.fetch_add(item.payload.size(), std::memory_order_relaxed);
+        // Large payloads are not copied: the chunk keeps the buffer until it is in the file, then
+        // hands it back (takeReleasedBuffers) for the next samples.
+        const std::size_t size = item.payload.size();
+        writer_->write(item.topic->channel, item.log_time, item.publish_time, std::move(item.payload));
+        bytes_written_.fetch_add(size, std::memory_order_relaxed);
       } catch (const std::exception& e) {
         setError(e.what());
       }
@@ -351,6 +355,8 @@ void Recorder::writerLoop() {
       if (options_.max_messages > 0 && total >= options_.max_messages) max_reached_.store(true);
     }
     batch.clear();
+    if (writer_)
+      for (auto& buffer : writer_->takeReleasedBuffers()) recycle(std::move(buffer));
     if (options_.snapshot && snapshot_requested_.exchange(false)) {
       try {
         writeSnapshot();
