@@ -147,6 +147,7 @@ struct RunSpec {
   double rate = 0;
   std::size_t chunk_kb = 1024;
   int zstd_level = 1;
+  int lz4_level = 0;
 };
 
 Result runSink(const std::string& self, const RunSpec& spec, const std::string& sink, const fs::path& file) {
@@ -191,7 +192,10 @@ Result runSink(const std::string& self, const RunSpec& spec, const std::string& 
     record::RecorderOptions o;
     o.output = file.string();
     o.topics = {topic};
-    o.mcap.compression = sink == "record-zstd" ? record::Compression::Zstd : record::Compression::None;
+    o.mcap.compression = sink == "record-zstd"  ? record::Compression::Zstd
+                         : sink == "record-lz4" ? record::Compression::Lz4
+                                                : record::Compression::None;
+    o.mcap.lz4_level = spec.lz4_level;
     o.mcap.chunk_size = spec.chunk_kb * 1024;
     o.mcap.zstd_level = spec.zstd_level;
     o.compression_threads = spec.compression_threads;
@@ -312,8 +316,10 @@ std::vector<std::vector<std::uint8_t>> diskPayloads(const std::string& kind, con
 DiskResult diskOnly(const std::vector<std::vector<std::uint8_t>>& payloads, int count, record::Compression compression,
                     int level, unsigned threads, std::size_t chunk_kb, const fs::path& file) {
   DiskResult r;
-  r.compression = (compression == record::Compression::Zstd ? "zstd" + std::to_string(level) : std::string("none")) + "/" +
-                  std::to_string(threads) + "t";
+  r.compression = (compression == record::Compression::Zstd  ? "zstd" + std::to_string(level)
+                   : compression == record::Compression::Lz4 ? "lz4" + std::to_string(level)
+                                                             : std::string("none")) +
+                  "/" + std::to_string(threads) + "t";
   std::vector<std::vector<std::uint8_t>> spare;
   double refill_s = 0;
   const auto t0 = Clock::now();
@@ -321,6 +327,7 @@ DiskResult diskOnly(const std::vector<std::vector<std::uint8_t>>& payloads, int 
     record::McapWriterOptions options;
     options.compression = compression;
     options.zstd_level = level;
+    options.lz4_level = level;
     options.compression_threads = threads;
     options.chunk_size = chunk_kb * 1024;
     record::McapWriter w(file.string(), options);
@@ -358,8 +365,9 @@ int main(int argc, char** argv) {
   int repeats = 1, disk_count = 0;
   double rate = -1;
   std::string out_dir = fs::temp_directory_path().string();
-  std::vector<std::string> sinks = {"discard", "record-none", "record-zstd"};
+  std::vector<std::string> sinks = {"discard", "record-none", "record-zstd", "record-lz4"};
   std::vector<int> levels = {1, 3};
+  std::vector<int> lz4_levels = {0};
   bool json = false, no_disk = false, no_dds = false;
   std::string disk_from, disk_topic = "sensors/points";
   app.add_option("--role", role)->check(CLI::IsMember({"bench", "publish"}));
@@ -371,10 +379,11 @@ int main(int argc, char** argv) {
   app.add_option("--count", spec.count, "messages per run (default: 300 clouds, 50000 small)")->check(CLI::PositiveNumber);
   app.add_option("--rate", rate, "publisher msgs/s, 0 = flood (default: 100 clouds/s, 20000 small/s)")->check(CLI::NonNegativeNumber);
   app.add_option("--repeats", repeats, "runs per sink")->check(CLI::PositiveNumber);
-  app.add_option("--sinks", sinks, "comma separated: discard, record-none, record-zstd")->delimiter(',')
-      ->check(CLI::IsMember({"discard", "record-none", "record-zstd"}));
+  app.add_option("--sinks", sinks, "comma separated: discard, record-none, record-zstd, record-lz4")->delimiter(',')
+      ->check(CLI::IsMember({"discard", "record-none", "record-zstd", "record-lz4"}));
   app.add_option("--chunk-kb", spec.chunk_kb, "recorder / disk chunk size")->check(CLI::Range(1, 1 << 20));
   app.add_option("--zstd-level", spec.zstd_level, "recorder zstd level (negative: zstd's fast levels)")->check(CLI::Range(-50, 19));
+  app.add_option("--lz4-level", spec.lz4_level, "recorder lz4 level (0 default, negative: faster)")->check(CLI::Range(-65537, 12));
   app.add_option("--compression-threads", spec.compression_threads, "recorder compression workers (-1: one per core)")
       ->check(CLI::Range(-1, 64));
   app.add_option("--writer-nice", spec.writer_nice, "recorder writer/worker nice increment")->check(CLI::Range(0, 19));
@@ -382,6 +391,7 @@ int main(int argc, char** argv) {
   app.add_option("--disk-count", disk_count, "messages for the disk-only runs (default: 1000 clouds, 1000000 small)")
       ->check(CLI::PositiveNumber);
   app.add_option("--disk-levels", levels, "zstd levels for the disk-only runs")->delimiter(',');
+  app.add_option("--disk-lz4-levels", lz4_levels, "lz4 levels for the disk-only runs")->delimiter(',');
   app.add_option("--disk-from", disk_from, "disk-only runs: payloads of --disk-topic from this recording (real data)")
       ->check(CLI::ExistingFile);
   app.add_option("--disk-topic", disk_topic, "topic of --disk-from");
@@ -463,7 +473,7 @@ int main(int argc, char** argv) {
     std::sort(v.begin(), v.end());
     return v.empty() ? 0.0 : v[v.size() / 2];
   };
-  for (const char* s : {"record-none", "record-zstd"}) {
+  for (const char* s : {"record-none", "record-zstd", "record-lz4"}) {
     if (delivered_fraction.count(s) == 0) continue;
     const double base = worst(delivered_fraction["discard"]);
     report["worst_delivered_fraction"][s] = worst(delivered_fraction[s]);
@@ -488,6 +498,10 @@ int main(int argc, char** argv) {
     for (int level : levels) {
       runs.emplace_back(record::Compression::Zstd, level, 0);
       runs.emplace_back(record::Compression::Zstd, level, workers);
+    }
+    for (int level : lz4_levels) {
+      runs.emplace_back(record::Compression::Lz4, level, 0);
+      runs.emplace_back(record::Compression::Lz4, level, workers);
     }
     std::vector<std::vector<std::uint8_t>> payloads;
     try {

@@ -4,6 +4,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 #include <isa-l/crc.h>
+#include <lz4frame.h>
 #include <zstd.h>
 
 #include <algorithm>
@@ -18,7 +19,14 @@
 
 namespace ddsnav::record {
 
-std::string_view compressionName(Compression c) { return c == Compression::Zstd ? "zstd" : ""; }
+std::string_view compressionName(Compression c) {
+  switch (c) {
+    case Compression::Zstd: return "zstd";
+    case Compression::Lz4: return "lz4";
+    case Compression::None: break;
+  }
+  return "";
+}
 
 void lowerThreadPriority(int increment) {
   // Linux keeps a nice value per thread: PRIO_PROCESS with the thread id changes only this thread.
@@ -68,13 +76,28 @@ std::string opcodeName(std::uint8_t opcode) {
 
 using namespace format;
 
-namespace {
-void* newCompressor(int level) {
-  ZSTD_CCtx* c = ZSTD_createCCtx();
-  ZSTD_CCtx_setParameter(c, ZSTD_c_compressionLevel, level);
-  return c;
-}
-}  // namespace
+// One thread's compression context: zstd's or LZ4's, made for the writer's options.
+struct McapWriter::Compressor {
+  Compression compression;
+  int lz4_level = 0;
+  ZSTD_CCtx* zstd = nullptr;
+  LZ4F_cctx* lz4 = nullptr;
+
+  Compressor(const McapWriterOptions& options) : compression(options.compression), lz4_level(options.lz4_level) {
+    if (compression == Compression::Zstd) {
+      zstd = ZSTD_createCCtx();
+      ZSTD_CCtx_setParameter(zstd, ZSTD_c_compressionLevel, options.zstd_level);
+    } else if (compression == Compression::Lz4) {
+      LZ4F_createCompressionContext(&lz4, LZ4F_VERSION);
+    }
+  }
+  ~Compressor() {
+    if (zstd) ZSTD_freeCCtx(zstd);
+    if (lz4) LZ4F_freeCompressionContext(lz4);
+  }
+  Compressor(const Compressor&) = delete;
+  Compressor& operator=(const Compressor&) = delete;
+};
 
 // A closed chunk on its way to the file: records and index from the writer, CRC and compressed bytes from
 // a worker (or the calling thread). Its bytes are `records` with each attached payload inserted at its
@@ -102,11 +125,14 @@ struct McapWriter::PendingChunk {
     if (records.size() > from) piece(records.data() + from, records.size() - from);
   }
 
-  void encode(Compression compression, void* zstd) {
+  void encode(Compressor& compressor) {
     crc = 0;
     forEachPiece([&](const std::uint8_t* p, std::size_t n) { crc = crc32(p, n, crc); });
-    if (compression != Compression::Zstd) return;
-    auto* cctx = static_cast<ZSTD_CCtx*>(zstd);
+    if (compressor.compression == Compression::Zstd) encodeZstd(compressor.zstd);
+    else if (compressor.compression == Compression::Lz4) encodeLz4(compressor.lz4, compressor.lz4_level);
+  }
+
+  void encodeZstd(ZSTD_CCtx* cctx) {
     compressed.resize(ZSTD_compressBound(size));
     if (attached.empty()) {
       const std::size_t n = ZSTD_compress2(cctx, compressed.data(), compressed.size(), records.data(), records.size());
@@ -131,6 +157,35 @@ struct McapWriter::PendingChunk {
     compressed.resize(out.pos);
   }
 
+  void encodeLz4(LZ4F_cctx* cctx, int level) {
+    // One LZ4 frame (what MCAP's "lz4" means) with the content size in its header, streamed from the
+    // pieces. Blocks are linked (matches across the 64 KB blocks); no frame checksum: the chunk has its CRC.
+    LZ4F_preferences_t prefs = LZ4F_INIT_PREFERENCES;
+    prefs.compressionLevel = level;
+    prefs.frameInfo.contentSize = size;
+    prefs.frameInfo.blockMode = LZ4F_blockLinked;
+    std::size_t bound = LZ4F_HEADER_SIZE_MAX + LZ4F_compressBound(0, &prefs);
+    forEachPiece([&](const std::uint8_t*, std::size_t n) { bound += LZ4F_compressBound(n, &prefs); });
+    compressed.resize(bound);
+    std::size_t at = LZ4F_compressBegin(cctx, compressed.data(), compressed.size(), &prefs);
+    if (LZ4F_isError(at)) return failLz4(at);
+    std::size_t rc = 0;
+    forEachPiece([&](const std::uint8_t* p, std::size_t n) {
+      if (LZ4F_isError(rc)) return;
+      rc = LZ4F_compressUpdate(cctx, compressed.data() + at, compressed.size() - at, p, n, nullptr);
+      if (!LZ4F_isError(rc)) at += rc;
+    });
+    if (LZ4F_isError(rc)) return failLz4(rc);
+    rc = LZ4F_compressEnd(cctx, compressed.data() + at, compressed.size() - at, nullptr);
+    if (LZ4F_isError(rc)) return failLz4(rc);
+    compressed.resize(at + rc);
+  }
+
+  void failLz4(std::size_t lz4_result) {
+    error = std::string("lz4 compression failed: ") + LZ4F_getErrorName(lz4_result);
+    compressed.clear();
+  }
+
   void fail(std::size_t zstd_result) {
     error = std::string("zstd compression failed: ") + ZSTD_getErrorName(zstd_result);
     compressed.clear();
@@ -140,13 +195,12 @@ struct McapWriter::PendingChunk {
 // Worker threads that encode closed chunks, each with its own zstd context.
 class McapWriter::Pool {
  public:
-  Pool(unsigned threads, Compression compression, int level, int nice) : compression_(compression) {
+  Pool(unsigned threads, const McapWriterOptions& options) {
     for (unsigned i = 0; i < threads; ++i)
-      workers_.emplace_back([this, level, nice] {
-        if (nice != 0) lowerThreadPriority(nice);
-        void* zstd = compression_ == Compression::Zstd ? newCompressor(level) : nullptr;
-        run(zstd);
-        if (zstd) ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd));
+      workers_.emplace_back([this, options] {
+        if (options.worker_nice != 0) lowerThreadPriority(options.worker_nice);
+        Compressor compressor(options);
+        run(compressor);
       });
   }
   ~Pool() {
@@ -174,7 +228,7 @@ class McapWriter::Pool {
   }
 
  private:
-  void run(void* zstd) {
+  void run(Compressor& compressor) {
     for (;;) {
       std::shared_ptr<PendingChunk> chunk;
       {
@@ -184,7 +238,7 @@ class McapWriter::Pool {
         chunk = std::move(queue_.front());
         queue_.pop_front();
       }
-      chunk->encode(compression_, zstd);
+      chunk->encode(compressor);
       {
         std::lock_guard lock(mutex_);
         chunk->done = true;
@@ -192,7 +246,6 @@ class McapWriter::Pool {
       finished_.notify_all();
     }
   }
-  Compression compression_;
   std::mutex mutex_;
   std::condition_variable work_, finished_;
   std::deque<std::shared_ptr<PendingChunk>> queue_;
@@ -206,9 +259,9 @@ McapWriter::McapWriter(const std::string& path, McapWriterOptions options) : pat
   file_ = std::fopen(path.c_str(), "wb");
   if (!file_) throw McapError(path_ + ": cannot create file: " + std::strerror(errno));
   if (options_.compression_threads > 0)
-    pool_ = std::make_unique<Pool>(options_.compression_threads, options_.compression, options_.zstd_level, options_.worker_nice);
-  else if (options_.compression == Compression::Zstd)
-    zstd_ = newCompressor(options_.zstd_level);
+    pool_ = std::make_unique<Pool>(options_.compression_threads, options_);
+  else
+    compressor_ = std::make_unique<Compressor>(options_);
   writeBytes(kMagic, sizeof kMagic);
   std::vector<std::uint8_t> header;
   Out out(header);
@@ -225,7 +278,6 @@ McapWriter::~McapWriter() {
     std::cerr << e.what() << '\n';
   }
   pool_.reset();  // joins the workers
-  if (zstd_) ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd_));
 }
 
 void McapWriter::writeBytes(const void* data, std::size_t size) {
@@ -369,7 +421,7 @@ void McapWriter::closeChunk() {
   }
   chunk_records_.clear();
   if (!pool_) {
-    chunk->encode(options_.compression, zstd_);
+    chunk->encode(*compressor_);
     chunk->done = true;
     pending_.push_back(std::move(chunk));
     writePending(true);
@@ -421,7 +473,7 @@ void McapWriter::writeChunk(PendingChunk& chunk) {
   info.message_end_time = chunk.end;
   info.uncompressed_size = chunk.size;
   info.compression = std::string(compressionName(options_.compression));
-  const bool compressed = options_.compression == Compression::Zstd;
+  const bool compressed = options_.compression != Compression::None;
   const std::uint64_t payload_size = compressed ? chunk.compressed.size() : chunk.size;
   info.compressed_size = payload_size;
 

@@ -37,8 +37,8 @@ class McapError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class Compression { None, Zstd };
-std::string_view compressionName(Compression c);  // "" | "zstd" (the spec's names)
+enum class Compression { None, Zstd, Lz4 };
+std::string_view compressionName(Compression c);  // "" | "zstd" | "lz4" (the spec's names; lz4: the LZ4 frame format)
 // Raises the calling thread's nice value by `increment` (lower priority; Linux per-thread nice).
 void lowerThreadPriority(int increment);
 
@@ -97,6 +97,8 @@ inline constexpr std::uint64_t kMaxChunkUncompressedBytes = 1ull << 30;
 struct McapWriterOptions {
   Compression compression = Compression::Zstd;
   int zstd_level = 1;                      // fast: recording must keep up with the sensors
+  // LZ4 frame compression level: 0 default (fast), < 0 faster still ("acceleration"), > 2 LZ4-HC (slow).
+  int lz4_level = 0;
   std::size_t chunk_size = 1 << 20;        // close a chunk once its records reach this many bytes
   std::chrono::milliseconds chunk_age{1000};  // ... or once its first message is this old (flushAged)
   std::string profile;                     // MCAP profile; "" (ddsnav's schemas are OMG IDL, not ROS)
@@ -112,6 +114,7 @@ struct McapWriterOptions {
 
 class McapWriter {
   struct PendingChunk;
+  struct Compressor;
   class Pool;
 
  public:
@@ -194,7 +197,7 @@ class McapWriter {
   std::unique_ptr<Pool> pool_;                              // compression workers, or none
   std::deque<std::shared_ptr<PendingChunk>> pending_;      // closed, not yet written, in file order
   std::vector<std::vector<std::uint8_t>> spare_buffers_;    // chunk buffers to reuse
-  void* zstd_ = nullptr;  // ZSTD_CCtx* of the calling thread (compression_threads == 0)
+  std::unique_ptr<Compressor> compressor_;  // of the calling thread (compression_threads == 0)
 };
 
 struct McapSummary {
