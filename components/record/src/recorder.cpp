@@ -246,13 +246,17 @@ void Recorder::recycle(std::vector<std::uint8_t>&& buffer) {
 }
 
 void Recorder::returnFreedBuffers() {
-  // Called with queue_mutex_ held. Keep up to a quarter of the queue's byte limit: enough for a steady stream.
+  // Called with queue_mutex_ held. Keep up to a quarter of the queue's byte limit: enough for a steady
+  // stream. The rest stay in freed_ and are released by the writer after it lets go of the lock (a
+  // burst of small messages can free thousands of buffers: not while a DDS callback waits for it).
+  std::size_t kept = 0;
   for (auto& buffer : freed_) {
     if (spare_bytes_ + buffer.capacity() > options_.queue_bytes / 4 || spare_.size() >= 1024) break;
     spare_bytes_ += buffer.capacity();
     spare_.push_back(std::move(buffer));
+    ++kept;
   }
-  freed_.clear();
+  freed_.erase(freed_.begin(), freed_.begin() + static_cast<std::ptrdiff_t>(kept));
 }
 
 void Recorder::rotateIfDue() {
@@ -317,6 +321,7 @@ void Recorder::writerLoop() {
       finishing = stopping_;
       returnFreedBuffers();
     }
+    freed_.clear();  // what the spare pool had no room for, released outside the queue lock
     std::lock_guard lock(writer_mutex_);
     for (Item& item : batch) {
       if (options_.snapshot) {
