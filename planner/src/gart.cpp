@@ -12,6 +12,7 @@
 #include <limits>
 #include <stdexcept>
 #include <utility>
+#include <vector>
 
 namespace ddsnav::planner {
 namespace {
@@ -27,19 +28,41 @@ class StagnationWatch {
       : cell_(std::max(world.robotRadius(), world.checkResolution())),
         origin_(world.boundsMin()),
         three_d_(world.dimensions() == 3),
-        patience_(static_cast<std::uint64_t>(patience)) {}
+        patience_(static_cast<std::uint64_t>(patience)) {
+    // A dense bitmap when the bounds hold at most 2^24 cells (a 110 m world at a 0.5 m robot radius: 49 k),
+    // else the hash set: a node-based set allocates on every new cell, a bitmap never.
+    const Vec3 extent = (world.boundsMax() - world.boundsMin()) / cell_;
+    const double nx = std::floor(extent.x()) + 1.0, ny = std::floor(extent.y()) + 1.0;
+    const double nz = three_d_ ? std::floor(extent.z()) + 1.0 : 1.0;
+    if (patience_ > 0 && nx * ny * nz <= double(1 << 24)) {
+      nx_ = static_cast<std::uint64_t>(nx);
+      ny_ = static_cast<std::uint64_t>(ny);
+      dense_.assign(static_cast<std::size_t>(nx * ny * nz), false);
+    }
+  }
 
   void reached(const Vec3& p) {
+    if (patience_ == 0) return;
     const Vec3 c = (p - origin_) / cell_;
+    const auto cx = static_cast<std::uint64_t>(c.x()), cy = static_cast<std::uint64_t>(c.y());
+    const auto cz = three_d_ ? static_cast<std::uint64_t>(c.z()) : 0;
+    if (!dense_.empty()) {
+      const std::size_t index = static_cast<std::size_t>(cx + nx_ * (cy + ny_ * cz));
+      if (index < dense_.size() && !dense_[index]) {
+        dense_[index] = true;
+        since_new_cell_ = 0;
+      }
+      return;
+    }
     // Cell coordinates inside validated bounds (|x| <= 1e9 m) fit 21 bits each at any robot radius >= 1e-3 m.
-    const auto key = (static_cast<std::uint64_t>(c.x()) & 0x1FFFFF) | ((static_cast<std::uint64_t>(c.y()) & 0x1FFFFF) << 21) |
-                     (three_d_ ? (static_cast<std::uint64_t>(c.z()) & 0x1FFFFF) << 42 : 0);
+    const auto key = (cx & 0x1FFFFF) | ((cy & 0x1FFFFF) << 21) | ((cz & 0x1FFFFF) << 42);
     if (cells_.insert(key).second) since_new_cell_ = 0;
   }
   // Counts one iteration; true when the tree has stagnated.
   bool stalled() { return patience_ > 0 && ++since_new_cell_ > patience_ << std::min<std::uint64_t>(restarts_, 20); }
   void restart() {
     cells_.clear();
+    std::fill(dense_.begin(), dense_.end(), false);
     since_new_cell_ = 0;
     ++restarts_;
   }
@@ -51,6 +74,8 @@ class StagnationWatch {
   std::uint64_t patience_;
   std::uint64_t restarts_ = 0;
   std::uint64_t since_new_cell_ = 0;
+  std::uint64_t nx_ = 0, ny_ = 0;
+  std::vector<bool> dense_;
   std::unordered_set<std::uint64_t> cells_;
 };
 
@@ -63,6 +88,7 @@ GartOptions gartLazyOptions() {
   o.attraction_patience = 20;
   o.goal_bias = 0.1;  // only used while the attraction is active (docs/planners.md)
   o.explore_nearest = true;
+  o.explore_event1_budget = 3;
   o.restart_patience = 5000;
   return o;
 }
@@ -96,6 +122,10 @@ GartPlanner::GartPlanner(GartOptions options, std::string name) : options_(optio
   addOption("restart_patience", &o.restart_patience, 0, 100000000,
             "iterations without a node in a new cell before the tree is grown again (doubles per restart; 0: never)");
   addOption("explore_nearest", &o.explore_nearest, "non-attracting iterations extend the nearest node (RRT's choice)");
+  addOption("explore_field", &o.explore_field, "exploring iterations apply events 2 and 3");
+  addOption("explore_event1", &o.explore_event1, "exploring iterations apply event 1");
+  addOption("explore_event1_budget", &o.explore_event1_budget, 0, 255,
+            "exploring iterations apply event 1 from a node at most this many times (0: no limit)");
 }
 
 PlanResult GartPlanner::solve(const PlanProblem& problem) {
@@ -111,6 +141,8 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
   const std::size_t k = options_.forward_region ? static_cast<std::size_t>(options_.k_nearest) : 1;
   StarInsertion insertion;
   std::vector<int> knn;
+  std::vector<GartCandidate> candidates;  // one buffer for every iteration's redistributed states
+  std::vector<std::uint8_t> event1_uses;  // per node: exploring iterations whose event 1 started from it
   // Self-limiting goal attraction (docs/planners.md, gart-lazy): level L, record distance to the goal.
   const bool self_limiting = options_.goal_attraction && options_.attraction_patience > 0;
   const double progress_step = options_.attraction_progress * world.robotRadius();
@@ -134,9 +166,20 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
     const bool explore = self_limiting && options_.explore_nearest && !attract;
     run.tree.kNearest(sample, explore ? 1 : k, knn);
     if (knn.empty()) continue;  // no node at a finite distance (cannot happen inside validated bounds)
+    // Exploring iterations redistribute like attracting ones, except that event 1 starts from one node at
+    // most explore_event1_budget times: a node pinned against a wall that keeps being the nearest one to far
+    // samples has had its turns away from the wall (docs/planners.md, session 6).
+    const auto near_id = static_cast<std::size_t>(knn.front());
+    if (event1_uses.size() < run.tree.size()) event1_uses.resize(run.tree.size(), 0);
+    const bool within_budget = options_.explore_event1_budget == 0 || event1_uses[near_id] < options_.explore_event1_budget;
+    step_options.event1 = options_.event1 && (!explore || (options_.explore_event1 && within_budget));
+    step_options.event2 = options_.event2 && (!explore || options_.explore_field);
+    step_options.event3 = options_.event3 && (!explore || options_.explore_field);
     int v_near = knn.front();
     double best = std::numeric_limits<double>::infinity();
-    for (int n : knn) {
+    // With one node (an exploring iteration) there is nothing to choose: its effort is not computed.
+    for (std::size_t i = 0; knn.size() > 1 && i < knn.size(); ++i) {
+      const int n = knn[i];
       const double effort = gartControlEffort(run.tree.node(n).state, sample, region, options_.turn_weight);
       const double score = options_.effort_parent || !std::isfinite(effort) ? effort : (run.tree.node(n).state.position - sample).norm();
       if (score < best) {
@@ -146,8 +189,10 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
     }
 
     // Lines 5-13: redistribute into one or two collision-free states inside R+(v_near).
-    const std::vector<GartCandidate> candidates =
-        gartRedistribute(run.tree.node(v_near).state, sample, run.problem.goal, world, region, step_options);
+    gartRedistribute(run.tree.node(v_near).state, sample, run.problem.goal, world, region, step_options, candidates);
+    // A blocked extension from near_id used its event 1 (every candidate then comes from event 1, or none).
+    const bool blocked = candidates.empty() || candidates.front().from_collision;
+    if (explore && step_options.event1 && blocked && event1_uses[near_id] < 255) ++event1_uses[near_id];
 
     // Lines 14-16: add each state with the cheapest R+-feasible parent, then rewire around it. v_near's
     // edge was checked by the redistribution.
@@ -167,6 +212,7 @@ PlanResult GartPlanner::solve(const PlanProblem& problem) {
     if (!run.solved() && stagnation.stalled()) {
       run.restart();
       stagnation.restart();
+      event1_uses.clear();
       attraction_level = 1.0;
       fruitless_attractions = 0;
       closest_to_goal = (run.problem.start.position - run.problem.goal).norm();

@@ -2,6 +2,7 @@
 #include "ddsnav/planner/gart.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -28,19 +29,21 @@ Vec3 flatten(Vec3 v, int dimensions) {
 std::vector<NearbyObstacle> distinctObstacles(const Vec3& p, const CollisionWorld& world, double range) {
   std::vector<NearbyObstacle> seen = world.obstaclesNear(p, range);  // nearest first
   const double min_gap = 2.0 * world.robotRadius();
-  std::vector<NearbyObstacle> distinct;
-  for (const NearbyObstacle& o : seen) {
-    const Vec3 m = flatten(o.nearest_point, world.dimensions());
+  // Compacted in place (the kept ones stay in order at the front): no second vector per candidate.
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    const Vec3 m = flatten(seen[i].nearest_point, world.dimensions());
     bool merged = false;
-    for (const NearbyObstacle& d : distinct) {
-      if ((flatten(d.nearest_point, world.dimensions()) - m).norm() <= min_gap) {
+    for (std::size_t j = 0; j < kept; ++j) {
+      if ((flatten(seen[j].nearest_point, world.dimensions()) - m).norm() <= min_gap) {
         merged = true;
         break;
       }
     }
-    if (!merged) distinct.push_back(o);
+    if (!merged) seen[kept++] = seen[i];
   }
-  return distinct;
+  seen.resize(kept);
+  return seen;
 }
 
 bool sameState(const Vec3& a, const Vec3& b) { return (a - b).norm() < 1e-9; }
@@ -62,8 +65,16 @@ double wrapSmallAngle(double a) {
 // after the longest (most often the answer), the shortest is checked (blocked: every longer one is too),
 // then a bisection finds the longest free one, the answer a longest-first scan gives with fewer checks.
 // The direction's sine and cosine are computed once; positions are built exactly as driveUnicycle builds them.
+// Event 1's reach fractions of J, longest first (a fixed array: built once per blocked sample, no allocation).
+struct ReachFractions {
+  std::array<double, 40> value{};
+  int count = 0;
+  std::size_t size() const { return static_cast<std::size_t>(count); }
+  double operator[](int i) const { return value[static_cast<std::size_t>(i)]; }
+};
+
 double longestFreeFraction(const State& parent, double turn, double climb, double at_least,
-                           const std::vector<double>& fractions, const CollisionWorld& world,
+                           const ReachFractions& fractions, const CollisionWorld& world,
                            const ForwardRegion& region) {
   turn = std::clamp(turn, -region.max_turn, region.max_turn);
   const double heading = wrapAngle(parent.heading + turn);
@@ -90,9 +101,13 @@ double longestFreeFraction(const State& parent, double turn, double climb, doubl
 
 // The reach fractions of event 1: J, 3J/4, J/2, J/4, then halving while the edge stays at least
 // `min_edge` metres long.
-std::vector<double> reachFractions(const ForwardRegion& region, double min_edge) {
-  std::vector<double> f = {1.0, 0.75, 0.5, 0.25};
-  while (f.back() * 0.5 * region.reach >= min_edge && f.size() < 40) f.push_back(f.back() * 0.5);
+ReachFractions reachFractions(const ForwardRegion& region, double min_edge) {
+  ReachFractions f;
+  for (double v : {1.0, 0.75, 0.5, 0.25}) f.value[static_cast<std::size_t>(f.count++)] = v;
+  while (f[f.count - 1] * 0.5 * region.reach >= min_edge && f.count < 40) {
+    f.value[static_cast<std::size_t>(f.count)] = f[f.count - 1] * 0.5;
+    ++f.count;
+  }
   return f;
 }
 
@@ -144,8 +159,25 @@ GartForce gartObstacleForce(const Vec3& p, const CollisionWorld& world, const Fo
 std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sample, const Vec3& goal,
                                             const CollisionWorld& world, const ForwardRegion& region,
                                             const GartOptions& options) {
-  // Raw candidates: the sample projected into R+(parent), or event 1's two max-turn states.
-  std::vector<GartCandidate> raw;
+  std::vector<GartCandidate> out;
+  gartRedistribute(parent, sample, goal, world, region, options, out);
+  return out;
+}
+
+void gartRedistribute(const State& parent, const Vec3& sample, const Vec3& goal, const CollisionWorld& world,
+                      const ForwardRegion& region, const GartOptions& options, std::vector<GartCandidate>& out) {
+  out.clear();
+  // Raw candidates: the sample projected into R+(parent), or event 1's two max-turn states (at most two:
+  // a fixed array, so an iteration allocates nothing here).
+  struct {
+    std::array<GartCandidate, 2> items;
+    std::size_t count = 0;
+    bool empty() const { return count == 0; }
+    const GartCandidate& front() const { return items[0]; }
+    void push_back(const GartCandidate& c) { items[count++] = c; }
+    const GartCandidate* begin() const { return items.data(); }
+    const GartCandidate* end() const { return items.data() + count; }
+  } raw;
   const State projected = steerUnicycle(parent, sample, region);
   if (!sameState(projected.position, parent.position) && world.isSegmentFree(parent.position, projected.position)) {
     GartCandidate c;
@@ -160,7 +192,7 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
     const double climb = projected.position.z() - parent.position.z();
     const int steps = std::max(1, options.event1_turn_steps);
     const double min_edge = options.event1_min_edge > 0.0 ? options.event1_min_edge * world.robotRadius() : region.reach;
-    const std::vector<double> fractions = reachFractions(region, min_edge);
+    const ReachFractions fractions = reachFractions(region, min_edge);
     for (int side : {-1, +1}) {
       const double limit = side * region.max_turn;
       double found_turn = 0.0;
@@ -186,7 +218,6 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
 
   // Events 2 / 3 and goal attraction on every raw candidate; each result is projected back into R+(parent)
   // and kept only when its edge is free, else the raw (already free) candidate stands.
-  std::vector<GartCandidate> out;
   for (GartCandidate c : raw) {
     const Vec3 p = c.state.position;
     if (!options.event2 && !options.event3 && !options.goal_attraction) {
@@ -211,7 +242,6 @@ std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sam
     for (const GartCandidate& o : out) duplicate = duplicate || sameState(o.state.position, c.state.position);
     if (!duplicate) out.push_back(c);
   }
-  return out;
 }
 
 }  // namespace ddsnav::planner

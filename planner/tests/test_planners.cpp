@@ -147,6 +147,32 @@ TEST(Planners, GartLazyRestartsAStagnantTreeAndStillSolves) {
   EXPECT_EQ(faithful.stats.restarts, 0u);
 }
 
+// gart-lazy's event 1 budget (docs/planners.md, session 6): in the wide bug trap, nodes pinned against the
+// inside walls stop re-running event 1 for far samples after 3 exploring iterations, so the same seeds solve
+// with valid paths and under half the validity checks per iteration of the budget off (0): 8.0 vs 31.6.
+TEST(Planners, GartLazyEvent1BudgetCutsTheCollisionWorkInABugTrap) {
+  const Scenario s = shipped("bugtrap_1.0");
+  const auto world = makeScenarioWorld(s);
+  double budgeted_checks = 0, budgeted_iterations = 0, unlimited_checks = 0, unlimited_iterations = 0;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    PlanProblem problem = problemFor(s, *world, seed);
+    problem.max_iterations = 200000;
+    const PlanResult r = makePlanner("gart-lazy")->solve(problem);
+    ASSERT_TRUE(r.solved) << seed;
+    expectValidPath(s, r);
+    budgeted_checks += static_cast<double>(r.stats.validity_checks);
+    budgeted_iterations += static_cast<double>(r.stats.iterations);
+    auto unlimited = makePlanner("gart-lazy");
+    applyOptions(*unlimited, {"explore_event1_budget=0"});
+    const PlanResult u = unlimited->solve(problem);
+    ASSERT_TRUE(u.solved) << seed;
+    unlimited_checks += static_cast<double>(u.stats.validity_checks);
+    unlimited_iterations += static_cast<double>(u.stats.iterations);
+  }
+  EXPECT_LT(budgeted_checks / budgeted_iterations, 0.5 * unlimited_checks / unlimited_iterations)
+      << budgeted_checks << " / " << budgeted_iterations << " vs " << unlimited_checks << " / " << unlimited_iterations;
+}
+
 TEST(Planners, PlannerRunRefusesToRestartASolvedRun) {
   const Scenario s = shipped("demo_2d");
   const auto world = makeScenarioWorld(s);

@@ -221,14 +221,47 @@ TEST(PlannerOptions, GartLazyIsGartWithDocumentedChanges) {
   EXPECT_EQ(values["goal_bias"], "0.1");
   EXPECT_EQ(values["explore_nearest"], "true");
   EXPECT_EQ(values["restart_patience"], "5000");
+  EXPECT_EQ(values["explore_event1_budget"], "3");
   const std::set<std::string> changed = {"defer_optimisation", "event1_min_edge", "attraction_patience", "goal_bias",
-                                         "explore_nearest", "restart_patience"};
+                                         "explore_nearest", "restart_patience", "explore_event1_budget"};
   for (const PlannerOption& o : makePlanner("gart")->options()) {
     if (!changed.count(o.name)) {
       EXPECT_EQ(values[o.name], o.value) << o.name;
     }
   }
   EXPECT_EQ(makePlanner("gart")->options().size(), lazy->options().size());
+}
+
+// Every gart-lazy option goes through applyOptions (the one path of `ddsnav plan --option`, `ddsnav bench
+// --option` / name{k=v} and the planner component's planner_options): its default is accepted and stays the
+// value; a value beyond its range (or not a boolean) is refused with the planner, the option and the range.
+TEST(PlannerOptions, EveryGartLazyOptionIsSettableAndRangeChecked) {
+  const auto options = makePlanner("gart-lazy")->options();
+  ASSERT_GE(options.size(), 25u);
+  for (const PlannerOption& o : options) {
+    SCOPED_TRACE(o.name);
+    auto lazy = makePlanner("gart-lazy");
+    applyOptions(*lazy, {o.name + "=" + o.value});
+    std::map<std::string, std::string> after;
+    for (const PlannerOption& a : lazy->options()) after[a.name] = a.value;
+    EXPECT_EQ(after[o.name], o.value);
+    const std::string expected = "planner gart-lazy, option " + o.name + ": expected " + o.range();
+    if (o.type == PlannerOption::Type::kBoolean) {
+      applyOptions(*lazy, {o.name + "=" + (o.value == "true" ? "false" : "true")});  // both values accepted
+      EXPECT_EQ(errorOf([&] { applyOptions(*lazy, {o.name + "=2"}); }).find(expected), 0u);
+      continue;
+    }
+    const std::string above = o.type == PlannerOption::Type::kInteger ? std::to_string(static_cast<long long>(o.max) + 1)
+                                                                      : std::to_string(o.max * 2.0 + 1.0);
+    const std::string below = o.type == PlannerOption::Type::kInteger ? std::to_string(static_cast<long long>(o.min) - 1)
+                                                                      : std::to_string(o.min - 1.0);
+    EXPECT_EQ(errorOf([&] { applyOptions(*lazy, {o.name + "=" + above}); }).find(expected), 0u) << above;
+    EXPECT_EQ(errorOf([&] { applyOptions(*lazy, {o.name + "=" + below}); }).find(expected), 0u) << below;
+    EXPECT_EQ(errorOf([&] { applyOptions(*lazy, {o.name + "=nan"}); }).find(expected), 0u);
+  }
+  EXPECT_EQ(errorOf([] { applyOptions(*makePlanner("gart-lazy"), {"explore_leaf=true"}); })
+                .find("planner gart-lazy has no option 'explore_leaf'"),
+            0u);
 }
 
 }  // namespace

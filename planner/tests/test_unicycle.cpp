@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 namespace ddsnav::planner {
 namespace {
@@ -55,6 +56,23 @@ TEST(Unicycle, WrapAngle) {
   EXPECT_NEAR(wrapAngle(-3 * kPi / 2), kPi / 2, 1e-12);
   EXPECT_NEAR(wrapAngle(-kPi), kPi, 1e-12);
   EXPECT_NEAR(wrapAngle(0.3), 0.3, 1e-15);
+}
+
+// wrapAngle's shortcut inside (-2 pi, 2 pi) gives exactly std::remainder's value, the boundaries included.
+TEST(Unicycle, WrapAngleEqualsRemainderExactly) {
+  const auto reference = [](double a) {
+    a = std::remainder(a, 2.0 * kPi);
+    return a <= -kPi ? a + 2.0 * kPi : a;
+  };
+  std::vector<double> values = {0.0, -0.0, kPi, -kPi, 2 * kPi, -2 * kPi, 3 * kPi, -3 * kPi, 1e-300, 1e9, -1e9};
+  for (double v : {kPi, 2 * kPi}) {
+    for (double s : {1.0, -1.0}) {
+      values.push_back(std::nextafter(s * v, 0.0));
+      values.push_back(std::nextafter(s * v, s * 10.0));
+    }
+  }
+  for (int i = -20000; i <= 20000; ++i) values.push_back(i * 7.0 * kPi / 20000.0 + 1e-7 * i);
+  for (double v : values) EXPECT_EQ(wrapAngle(v), reference(v)) << v;
 }
 
 TEST(Unicycle, InsideRegion2D) {

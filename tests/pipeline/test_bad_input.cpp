@@ -312,6 +312,13 @@ void badParametersEndTheComponentWithStatus2() {
       {"tracker", {{"scenario", kScenario}, {"replan_deviation", "-1"}}, "parameter 'replan_deviation'"},
       {"planner", {{"scenario", kScenario}, {"max_time_budget_s", "0"}}, "parameter 'max_time_budget_s'"},
       {"planner", {{"scenario", kScenario}, {"world", "lidar"}}, "parameter 'world'"},
+      // Planner options are checked at start-up against the planner (issue 10, item 4), with the range named.
+      {"planner", {{"scenario", kScenario}, {"planner_options", "[gart-lazy.explore_event1_budget=256]"}},
+       "planner gart-lazy, option explore_event1_budget: expected an integer in [0, 255], got '256'"},
+      {"planner", {{"scenario", kScenario}, {"planner_options", "[gart-lazy.restart_patience=-5]"}},
+       "planner gart-lazy, option restart_patience: expected an integer in [0, 100000000]"},
+      {"planner", {{"scenario", kScenario}, {"planner_options", "[rrt.explore_field=false]"}},
+       "planner rrt has no option 'explore_field'"},
       {"sim", {{"scenario", kScenario}, {"beams", "0"}}, "parameter 'beams'"},
       {"sim", {{"scenario", kScenario}, {"max_range", "0"}}, "parameter 'max_range'"},
       {"sim", {{"scenario", kScenario}, {"fov_deg", "0"}}, "parameter 'fov_deg'"},

@@ -217,6 +217,8 @@ TEST(RecordCommandLine, BadFolderAndZeroLimitsAreRefusedWithAClearMessage) {
   const std::string missing = (scratch("x").parent_path() / "no_such_folder" / "run.mcap").string();
   const std::vector<Case> cases = {
       {{"-o", missing}, 1, "the recording folder " + fs::path(missing).parent_path().string() + " does not exist"},
+      // Not writable even for root (tests run as root in CI, where a chmod 555 folder would still be writable).
+      {{"-o", "/proc/self/run.mcap"}, 1, "the recording folder /proc/self is not writable"},
       {{"-o", scratch("zero.mcap").string(), "--max-file-mb", "0"}, 2, "--max-file-mb 0: expected a positive number of MB"},
       {{"-o", scratch("zero.mcap").string(), "--max-file-s", "-1"}, 2, "--max-file-s -1: expected a positive number of seconds"},
       {{"-o", scratch("zero.mcap").string(), "--snapshot", "--snapshot-mb", "0"}, 2, "--snapshot-mb 0: expected a positive"},

@@ -118,8 +118,10 @@ std::vector<std::pair<std::uint8_t, std::size_t>> topLevelRecords(const std::vec
 
 class McapRoundTrip : public ::testing::TestWithParam<Compression> {};
 
+std::string nameOf(Compression c) { return c == Compression::Zstd ? "zstd" : c == Compression::Lz4 ? "lz4" : "none"; }
+
 TEST_P(McapRoundTrip, EveryRecordReadsBackThroughSummaryAndScan) {
-  const fs::path path = tempFile(GetParam() == Compression::Zstd ? "rt_zstd.mcap" : "rt_none.mcap");
+  const fs::path path = tempFile("rt_" + nameOf(GetParam()) + ".mcap");
   const auto written = writeSample(path, GetParam(), 8 * 1024, 400);
 
   McapReader summary(path.string());
@@ -143,8 +145,8 @@ TEST_P(McapRoundTrip, EveryRecordReadsBackThroughSummaryAndScan) {
   EXPECT_EQ(summary.metadata()[1].values.at("planning/path:dropped"), "3");
   EXPECT_GT(summary.chunks().size(), 10u);
   for (const auto& c : summary.chunks()) {
-    EXPECT_EQ(c.compression, GetParam() == Compression::Zstd ? "zstd" : "");
-    if (GetParam() == Compression::Zstd) {
+    EXPECT_EQ(c.compression, GetParam() == Compression::None ? "" : nameOf(GetParam()));
+    if (GetParam() != Compression::None) {
       EXPECT_LT(c.compressed_size, c.uncompressed_size);
     } else {
       EXPECT_EQ(c.compressed_size, c.uncompressed_size);
@@ -213,6 +215,12 @@ TEST_P(McapRoundTrip, LayoutFollowsTheSpecification) {
     EXPECT_EQ(index_bytes, c.message_index_length);
     EXPECT_EQ(c.offset + c.record_length, c.message_index_offsets.begin()->second);
   }
+  // An lz4 chunk holds one standard LZ4 frame (magic 04 22 4d 18 right after the compressed-size field).
+  if (GetParam() == Compression::Lz4) {
+    const auto& c = r.chunks().front();
+    const std::size_t frame_at = c.offset + 9 + 28 + 4 + 3 + 8;  // fixed fields, "lz4", u64 size
+    EXPECT_EQ(le(b, frame_at, 4), 0x184D2204u);
+  }
   // Chunk CRC is the CRC-32 of the uncompressed records: for an uncompressed chunk, check it here.
   if (GetParam() == Compression::None) {
     const auto& c = r.chunks().front();
@@ -229,8 +237,8 @@ TEST_P(McapRoundTrip, LayoutFollowsTheSpecification) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Compression, McapRoundTrip, ::testing::Values(Compression::None, Compression::Zstd),
-                         [](const auto& info) { return info.param == Compression::Zstd ? "zstd" : "none"; });
+INSTANTIATE_TEST_SUITE_P(Compression, McapRoundTrip, ::testing::Values(Compression::None, Compression::Zstd, Compression::Lz4),
+                         [](const auto& info) { return nameOf(info.param); });
 
 TEST(McapTruncated, CutFilesReadUpToTheirLastCompleteChunk) {
   const fs::path path = tempFile("full.mcap");
@@ -311,9 +319,10 @@ TEST(McapBadFiles, ClearErrorsNamingFileAndOffset) {
   EXPECT_THROW(McapReader(tempFile("does-not-exist.mcap").string()), McapError);
 }
 
-TEST(McapBadFiles, DamagedChunkIsSkippedAndReportedAtItsOffset) {
+void expectDamagedChunkSkipped(Compression compression) {
+  SCOPED_TRACE(nameOf(compression));
   const fs::path path = tempFile("damaged.mcap");
-  const auto written = writeSample(path, Compression::Zstd, 4 * 1024, 200);
+  const auto written = writeSample(path, compression, 4 * 1024, 200);
   auto bytes = readBytes(path);
   std::uint64_t chunk_at = 0;
   std::size_t chunks = 0, in_damaged = 0;
@@ -366,7 +375,7 @@ TEST(McapBadFiles, DamagedChunkIsSkippedAndReportedAtItsOffset) {
   readSkipping(scanned);
   // A good file verifies clean.
   const fs::path good = tempFile("good.mcap");
-  writeSample(good, Compression::Zstd, 4 * 1024, 50);
+  writeSample(good, compression, 4 * 1024, 50);
   McapReader g(good.string());
   EXPECT_TRUE(g.verifyChunks().empty());
   EXPECT_NE(formatRecordingInfo(describeRecording(g)).find("complete"), std::string::npos);
@@ -410,6 +419,11 @@ long peakMegabytesOf(const std::function<void()>& work) {
   rusage usage{};
   ::wait4(pid, &status, 0, &usage);
   return WIFEXITED(status) ? usage.ru_maxrss / 1024 : -1;
+}
+
+TEST(McapBadFiles, DamagedChunkIsSkippedAndReportedAtItsOffset) {
+  expectDamagedChunkSkipped(Compression::Zstd);
+  expectDamagedChunkSkipped(Compression::Lz4);
 }
 
 TEST(McapBadFiles, ChunkClaimingHugeSizeIsRefusedWithoutAllocatingIt) {
@@ -477,6 +491,70 @@ TEST(McapParallelChunks, WorkersKeepTheFileInOrder) {
     expectSame(readAll(r), written);
     expectSame(readAll(McapReader(path.string(), true)), written);
   }
+}
+
+// Payloads handed over with write(&&) stay in their buffers (CRC, zstd and the file write read them
+// there); the file must be exactly what copying them into the chunk gives.
+std::vector<Written> writeHandedOver(const fs::path& path, Compression compression, unsigned threads, bool hand_over,
+                                     std::size_t* released = nullptr) {
+  McapWriterOptions options;
+  options.compression = compression;
+  options.chunk_size = 512 * 1024;
+  options.compression_threads = threads;
+  options.max_pending_chunks = 2;
+  McapWriter w(path.string(), options);
+  const auto a = w.addChannel(0, "sensors/points", "cdr");
+  const auto b = w.addChannel(0, "vehicle/state", "cdr");
+  std::mt19937 rng(11);
+  std::vector<Written> out;
+  std::size_t handed = 0, back = 0;
+  std::uint64_t t = 1'000'000'000;
+  for (int i = 0; i < 60; ++i) {
+    // Large ones (attached) between small ones (copied), some exactly at the threshold.
+    const std::size_t size = i % 3 == 0 ? 100 + rng() % 200
+                             : i % 7 == 0 ? McapWriter::kAttachBytes
+                                          : McapWriter::kAttachBytes + rng() % (300 * 1024);
+    Written m{i % 3 == 0 ? b : a, t, t - 7, std::vector<std::uint8_t>(size)};
+    for (std::size_t k = 0; k < size; ++k) m.data[k] = k % 5 == 0 ? static_cast<std::uint8_t>(rng()) : static_cast<std::uint8_t>(k);
+    if (hand_over) {
+      std::vector<std::uint8_t> copy = m.data;
+      w.write(m.channel, m.log_time, m.publish_time, std::move(copy));
+      ++handed;
+    } else {
+      w.write(m.channel, m.log_time, m.publish_time, m.data);
+    }
+    back += w.takeReleasedBuffers().size();
+    out.push_back(std::move(m));
+    t += 1000;
+  }
+  w.close();
+  for (const auto& buffer : w.takeReleasedBuffers()) {
+    EXPECT_TRUE(buffer.empty());
+    EXPECT_GE(buffer.capacity(), 100u);
+    ++back;
+  }
+  EXPECT_EQ(back, handed) << "every handed-over buffer comes back once";
+  if (released) *released = back;
+  return out;
+}
+
+TEST(McapHandedOverPayloads, ReadBackIdenticalAndEveryBufferReturns) {
+  for (const Compression compression : {Compression::None, Compression::Zstd, Compression::Lz4})
+    for (const unsigned threads : {0u, 2u}) {
+      SCOPED_TRACE(nameOf(compression) + ", threads " + std::to_string(threads));
+      const fs::path copied = tempFile("copied.mcap"), handed = tempFile("handed.mcap");
+      const auto expected = writeHandedOver(copied, compression, threads, false);
+      std::size_t released = 0;
+      EXPECT_EQ(writeHandedOver(handed, compression, threads, true, &released).size(), expected.size());
+      EXPECT_EQ(released, 60u);
+      McapReader r(handed.string());
+      EXPECT_GT(r.chunks().size(), 5u);
+      EXPECT_TRUE(r.verifyChunks().empty());
+      expectSame(readAll(r), expected);
+      expectSame(readAll(McapReader(handed.string(), true)), expected);
+      // Uncompressed, the bytes are the same as when every payload is copied into its chunk.
+      if (compression == Compression::None) EXPECT_EQ(readBytes(handed), readBytes(copied));
+    }
 }
 
 // Little-endian MCAP records built by hand, independent of the writer.

@@ -28,6 +28,8 @@ TrajectoryTracker::TrajectoryTracker(Trajectory trajectory, const VehicleLimits&
     if (!(g > 0) || !std::isfinite(g)) throw std::invalid_argument("tracker: gains, distances and tolerances must be positive numbers");
   if (!(config_.lookahead_time >= 0) || !(config_.replan_horizon > 0))
     throw std::invalid_argument("tracker: lookahead_time must be >= 0 and replan_horizon > 0");
+  if (!(config_.replan_horizon_distance >= 0) || !std::isfinite(config_.replan_horizon_distance))
+    throw std::invalid_argument("tracker: replan_horizon_distance must be a finite number of metres >= 0");
 }
 
 TrajectorySample TrajectoryTracker::sampleAtArcLength(double s) const {
@@ -218,7 +220,9 @@ ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& wor
   const auto& s = trajectory_.samples;
   const double horizon = std::isfinite(min_horizon_s) ? std::max(config_.replan_horizon, min_horizon_s) : config_.replan_horizon;
   const double until = status_.reference_time + horizon;
-  for (std::size_t i = last_segment_; i < s.size() && s[i].time <= until; ++i) {
+  const double until_arc = trajectory_.at(status_.reference_time).arc_length + config_.replan_horizon_distance;
+  const auto within = [&](const TrajectorySample& sample) { return sample.time <= until || sample.arc_length <= until_arc; };
+  for (std::size_t i = last_segment_; i < s.size() && within(s[i]); ++i) {
     if (world.isFree(s[i].position)) continue;
     std::ostringstream m;
     m << "trajectory sample at t=" << s[i].time << " s (" << s[i].position.x() << ", " << s[i].position.y()
@@ -227,7 +231,7 @@ ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& wor
     out.time_ahead = std::max(0.0, s[i].time - status_.reference_time);
     // The first blocked sample only touches the obstacle (the one before it was free): the overlap that
     // tells a graze from a real block is the deepest along the blocked run that follows.
-    for (std::size_t k = i; k < s.size() && s[k].time <= until && !world.isFree(s[k].position); ++k) {
+    for (std::size_t k = i; k < s.size() && within(s[k]) && !world.isFree(s[k].position); ++k) {
       const double clearance = world.clearance(s[k].position);
       if (std::isfinite(clearance)) out.penetration = std::max(out.penetration, -clearance);  // bounds only: 0
     }

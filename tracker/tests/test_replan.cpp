@@ -114,6 +114,32 @@ TEST(ReplanGate, OnlyTheHorizonIsChecked) {
   EXPECT_TRUE(far.checkReplan(*block, 2.0).needed);
 }
 
+TEST(ReplanGate, ADistanceHorizonReachesAsFarAsTheSensor) {
+  // The same obstacle, 12 s ahead: a 5 s horizon alone misses it; with a distance horizon that reaches past
+  // it along the trajectory (the sensor's range) it is found, and one that stops short of it adds nothing.
+  Straight s;
+  const auto block = planner::makeScenarioWorld(scenario2d(60, 0.3, "  - {type: sphere, center: [13, 5], radius: 1}\n"));
+  double arc_block = -1.0;
+  for (const auto& sample : s.trajectory.samples)
+    if (!block->isFree(sample.position)) {
+      arc_block = sample.arc_length;
+      break;
+    }
+  ASSERT_GT(arc_block, 0.0);
+  TrackerConfig config;
+  config.replan_horizon = 5.0;
+  ASSERT_LT(s.trajectory.at(5.0).arc_length, arc_block);  // the time horizon alone stops short
+  config.replan_horizon_distance = arc_block + 1.0;
+  const auto seen = TrajectoryTracker(s.trajectory, *s.sc.vehicle, config).checkReplan(*block);
+  ASSERT_TRUE(seen.needed);
+  EXPECT_EQ(seen.reason, ReplanReason::TrajectoryBlocked);
+  EXPECT_GT(seen.time_ahead, 5.0);
+  config.replan_horizon_distance = arc_block - 1.0;
+  EXPECT_FALSE(TrajectoryTracker(s.trajectory, *s.sc.vehicle, config).checkReplan(*block).needed);
+  config.replan_horizon_distance = -1.0;
+  EXPECT_THROW(TrajectoryTracker(s.trajectory, *s.sc.vehicle, config), std::invalid_argument);
+}
+
 TEST(ReplanGate, RefusesBadPolicies) {
   ReplanPolicy p;
   p.confirm_checks = 0;

@@ -7,7 +7,9 @@
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 
+#include "ddsnav/nodes/map_scale.hpp"
 #include <ddsnav/mapper/occupancy_mapper.hpp>
+#include <ddsnav/sim/sensor_choice.hpp>
 
 #include <spdlog/spdlog.h>
 
@@ -28,7 +30,17 @@ class MapperComponent : public runtime::Component {
     std::string frame;
     explicit Params(runtime::Parameters& p) {
       const mapper::MapperConfig d;
-      config.resolution = p.declare<double>("resolution", 0.1, {.min = 0.001, .max = 100, .unit = "m", .doc = "leaf size of the octree"});
+      const auto scenario = p.declare<std::string>(
+          "scenario", "", {.doc = "scenario file the simulator runs: resolution and max_range default to its scale (docs/world-model.md); empty: 0.1 m and 30 m"});
+      const auto resolution = p.declareOptional<double>("resolution", {.min = 0.001, .max = 100, .unit = "m", .doc = "leaf size of the octree; default from the scenario"});
+      const auto range = p.declareOptional<double>("max_range", {.above = 0, .max = 1e5, .unit = "m", .doc = "beams are cut at this range; default from the scenario"});
+      nodes::MapScale scale;
+      if (!scenario.empty()) {
+        const auto loaded = planner::loadScenario(scenario);
+        scale = nodes::mapScaleFor(loaded, sim::defaultMaxRange(loaded));
+      }
+      config.resolution = resolution.value_or(scale.resolution);
+      max_range = range.value_or(scale.max_range);
       config.dimensions = static_cast<int>(
           p.declare<std::int64_t>("dimensions", 0, {.min = 0, .max = 3, .doc = "2 or 3; 0: inferred from the first cloud (a planar scan: 2)"}));
       config.prob_hit = p.declare<double>("prob_hit", d.prob_hit, {.doc = "occupancy probability of a hit"});
@@ -36,7 +48,6 @@ class MapperComponent : public runtime::Component {
       config.occupancy_threshold = p.declare<double>("occupancy_threshold", d.occupancy_threshold, {.doc = "occupied above this probability"});
       config.clamping_min = p.declare<double>("clamping_min", d.clamping_min, {.doc = "lower clamping bound of a leaf's probability"});
       config.clamping_max = p.declare<double>("clamping_max", d.clamping_max, {.doc = "upper clamping bound of a leaf's probability"});
-      max_range = p.declare<double>("max_range", 30.0, {.above = 0, .unit = "m", .doc = "beams are cut at this range"});
       publish_rate_hz = p.declare<double>("publish_rate_hz", 1.0, {.above = 0, .max = 100, .unit = "Hz", .doc = "at most this often, and only when changed"});
       save_path = p.declare<std::string>("save_path", "", {.doc = "write the octree (.bt) here on shutdown; empty: do not"});
       frame = p.declare<std::string>("frame", nodes::kWorldFrame, {.doc = "frame_id clouds must carry"});
@@ -80,7 +91,7 @@ class MapperComponent : public runtime::Component {
       mapper::MapperConfig first = params_.config;
       if (first.dimensions == 0) first.dimensions = scan.origin.z == 0.0f && nodes::isPlanarCloud(nodes::pointsOf(cloud)) ? 2 : 3;
       map_ = std::make_unique<mapper::OccupancyMapper>(first);
-      spdlog::info("mapping in {}-D at {} m", first.dimensions, first.resolution);
+      spdlog::info("mapping in {}-D at {} m, beams cut at {} m", first.dimensions, first.resolution, params_.max_range);
     }
     const auto result = map_->insert(scan);
     if (!result.inserted) spdlog::warn("sensors/points: cloud rejected: {}", result.message);

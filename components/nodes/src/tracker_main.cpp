@@ -14,6 +14,7 @@
 #include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
+#include <ddsnav/sim/sensor_choice.hpp>
 #include <ddsnav/tracker/mission.hpp>
 #include <ddsnav/tracker/replan.hpp>
 #include <ddsnav/tracker/smoother.hpp>
@@ -42,6 +43,7 @@ class TrackerComponent : public runtime::Component {
     double replan_check_period_s;
     tracker::ReplanPolicy replan;
     tracker::TrackerConfig tracker;
+    std::optional<double> replan_horizon_m;
     tracker::SmootherConfig smoother;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
@@ -65,8 +67,16 @@ class TrackerComponent : public runtime::Component {
                                                  {.min = 0, .max = 600, .unit = "s", .doc = "least expected time from a request to its trajectory"});
       tracker.replan_deviation = p.declare<double>("replan_deviation", tracker.replan_deviation,
                                                    {.above = 0, .unit = "m", .doc = "ask again when the vehicle is this far off the trajectory"});
-      tracker.replan_horizon = p.declare<double>("replan_horizon_s", 8.0, {.above = 0, .unit = "s", .doc = "how far ahead obstacles are checked"});
+      tracker.replan_horizon = p.declare<double>("replan_horizon_s", 8.0, {.above = 0, .unit = "s", .doc = "how far ahead obstacles are checked (or replan_horizon_m, whichever reaches farther)"});
+      replan_horizon_m = p.declareOptional<double>(
+          "replan_horizon_m", {.min = 0, .max = 1e5, .unit = "m",
+                               .doc = "trajectory length ahead checked for obstacles; default: the simulator's default sensor range for the scenario (docs/tracking.md)"});
       smoother.sample_dt = p.declare<double>("sample_dt", smoother.sample_dt, {.above = 0, .unit = "s", .doc = "trajectory sample spacing"});
+      // Perceived obstacles grow as more of them is scanned: on gart_cluttered_2d ellipses grew by 0.05-0.32 m
+      // next to trajectories kept 0.16-0.2 m away, the vehicle touched them and then stood inside the
+      // planner's world. 0.5 m covers that growth; narrower passages are still crossed in their middle.
+      smoother.clearance_target = p.declare<double>(
+          "clearance_target", 0.5, {.min = 0, .max = 100, .unit = "m", .doc = "the smoother moves the path this far from obstacles where there is room (docs/tracking.md)"});
     }
   };
 
@@ -84,7 +94,10 @@ class TrackerComponent : public runtime::Component {
         // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
         world_source_(ctx, params_.world, scenario_),
         mission_(missionConfig()),
-        replan_gate_(params_.replan) {
+        replan_gate_(params_.replan),
+        tracker_config_(trackerConfig()) {
+    spdlog::info("replan check: {:.1f} s or {:.1f} m of the trajectory ahead, whichever reaches farther", tracker_config_.replan_horizon,
+                 tracker_config_.replan_horizon_distance);
     // A state with a non-finite number would reach the controller (and its commands the vehicle): drop it
     // here, once, and keep following the last good one.
     state_sub_ = subscribe(runtime::topics::vehicle_state, [this](const msg::VehicleState& s) {
@@ -103,6 +116,13 @@ class TrackerComponent : public runtime::Component {
   static planner::VehicleLimits vehicleOf(const planner::Scenario& scenario) {
     if (!scenario.vehicle) throw std::invalid_argument(scenario.source + ": the tracker needs a 'vehicle' block");
     return *scenario.vehicle;
+  }
+
+  // The distance horizon: a block is worth seeing as far ahead as the sensor sees (docs/tracking.md).
+  tracker::TrackerConfig trackerConfig() const {
+    tracker::TrackerConfig c = params_.tracker;
+    c.replan_horizon_distance = params_.replan_horizon_m.value_or(sim::defaultMaxRange(scenario_));
+    return c;
   }
 
   tracker::MissionConfig missionConfig() const {
@@ -219,6 +239,10 @@ class TrackerComponent : public runtime::Component {
     if (follower_ && switch_at_ && follower_->status().reference_time < *switch_at_) {
       next_trajectory_ = std::move(trajectory);
       next_since_ns_ = clock().nowNs();
+      // The reference reaches the switch point in about that many seconds; a wait well beyond it (the
+      // vehicle held back) switches anyway. A fixed 2 s used to switch the AUV 50 s (90 m) before its
+      // predicted start when a plan expected to take 64 s came in 15 s: a 92 m deviation, a stop and a replan.
+      next_wait_limit_s_ = 1.5 * (*switch_at_ - follower_->status().reference_time) + 2.0;
     } else {
       switchTrajectory(std::move(trajectory), smoothed.request_id, state);
       switch_at_.reset();
@@ -272,7 +296,7 @@ class TrackerComponent : public runtime::Component {
 
   void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id, const tracker::VehicleState& state) {
     trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
-    follower_.emplace(std::move(trajectory), limits_, params_.tracker);
+    follower_.emplace(std::move(trajectory), limits_, tracker_config_);
     ++trajectory_serial_;  // a check still running on the previous one is stale
     replan_gate_.reset();
     // A plan from a predicted start that came later than predicted: the vehicle has flown past that start
@@ -303,6 +327,8 @@ class TrackerComponent : public runtime::Component {
       stop();
       const double stopping_s = static_cast<double>(clock().nowNs() - stopping_since_ns_) * 1e-9;
       if (std::abs(state->v) > kAtRest && stopping_s < 10.0) return;
+      if (std::abs(state->v) > kAtRest)
+        spdlog::warn("the vehicle is not at rest after {:.1f} s ({:.2f} m/s): asking from here", stopping_s, state->v);
       act(mission_.replan(clock().nowNs(), *state, *stopping_for_));
       stopping_for_.reset();
       return;
@@ -348,13 +374,22 @@ class TrackerComponent : public runtime::Component {
   void drive(const tracker::VehicleState& current, double dt) {
     const std::optional<tracker::VehicleState> state = current;
     if (next_trajectory_ && (follower_->status().reference_time >= *switch_at_ ||
-                             static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > 2.0)) {
+                             static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > next_wait_limit_s_)) {
       switchTrajectory(std::move(*next_trajectory_), mission_.requestId(), *state);
       next_trajectory_.reset();
       switch_at_.reset();
     }
     const auto command = follower_->update(*state, dt);
     const auto& status = follower_->status();
+    // A line every 10 s of driving, so a run that creeps along one trajectory says why in the log (the
+    // reference held back by max_lead, a slow vehicle, a small command).
+    if (clock().nowNs() - last_progress_log_ns_ > 10'000'000'000LL) {
+      last_progress_log_ns_ = clock().nowNs();
+      spdlog::info("driving trajectory {}: reference at {:.1f} of {:.1f} s, progress {:.0f} %, along-track {:.2f} m, cross-track {:.2f} m, "
+                   "vehicle at {:.2f} m/s (vz {:.2f}), command {:.2f} m/s (vz {:.2f})",
+                   mission_.requestId(), status.reference_time, follower_->trajectory().duration(), 100 * status.progress,
+                   status.along_track_error, status.cross_track_error, state->v, state->vz, command.v, command.vz);
+    }
     commands_.publish(nodes::toMsg(command, clock().nowNs()));
     const auto next = mission_.tracked(clock().nowNs(), *state, status, dt);
     msg::TrackingStatus out;
@@ -406,6 +441,7 @@ class TrackerComponent : public runtime::Component {
         next_trajectory_.reset();
         mission_.hold();
         if (mission_.awaitingPlan()) spdlog::warn("stopping; plan {} is superseded: {}", mission_.requestId(), verdict.reason);
+        else spdlog::info("stopping to replan once at rest: {}", verdict.reason);  // the request follows at rest
         stopping_for_ = verdict.reason;
         stopping_since_ns_ = clock().nowNs();
       } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan() && !smoothing_.valid()) {
@@ -434,6 +470,7 @@ class TrackerComponent : public runtime::Component {
   nodes::WorldSource world_source_;
   tracker::Mission mission_;
   tracker::ReplanGate replan_gate_;
+  const tracker::TrackerConfig tracker_config_;
   std::int64_t requested_at_ns_ = 0;  // the current request's time, for the gate's planning-time estimate
   double request_heading_ = 0.0;      // its start heading: the new trajectory starts there
   double request_speed_ = 0.0;        // and speed: > 0 for a replan ahead, flown through without a stop
@@ -451,6 +488,8 @@ class TrackerComponent : public runtime::Component {
   std::future<Checked> checking_;
   std::uint64_t trajectory_serial_ = 0;
   std::int64_t next_since_ns_ = 0;
+  double next_wait_limit_s_ = 2.0;
+  std::int64_t last_progress_log_ns_ = 0;
   std::int64_t last_step_ns_ = 0;
   msg::TrackingStatus last_status_;
   std::chrono::steady_clock::time_point started_;

@@ -147,6 +147,7 @@ struct RunSpec {
   double rate = 0;
   std::size_t chunk_kb = 1024;
   int zstd_level = 1;
+  int lz4_level = 0;
 };
 
 Result runSink(const std::string& self, const RunSpec& spec, const std::string& sink, const fs::path& file) {
@@ -191,7 +192,10 @@ Result runSink(const std::string& self, const RunSpec& spec, const std::string& 
     record::RecorderOptions o;
     o.output = file.string();
     o.topics = {topic};
-    o.mcap.compression = sink == "record-zstd" ? record::Compression::Zstd : record::Compression::None;
+    o.mcap.compression = sink == "record-zstd"  ? record::Compression::Zstd
+                         : sink == "record-lz4" ? record::Compression::Lz4
+                                                : record::Compression::None;
+    o.mcap.lz4_level = spec.lz4_level;
     o.mcap.chunk_size = spec.chunk_kb * 1024;
     o.mcap.zstd_level = spec.zstd_level;
     o.compression_threads = spec.compression_threads;
@@ -274,10 +278,20 @@ struct DiskResult {
   std::uint64_t input_bytes = 0, file_bytes = 0;
 };
 
-DiskResult diskOnly(const std::string& kind, int count, record::Compression compression, int level, unsigned threads,
-                    std::size_t chunk_kb, const fs::path& file) {
-  std::mt19937 rng(1);
+// The payloads of the disk-only runs: the benchmark's own messages, or those of one topic of a recording.
+std::vector<std::vector<std::uint8_t>> diskPayloads(const std::string& kind, const std::string& from_file,
+                                                    const std::string& from_topic) {
   std::vector<std::vector<std::uint8_t>> payloads;
+  if (!from_file.empty()) {
+    record::McapReader r(from_file);
+    r.forEachMessage([&](const record::MessageView& m) {
+      if (m.channel->topic == from_topic) payloads.emplace_back(m.data.begin(), m.data.end());
+      return payloads.size() < 2000;
+    });
+    if (payloads.empty()) throw std::runtime_error(from_file + ": no message on topic " + from_topic);
+    return payloads;
+  }
+  std::mt19937 rng(1);
   for (int i = 0; i < 4; ++i) {
     std::vector<std::uint8_t> b;
     if (kind == "cloud") {
@@ -293,26 +307,48 @@ DiskResult diskOnly(const std::string& kind, int count, record::Compression comp
     }
     payloads.push_back(std::move(b));
   }
+  return payloads;
+}
+
+// McapWriter as the recorder drives it: each payload arrives in a buffer of its own (the recorder's queue
+// item) and is handed over; buffers come back from the writer and are refilled for the next messages.
+// The refill stands for the DDS side's copy and is not counted in the writer's time.
+DiskResult diskOnly(const std::vector<std::vector<std::uint8_t>>& payloads, int count, record::Compression compression,
+                    int level, unsigned threads, std::size_t chunk_kb, const fs::path& file) {
   DiskResult r;
-  r.compression = (compression == record::Compression::Zstd ? "zstd-" + std::to_string(level) : std::string("none")) + "/" +
-                  std::to_string(threads) + "t";
+  r.compression = (compression == record::Compression::Zstd  ? "zstd" + std::to_string(level)
+                   : compression == record::Compression::Lz4 ? "lz4" + std::to_string(level)
+                                                             : std::string("none")) +
+                  "/" + std::to_string(threads) + "t";
+  std::vector<std::vector<std::uint8_t>> spare;
+  double refill_s = 0;
   const auto t0 = Clock::now();
   {
     record::McapWriterOptions options;
     options.compression = compression;
     options.zstd_level = level;
+    options.lz4_level = level;
     options.compression_threads = threads;
     options.chunk_size = chunk_kb * 1024;
     record::McapWriter w(file.string(), options);
     const auto ch = w.addChannel(0, "bench", "cdr");
     for (int i = 0; i < count; ++i) {
       const auto& p = payloads[i % payloads.size()];
-      w.write(ch, i, i, p);
+      const auto f0 = Clock::now();
+      std::vector<std::uint8_t> buffer;
+      if (!spare.empty()) {
+        buffer.swap(spare.back());
+        spare.pop_back();
+      }
+      buffer.assign(p.begin(), p.end());
+      refill_s += std::chrono::duration<double>(Clock::now() - f0).count();
+      w.write(ch, i, i, std::move(buffer));
+      for (auto& b : w.takeReleasedBuffers()) spare.push_back(std::move(b));
       r.input_bytes += p.size();
     }
     w.close();
   }
-  r.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  r.seconds = std::chrono::duration<double>(Clock::now() - t0).count() - refill_s;
   r.file_bytes = fs::file_size(file);
   return r;
 }
@@ -329,9 +365,11 @@ int main(int argc, char** argv) {
   int repeats = 1, disk_count = 0;
   double rate = -1;
   std::string out_dir = fs::temp_directory_path().string();
-  std::vector<std::string> sinks = {"discard", "record-none", "record-zstd"};
+  std::vector<std::string> sinks = {"discard", "record-none", "record-zstd", "record-lz4"};
   std::vector<int> levels = {1, 3};
+  std::vector<int> lz4_levels = {0};
   bool json = false, no_disk = false, no_dds = false;
+  std::string disk_from, disk_topic = "sensors/points";
   app.add_option("--role", role)->check(CLI::IsMember({"bench", "publish"}));
   app.add_option("--dds", spec.dds, "vendor of the receiving process (discard / recorder)");
   app.add_option("--pub-dds", spec.pub_dds, "vendor of the publishing process (default: --dds)");
@@ -341,10 +379,11 @@ int main(int argc, char** argv) {
   app.add_option("--count", spec.count, "messages per run (default: 300 clouds, 50000 small)")->check(CLI::PositiveNumber);
   app.add_option("--rate", rate, "publisher msgs/s, 0 = flood (default: 100 clouds/s, 20000 small/s)")->check(CLI::NonNegativeNumber);
   app.add_option("--repeats", repeats, "runs per sink")->check(CLI::PositiveNumber);
-  app.add_option("--sinks", sinks, "comma separated: discard, record-none, record-zstd")->delimiter(',')
-      ->check(CLI::IsMember({"discard", "record-none", "record-zstd"}));
+  app.add_option("--sinks", sinks, "comma separated: discard, record-none, record-zstd, record-lz4")->delimiter(',')
+      ->check(CLI::IsMember({"discard", "record-none", "record-zstd", "record-lz4"}));
   app.add_option("--chunk-kb", spec.chunk_kb, "recorder / disk chunk size")->check(CLI::Range(1, 1 << 20));
-  app.add_option("--zstd-level", spec.zstd_level, "recorder zstd level")->check(CLI::Range(1, 19));
+  app.add_option("--zstd-level", spec.zstd_level, "recorder zstd level (negative: zstd's fast levels)")->check(CLI::Range(-50, 19));
+  app.add_option("--lz4-level", spec.lz4_level, "recorder lz4 level (0 default, negative: faster)")->check(CLI::Range(-65537, 12));
   app.add_option("--compression-threads", spec.compression_threads, "recorder compression workers (-1: one per core)")
       ->check(CLI::Range(-1, 64));
   app.add_option("--writer-nice", spec.writer_nice, "recorder writer/worker nice increment")->check(CLI::Range(0, 19));
@@ -352,6 +391,10 @@ int main(int argc, char** argv) {
   app.add_option("--disk-count", disk_count, "messages for the disk-only runs (default: 1000 clouds, 1000000 small)")
       ->check(CLI::PositiveNumber);
   app.add_option("--disk-levels", levels, "zstd levels for the disk-only runs")->delimiter(',');
+  app.add_option("--disk-lz4-levels", lz4_levels, "lz4 levels for the disk-only runs")->delimiter(',');
+  app.add_option("--disk-from", disk_from, "disk-only runs: payloads of --disk-topic from this recording (real data)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--disk-topic", disk_topic, "topic of --disk-from");
   app.add_flag("--no-disk", no_disk, "skip the disk-only runs");
   app.add_flag("--no-dds", no_dds, "only the disk-only runs");
   app.add_option("--dir", out_dir, "where the recordings are written (and removed)");
@@ -430,7 +473,7 @@ int main(int argc, char** argv) {
     std::sort(v.begin(), v.end());
     return v.empty() ? 0.0 : v[v.size() / 2];
   };
-  for (const char* s : {"record-none", "record-zstd"}) {
+  for (const char* s : {"record-none", "record-zstd", "record-lz4"}) {
     if (delivered_fraction.count(s) == 0) continue;
     const double base = worst(delivered_fraction["discard"]);
     report["worst_delivered_fraction"][s] = worst(delivered_fraction[s]);
@@ -456,8 +499,25 @@ int main(int argc, char** argv) {
       runs.emplace_back(record::Compression::Zstd, level, 0);
       runs.emplace_back(record::Compression::Zstd, level, workers);
     }
+    for (int level : lz4_levels) {
+      runs.emplace_back(record::Compression::Lz4, level, 0);
+      runs.emplace_back(record::Compression::Lz4, level, workers);
+    }
+    std::vector<std::vector<std::uint8_t>> payloads;
+    try {
+      payloads = diskPayloads(spec.kind, disk_from, disk_topic);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "ddsnav-bench-record: --disk-from: %s\n", e.what());
+      return 2;
+    }
+    if (!json && !disk_from.empty()) {
+      std::size_t total = 0;
+      for (const auto& p : payloads) total += p.size();
+      std::printf("disk payloads: %zu messages of %s from %s, mean %.1f KB\n", payloads.size(), disk_topic.c_str(), disk_from.c_str(),
+                  total / 1e3 / payloads.size());
+    }
     for (const auto& [compression, level, threads] : runs) {
-      const DiskResult d = diskOnly(spec.kind, disk_count, compression, level == 0 ? 1 : level, threads, spec.chunk_kb, file);
+      const DiskResult d = diskOnly(payloads, disk_count, compression, level, threads, spec.chunk_kb, file);
       fs::remove(file);
       report["disk_runs"].push_back({{"compression", d.compression}, {"messages", disk_count}, {"seconds", d.seconds},
                                      {"input_mb_per_s", d.input_bytes / 1e6 / d.seconds},

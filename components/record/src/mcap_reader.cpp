@@ -1,5 +1,6 @@
 #include "mcap_format.hpp"
 
+#include <lz4frame.h>
 #include <zstd.h>
 
 #include <fcntl.h>
@@ -465,8 +466,30 @@ std::vector<std::uint8_t> McapReader::chunkRecords(const ChunkInfo& chunk) const
     if (produced != c.uncompressed_size)
       fail(chunk.offset, "zstd chunk decompressed to " + std::to_string(produced) + " bytes, expected " +
                              std::to_string(c.uncompressed_size));
+  } else if (c.compression == "lz4") {
+    // An LZ4 frame, decompressed in the same bounded steps as zstd.
+    LZ4F_dctx* raw_dctx = nullptr;
+    if (LZ4F_isError(LZ4F_createDecompressionContext(&raw_dctx, LZ4F_VERSION))) fail(chunk.offset, "lz4: no decompression context");
+    std::unique_ptr<LZ4F_dctx, decltype(&LZ4F_freeDecompressionContext)> dctx(raw_dctx, &LZ4F_freeDecompressionContext);
+    std::size_t consumed = 0, produced = 0, rc = 1;
+    while (rc != 0) {
+      const std::size_t want = static_cast<std::size_t>(std::min<std::uint64_t>(c.uncompressed_size + 1, produced + kDecompressStep));
+      out.resize(std::max<std::size_t>(want, produced + 1));
+      std::size_t out_n = out.size() - produced, in_n = size - consumed;
+      rc = LZ4F_decompress(dctx.get(), out.data() + produced, &out_n, data + consumed, &in_n, nullptr);
+      if (LZ4F_isError(rc)) fail(chunk.offset, std::string("lz4 chunk does not decompress: ") + LZ4F_getErrorName(rc));
+      produced += out_n;
+      consumed += in_n;
+      if (produced > c.uncompressed_size)
+        fail(chunk.offset, "lz4 chunk decompresses to more than the " + std::to_string(c.uncompressed_size) + " bytes it claims");
+      if (rc != 0 && out_n == 0 && in_n == 0) break;  // no progress: the input ends mid-frame
+    }
+    out.resize(produced);
+    if (rc != 0 || consumed != size || produced != c.uncompressed_size)
+      fail(chunk.offset, "lz4 chunk decompressed to " + std::to_string(produced) + " bytes, expected " +
+                             std::to_string(c.uncompressed_size) + (rc != 0 ? " (the frame is incomplete)" : ""));
   } else {
-    fail(chunk.offset, "chunk compression '" + c.compression + "' is not supported (only zstd or none)");
+    fail(chunk.offset, "chunk compression '" + c.compression + "' is not supported (only zstd, lz4 or none)");
   }
   if (crc != 0 && crc32(out.data(), out.size()) != crc) fail(chunk.offset, "chunk CRC mismatch: the chunk is damaged");
   return out;

@@ -3,7 +3,8 @@
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
-#include <zlib.h>
+#include <isa-l/crc.h>
+#include <lz4frame.h>
 #include <zstd.h>
 
 #include <algorithm>
@@ -18,7 +19,14 @@
 
 namespace ddsnav::record {
 
-std::string_view compressionName(Compression c) { return c == Compression::Zstd ? "zstd" : ""; }
+std::string_view compressionName(Compression c) {
+  switch (c) {
+    case Compression::Zstd: return "zstd";
+    case Compression::Lz4: return "lz4";
+    case Compression::None: break;
+  }
+  return "";
+}
 
 void lowerThreadPriority(int increment) {
   // Linux keeps a nice value per thread: PRIO_PROCESS with the thread id changes only this thread.
@@ -31,11 +39,12 @@ void lowerThreadPriority(int increment) {
 namespace format {
 
 std::uint32_t crc32(const void* data, std::size_t size, std::uint32_t crc) {
-  // zlib's CRC-32 is the one MCAP specifies (IEEE 802.3 polynomial, reflected, final xor).
-  const auto* p = static_cast<const Bytef*>(data);
+  // The CRC-32 MCAP specifies (IEEE 802.3 polynomial, reflected, final xor: zlib's crc32), computed by
+  // ISA-L's folding implementation; crc32_gzip_refl chains like zlib's (pass the previous result).
+  const auto* p = static_cast<const unsigned char*>(data);
   while (size > 0) {
-    const uInt n = size > (1u << 30) ? (1u << 30) : static_cast<uInt>(size);
-    crc = static_cast<std::uint32_t>(::crc32(crc, p, n));
+    const std::uint64_t n = std::min<std::uint64_t>(size, 1ull << 30);
+    crc = ::crc32_gzip_refl(crc, p, n);
     p += n;
     size -= n;
   }
@@ -67,18 +76,36 @@ std::string opcodeName(std::uint8_t opcode) {
 
 using namespace format;
 
-namespace {
-void* newCompressor(int level) {
-  ZSTD_CCtx* c = ZSTD_createCCtx();
-  ZSTD_CCtx_setParameter(c, ZSTD_c_compressionLevel, level);
-  return c;
-}
-}  // namespace
+// One thread's compression context: zstd's or LZ4's, made for the writer's options.
+struct McapWriter::Compressor {
+  Compression compression;
+  int lz4_level = 0;
+  ZSTD_CCtx* zstd = nullptr;
+  LZ4F_cctx* lz4 = nullptr;
+
+  Compressor(const McapWriterOptions& options) : compression(options.compression), lz4_level(options.lz4_level) {
+    if (compression == Compression::Zstd) {
+      zstd = ZSTD_createCCtx();
+      ZSTD_CCtx_setParameter(zstd, ZSTD_c_compressionLevel, options.zstd_level);
+    } else if (compression == Compression::Lz4) {
+      LZ4F_createCompressionContext(&lz4, LZ4F_VERSION);
+    }
+  }
+  ~Compressor() {
+    if (zstd) ZSTD_freeCCtx(zstd);
+    if (lz4) LZ4F_freeCompressionContext(lz4);
+  }
+  Compressor(const Compressor&) = delete;
+  Compressor& operator=(const Compressor&) = delete;
+};
 
 // A closed chunk on its way to the file: records and index from the writer, CRC and compressed bytes from
-// a worker (or the calling thread).
+// a worker (or the calling thread). Its bytes are `records` with each attached payload inserted at its
+// offset; nothing assembles them into one buffer.
 struct McapWriter::PendingChunk {
   std::vector<std::uint8_t> records;
+  std::vector<Attached> attached;
+  std::uint64_t size = 0;  // records + attached payloads: the chunk's uncompressed size
   std::map<std::uint16_t, std::vector<std::pair<std::uint64_t, std::uint64_t>>> index;
   std::uint64_t start = 0, end = 0;
   std::vector<std::uint8_t> compressed;  // empty for Compression::None
@@ -86,31 +113,94 @@ struct McapWriter::PendingChunk {
   std::string error;
   bool done = false;  // guarded by the pool's mutex
 
-  void encode(Compression compression, void* zstd) {
-    crc = crc32(records.data(), records.size());
-    if (compression != Compression::Zstd) return;
-    compressed.resize(ZSTD_compressBound(records.size()));
-    const std::size_t n = ZSTD_compress2(static_cast<ZSTD_CCtx*>(zstd), compressed.data(), compressed.size(),
-                                         records.data(), records.size());
-    if (ZSTD_isError(n)) {
-      error = std::string("zstd compression failed: ") + ZSTD_getErrorName(n);
-      compressed.clear();
+  // The chunk's bytes in order, as contiguous pieces.
+  template <class F>
+  void forEachPiece(F&& piece) const {
+    std::size_t from = 0;
+    for (const Attached& a : attached) {
+      if (a.at > from) piece(records.data() + from, a.at - from);
+      piece(a.bytes.data(), a.bytes.size());
+      from = a.at;
+    }
+    if (records.size() > from) piece(records.data() + from, records.size() - from);
+  }
+
+  void encode(Compressor& compressor) {
+    crc = 0;
+    forEachPiece([&](const std::uint8_t* p, std::size_t n) { crc = crc32(p, n, crc); });
+    if (compressor.compression == Compression::Zstd) encodeZstd(compressor.zstd);
+    else if (compressor.compression == Compression::Lz4) encodeLz4(compressor.lz4, compressor.lz4_level);
+  }
+
+  void encodeZstd(ZSTD_CCtx* cctx) {
+    compressed.resize(ZSTD_compressBound(size));
+    if (attached.empty()) {
+      const std::size_t n = ZSTD_compress2(cctx, compressed.data(), compressed.size(), records.data(), records.size());
+      if (ZSTD_isError(n)) return fail(n);
+      compressed.resize(n);
       return;
     }
-    compressed.resize(n);
+    // One frame streamed from the pieces; with an output buffer of compressBound() no call stalls.
+    ZSTD_CCtx_reset(cctx, ZSTD_reset_session_only);
+    ZSTD_CCtx_setPledgedSrcSize(cctx, size);
+    ZSTD_outBuffer out{compressed.data(), compressed.size(), 0};
+    std::size_t rc = 0;
+    forEachPiece([&](const std::uint8_t* p, std::size_t n) {
+      ZSTD_inBuffer in{p, n, 0};
+      while (!ZSTD_isError(rc) && in.pos < in.size) rc = ZSTD_compressStream2(cctx, &out, &in, ZSTD_e_continue);
+    });
+    ZSTD_inBuffer none{nullptr, 0, 0};
+    do {
+      if (ZSTD_isError(rc)) return fail(rc);
+      rc = ZSTD_compressStream2(cctx, &out, &none, ZSTD_e_end);
+    } while (rc != 0);
+    compressed.resize(out.pos);
+  }
+
+  void encodeLz4(LZ4F_cctx* cctx, int level) {
+    // One LZ4 frame (what MCAP's "lz4" means) with the content size in its header, streamed from the
+    // pieces. Blocks are linked (matches across the 64 KB blocks); no frame checksum: the chunk has its CRC.
+    LZ4F_preferences_t prefs = LZ4F_INIT_PREFERENCES;
+    prefs.compressionLevel = level;
+    prefs.frameInfo.contentSize = size;
+    prefs.frameInfo.blockMode = LZ4F_blockLinked;
+    std::size_t bound = LZ4F_HEADER_SIZE_MAX + LZ4F_compressBound(0, &prefs);
+    forEachPiece([&](const std::uint8_t*, std::size_t n) { bound += LZ4F_compressBound(n, &prefs); });
+    compressed.resize(bound);
+    std::size_t at = LZ4F_compressBegin(cctx, compressed.data(), compressed.size(), &prefs);
+    if (LZ4F_isError(at)) return failLz4(at);
+    std::size_t rc = 0;
+    forEachPiece([&](const std::uint8_t* p, std::size_t n) {
+      if (LZ4F_isError(rc)) return;
+      rc = LZ4F_compressUpdate(cctx, compressed.data() + at, compressed.size() - at, p, n, nullptr);
+      if (!LZ4F_isError(rc)) at += rc;
+    });
+    if (LZ4F_isError(rc)) return failLz4(rc);
+    rc = LZ4F_compressEnd(cctx, compressed.data() + at, compressed.size() - at, nullptr);
+    if (LZ4F_isError(rc)) return failLz4(rc);
+    compressed.resize(at + rc);
+  }
+
+  void failLz4(std::size_t lz4_result) {
+    error = std::string("lz4 compression failed: ") + LZ4F_getErrorName(lz4_result);
+    compressed.clear();
+  }
+
+  void fail(std::size_t zstd_result) {
+    error = std::string("zstd compression failed: ") + ZSTD_getErrorName(zstd_result);
+    compressed.clear();
   }
 };
 
 // Worker threads that encode closed chunks, each with its own zstd context.
 class McapWriter::Pool {
  public:
-  Pool(unsigned threads, Compression compression, int level, int nice) : compression_(compression) {
+  Pool(unsigned threads, const McapWriterOptions& options) {
     for (unsigned i = 0; i < threads; ++i)
-      workers_.emplace_back([this, level, nice] {
-        if (nice != 0) lowerThreadPriority(nice);
-        void* zstd = compression_ == Compression::Zstd ? newCompressor(level) : nullptr;
-        run(zstd);
-        if (zstd) ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd));
+      workers_.emplace_back([this, options] {
+        if (options.worker_nice != 0) lowerThreadPriority(options.worker_nice);
+        Compressor compressor(options);
+        run(compressor);
       });
   }
   ~Pool() {
@@ -138,7 +228,7 @@ class McapWriter::Pool {
   }
 
  private:
-  void run(void* zstd) {
+  void run(Compressor& compressor) {
     for (;;) {
       std::shared_ptr<PendingChunk> chunk;
       {
@@ -148,7 +238,7 @@ class McapWriter::Pool {
         chunk = std::move(queue_.front());
         queue_.pop_front();
       }
-      chunk->encode(compression_, zstd);
+      chunk->encode(compressor);
       {
         std::lock_guard lock(mutex_);
         chunk->done = true;
@@ -156,7 +246,6 @@ class McapWriter::Pool {
       finished_.notify_all();
     }
   }
-  Compression compression_;
   std::mutex mutex_;
   std::condition_variable work_, finished_;
   std::deque<std::shared_ptr<PendingChunk>> queue_;
@@ -170,9 +259,9 @@ McapWriter::McapWriter(const std::string& path, McapWriterOptions options) : pat
   file_ = std::fopen(path.c_str(), "wb");
   if (!file_) throw McapError(path_ + ": cannot create file: " + std::strerror(errno));
   if (options_.compression_threads > 0)
-    pool_ = std::make_unique<Pool>(options_.compression_threads, options_.compression, options_.zstd_level, options_.worker_nice);
-  else if (options_.compression == Compression::Zstd)
-    zstd_ = newCompressor(options_.zstd_level);
+    pool_ = std::make_unique<Pool>(options_.compression_threads, options_);
+  else
+    compressor_ = std::make_unique<Compressor>(options_);
   writeBytes(kMagic, sizeof kMagic);
   std::vector<std::uint8_t> header;
   Out out(header);
@@ -189,7 +278,6 @@ McapWriter::~McapWriter() {
     std::cerr << e.what() << '\n';
   }
   pool_.reset();  // joins the workers
-  if (zstd_) ZSTD_freeCCtx(static_cast<ZSTD_CCtx*>(zstd_));
 }
 
 void McapWriter::writeBytes(const void* data, std::size_t size) {
@@ -259,8 +347,8 @@ std::uint16_t McapWriter::addChannel(std::uint16_t schema_id, const std::string&
   return channels_.back().id;
 }
 
-void McapWriter::write(std::uint16_t channel_id, std::uint64_t log_time, std::uint64_t publish_time,
-                       std::span<const std::uint8_t> data) {
+void McapWriter::appendMessageHeader(std::uint16_t channel_id, std::uint64_t log_time, std::uint64_t publish_time,
+                                     std::size_t size) {
   if (channel_id >= channels_.size()) throw McapError(path_ + ": message on unknown channel " + std::to_string(channel_id));
   if (chunk_records_.empty()) {
     chunk_start_ = log_time;
@@ -269,27 +357,60 @@ void McapWriter::write(std::uint16_t channel_id, std::uint64_t log_time, std::ui
   }
   chunk_start_ = std::min(chunk_start_, log_time);
   chunk_end_ = std::max(chunk_end_, log_time);
-  chunk_index_[channel_id].emplace_back(log_time, chunk_records_.size());
+  chunk_index_[channel_id].emplace_back(log_time, openChunkBytes());
   Out out(chunk_records_);
   out.u8(kMessage);
-  out.u64(2 + 4 + 8 + 8 + data.size());
+  out.u64(2 + 4 + 8 + 8 + size);
   out.u16(channel_id);
   out.u32(++sequences_[channel_id]);
   out.u64(log_time);
   out.u64(publish_time);
-  out.raw(data.data(), data.size());
+}
+
+void McapWriter::afterMessage(std::uint16_t channel_id, std::uint64_t log_time) {
   if (message_count_ == 0) start_time_ = end_time_ = log_time;
   start_time_ = std::min(start_time_, log_time);
   end_time_ = std::max(end_time_, log_time);
   ++message_count_;
   ++channel_counts_[channel_id];
-  if (chunk_records_.size() >= options_.chunk_size) closeChunk();
+  if (openChunkBytes() >= options_.chunk_size) closeChunk();
+}
+
+void McapWriter::write(std::uint16_t channel_id, std::uint64_t log_time, std::uint64_t publish_time,
+                       std::span<const std::uint8_t> data) {
+  appendMessageHeader(channel_id, log_time, publish_time, data.size());
+  Out(chunk_records_).raw(data.data(), data.size());
+  afterMessage(channel_id, log_time);
+}
+
+void McapWriter::write(std::uint16_t channel_id, std::uint64_t log_time, std::uint64_t publish_time,
+                       std::vector<std::uint8_t>&& data) {
+  if (data.size() < kAttachBytes) {
+    // Copying a small payload costs less than keeping track of it.
+    write(channel_id, log_time, publish_time, std::span<const std::uint8_t>(data));
+    data.clear();
+    released_.push_back(std::move(data));
+    return;
+  }
+  appendMessageHeader(channel_id, log_time, publish_time, data.size());
+  chunk_attached_bytes_ += data.size();
+  chunk_attached_.push_back(Attached{chunk_records_.size(), std::move(data)});
+  afterMessage(channel_id, log_time);
+}
+
+std::vector<std::vector<std::uint8_t>> McapWriter::takeReleasedBuffers() {
+  std::vector<std::vector<std::uint8_t>> out;
+  out.swap(released_);
+  return out;
 }
 
 void McapWriter::closeChunk() {
   if (chunk_records_.empty()) return;
   auto chunk = std::make_shared<PendingChunk>();
+  chunk->size = openChunkBytes();
   chunk->records.swap(chunk_records_);
+  chunk->attached.swap(chunk_attached_);
+  chunk_attached_bytes_ = 0;
   chunk->index.swap(chunk_index_);
   chunk->start = chunk_start_;
   chunk->end = chunk_end_;
@@ -300,7 +421,7 @@ void McapWriter::closeChunk() {
   }
   chunk_records_.clear();
   if (!pool_) {
-    chunk->encode(options_.compression, zstd_);
+    chunk->encode(*compressor_);
     chunk->done = true;
     pending_.push_back(std::move(chunk));
     writePending(true);
@@ -320,8 +441,8 @@ std::map<std::uint16_t, std::uint64_t> McapWriter::unwrittenMessages() const {
 }
 
 std::uint64_t McapWriter::bytesBuffered() const {
-  std::uint64_t n = chunk_records_.size();
-  for (const auto& chunk : pending_) n += chunk->records.size();
+  std::uint64_t n = openChunkBytes();
+  for (const auto& chunk : pending_) n += chunk->size;
   return n;
 }
 
@@ -350,24 +471,26 @@ void McapWriter::writeChunk(PendingChunk& chunk) {
   info.offset = position_;
   info.message_start_time = chunk.start;
   info.message_end_time = chunk.end;
-  info.uncompressed_size = chunk.records.size();
+  info.uncompressed_size = chunk.size;
   info.compression = std::string(compressionName(options_.compression));
-  const std::vector<std::uint8_t>& payload = options_.compression == Compression::Zstd ? chunk.compressed : chunk.records;
-  info.compressed_size = payload.size();
+  const bool compressed = options_.compression != Compression::None;
+  const std::uint64_t payload_size = compressed ? chunk.compressed.size() : chunk.size;
+  info.compressed_size = payload_size;
 
-  // Record prefix and the chunk's fixed fields, then the payload straight from its buffer (no copy).
+  // Record prefix and the chunk's fixed fields, then the payload straight from its buffers (no copy).
   std::vector<std::uint8_t> head;
   Out out(head);
   out.u8(kChunk);
-  out.u64(8 + 8 + 8 + 4 + 4 + info.compression.size() + 8 + payload.size());
+  out.u64(8 + 8 + 8 + 4 + 4 + info.compression.size() + 8 + payload_size);
   out.u64(chunk.start);
   out.u64(chunk.end);
-  out.u64(chunk.records.size());
+  out.u64(chunk.size);
   out.u32(chunk.crc);
   out.str(info.compression);
-  out.u64(payload.size());
+  out.u64(payload_size);
   writeBytes(head.data(), head.size());
-  writeBytes(payload.data(), payload.size());
+  if (compressed) writeBytes(chunk.compressed.data(), chunk.compressed.size());
+  else chunk.forEachPiece([&](const std::uint8_t* p, std::size_t n) { writeBytes(p, n); });
   info.record_length = position_ - info.offset;
 
   for (const auto& [channel, entries] : chunk.index) {
@@ -385,6 +508,11 @@ void McapWriter::writeChunk(PendingChunk& chunk) {
   info.message_index_length = position_ - (info.offset + info.record_length);
   chunks_.push_back(std::move(info));
   if (spare_buffers_.size() < options_.max_pending_chunks + 1) spare_buffers_.push_back(std::move(chunk.records));
+  for (Attached& a : chunk.attached) {
+    a.bytes.clear();
+    released_.push_back(std::move(a.bytes));
+  }
+  chunk.attached.clear();
   // The chunk is complete in the OS's hands: a killed recorder keeps it.
   flushFile();
 }

@@ -90,7 +90,8 @@ struct RecordOptions {
     app.add_flag("--all", all, "record every topic discovered (the default when --topics is not given)");
     app.add_option("--duration", duration, "stop after this many seconds (0: until SIGINT/SIGTERM)")->check(CLI::NonNegativeNumber);
     app.add_option("--max-messages", options.max_messages, "stop after writing this many messages (0: no limit)");
-    app.add_option("--compression", compression, "chunk compression")->check(CLI::IsMember({"zstd", "none"}));
+    app.add_option("--compression", compression, "chunk compression: zstd (smaller files), lz4 (faster), none")
+        ->check(CLI::IsMember({"zstd", "lz4", "none"}));
     app.add_option("--chunk-kb", chunk_kb, "close a chunk at this many KB of messages (also after 1 s)")->check(CLI::Range(1, 1 << 20));
     app.add_option("--queue-mb", queue_mb, "writer queue limit in MB; samples beyond it are dropped and counted")
         ->check(CLI::PositiveNumber);
@@ -147,7 +148,9 @@ void runRecording(runtime::Context& ctx, RecordOptions& o, sigset_t snapshot_sig
   for (auto& topic : options.topics) topic = ctx.topic(topic);
 
   const int domain = ctx.bus().domainId();
-  options.mcap.compression = o.compression == "zstd" ? record::Compression::Zstd : record::Compression::None;
+  options.mcap.compression = o.compression == "zstd"  ? record::Compression::Zstd
+                             : o.compression == "lz4" ? record::Compression::Lz4
+                                                      : record::Compression::None;
   options.mcap.chunk_size = o.chunk_kb * 1024;
   options.queue_bytes = static_cast<std::size_t>(o.queue_mb * (1 << 20));
   options.write_delay = std::chrono::microseconds(o.write_delay_us);

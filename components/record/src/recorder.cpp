@@ -102,6 +102,7 @@ void Recorder::closeFile() {
   writer_->addMetadata("ddsnav.recording_end",
                        {{"end_time_ns", std::to_string(nowNs())}, {"error", error_}, {"not_discovered", not_discovered}});
   writer_->close();
+  for (auto& buffer : writer_->takeReleasedBuffers()) recycle(std::move(buffer));
   writer_.reset();
   files_written_.push_back(file_path_);
 }
@@ -245,13 +246,17 @@ void Recorder::recycle(std::vector<std::uint8_t>&& buffer) {
 }
 
 void Recorder::returnFreedBuffers() {
-  // Called with queue_mutex_ held. Keep up to a quarter of the queue's byte limit: enough for a steady stream.
+  // Called with queue_mutex_ held. Keep up to a quarter of the queue's byte limit: enough for a steady
+  // stream. The rest stay in freed_ and are released by the writer after it lets go of the lock (a
+  // burst of small messages can free thousands of buffers: not while a DDS callback waits for it).
+  std::size_t kept = 0;
   for (auto& buffer : freed_) {
     if (spare_bytes_ + buffer.capacity() > options_.queue_bytes / 4 || spare_.size() >= 1024) break;
     spare_bytes_ += buffer.capacity();
     spare_.push_back(std::move(buffer));
+    ++kept;
   }
-  freed_.clear();
+  freed_.erase(freed_.begin(), freed_.begin() + static_cast<std::ptrdiff_t>(kept));
 }
 
 void Recorder::rotateIfDue() {
@@ -316,6 +321,7 @@ void Recorder::writerLoop() {
       finishing = stopping_;
       returnFreedBuffers();
     }
+    freed_.clear();  // what the spare pool had no room for, released outside the queue lock
     std::lock_guard lock(writer_mutex_);
     for (Item& item : batch) {
       if (options_.snapshot) {
@@ -342,8 +348,11 @@ void Recorder::writerLoop() {
       item.topic->written.fetch_add(1, std::memory_order_relaxed);
       const std::uint64_t total = total_written_.fetch_add(1) + 1;
       try {
-        writer_->write(item.topic->channel, item.log_time, item.publish_time, item.payload);
-        bytes_written_.fetch_add(item.payload.size(), std::memory_order_relaxed);
+        // Large payloads are not copied: the chunk keeps the buffer until it is in the file, then
+        // hands it back (takeReleasedBuffers) for the next samples.
+        const std::size_t size = item.payload.size();
+        writer_->write(item.topic->channel, item.log_time, item.publish_time, std::move(item.payload));
+        bytes_written_.fetch_add(size, std::memory_order_relaxed);
       } catch (const std::exception& e) {
         setError(e.what());
       }
@@ -351,6 +360,8 @@ void Recorder::writerLoop() {
       if (options_.max_messages > 0 && total >= options_.max_messages) max_reached_.store(true);
     }
     batch.clear();
+    if (writer_)
+      for (auto& buffer : writer_->takeReleasedBuffers()) recycle(std::move(buffer));
     if (options_.snapshot && snapshot_requested_.exchange(false)) {
       try {
         writeSnapshot();

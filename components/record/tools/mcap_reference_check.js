@@ -1,10 +1,15 @@
 // Cross-check of ddsnav MCAP files against the reference TypeScript implementation (@mcap/core), by hand:
-//   cd /tmp/mcapcheck && npm install @mcap/core fzstd && node <ddsnav>/components/record/tools/mcap_reference_check.js FILE.mcap
+//   cd /tmp/mcapcheck && npm install @mcap/core fzstd lz4js && node <ddsnav>/components/record/tools/mcap_reference_check.js FILE.mcap
 // (run from the folder holding node_modules, or set NODE_PATH). See docs/record.md.
 const fs = require("fs");
 const { McapStreamReader, McapIndexedReader } = require("@mcap/core");
 const fzstd = require("fzstd");
 const decompressHandlers = { zstd: (buf, size) => fzstd.decompress(buf, new Uint8Array(Number(size))) };
+// lz4 chunks (LZ4 frames), when lz4js is installed: an independent decoder of the frame format.
+try {
+  const lz4js = require("lz4js");
+  decompressHandlers.lz4 = (buf, size) => Uint8Array.from(lz4js.decompress(buf, Number(size)));
+} catch (e) {}
 (async () => {
   const path = process.argv[2];
   const data = fs.readFileSync(path);

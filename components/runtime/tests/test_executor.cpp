@@ -92,6 +92,28 @@ TEST(Executor, PostedTasksRunInOrderAndATimerExceptionEndsRun) {
   EXPECT_FALSE(executor.running());
 }
 
+TEST(Executor, ATimerAlwaysDueDoesNotStarveTheQueue) {
+  // A timer whose callback outlasts its period is always due (the simulator's step with a slow 3-D scan);
+  // a task posted meanwhile must still run after at most one more tick, not only once the timer gives up
+  // catching up (after ~500 ms of backlog, some 150 ticks here).
+  Executor executor;
+  int ticks = 0;
+  int posted_at = -1, ran_at = -1;
+  Timer busy = executor.every(1ms, [&] {
+    std::this_thread::sleep_for(3ms);
+    ++ticks;
+    if (ticks == 5) {
+      posted_at = ticks;
+      executor.post([&] { ran_at = ticks; });
+    }
+    if (ran_at >= 0 || ticks > 400) executor.stop();
+  });
+  executor.run();
+  ASSERT_EQ(posted_at, 5);
+  ASSERT_GE(ran_at, 5) << "the posted task never ran while the timer was due";
+  EXPECT_LE(ran_at, posted_at + 1);
+}
+
 TEST(Executor, StopBeforeRunReturnsAtOnce) {
   Executor executor;
   executor.stop();

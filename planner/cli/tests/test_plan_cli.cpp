@@ -41,9 +41,12 @@ class PlanCli : public ::testing::Test {
     return s.str();
   }
 
-  CliRun plan(const std::string& args) {
+  CliRun plan(const std::string& args) { return run(DDSNAV_PLAN_BINARY, args); }
+  CliRun bench(const std::string& args) { return run(DDSNAV_BENCH_BINARY, args); }
+
+  CliRun run(const std::string& binary, const std::string& args) {
     const fs::path out = dir_ / "stdout", err = dir_ / "stderr";
-    const std::string command = std::string("'") + DDSNAV_PLAN_BINARY + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+    const std::string command = "'" + binary + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
     const int raw = std::system(command.c_str());
     CliRun r;
     r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -134,6 +137,37 @@ TEST_F(PlanCli, OptionsAreValidatedWithPlannerOptionAndRange) {
   EXPECT_TRUE(j["coverage"].is_number());
   const CliRun live = plan(demo + " --planner rrtstar --json");
   EXPECT_TRUE(nlohmann::json::parse(live.out)["coverage"].is_null());  // metrics only when asked
+}
+
+// gart-lazy's options from both front ends (issue 10, item 4): set, refused out of range naming planner,
+// option and range, and refused on a planner without them. The library test (test_request_bounds.cpp)
+// walks every option; here the command lines carry them.
+TEST_F(PlanCli, GartLazyOptionsFromPlanAndBench) {
+  const std::string demo = "--scenario " + kScenarios + "demo_2d.yaml";
+  expectError(demo + " --planner gart-lazy --option restart_patience=-1",
+              "planner gart-lazy, option restart_patience: expected an integer in \\[0, 100000000\\], got '-1'");
+  expectError(demo + " --planner gart-lazy --option explore_event1=maybe",
+              "planner gart-lazy, option explore_event1: expected true or false, got 'maybe'");
+  expectError(demo + " --planner gart-lazy --option explore_event1_budget=256",
+              "planner gart-lazy, option explore_event1_budget: expected an integer in \\[0, 255\\], got '256'");
+  expectError(demo + " --planner rrt --kinodynamic --option explore_event1_budget=0", "planner rrt has no option 'explore_event1_budget'");
+  const CliRun ok = plan(demo + " --planner gart-lazy --option explore_event1_budget=0 --option attraction_patience=30 --json");
+  ASSERT_EQ(ok.status, 0) << ok.err;
+  EXPECT_TRUE(nlohmann::json::parse(ok.out)["solved"].get<bool>());
+
+  const std::string grid = "--scenarios " + kScenarios + "demo_2d.yaml --seeds 1 --time-limit 5 --out '" + (dir_ / "grid").string() + "'";
+  const CliRun bad = bench(grid + " --planners 'gart-lazy{attraction_progress=-0.5}'");
+  EXPECT_NE(bad.status, 0);
+  // The bench logs its error line through spdlog (stdout).
+  EXPECT_NE((bad.out + bad.err).find("planner gart-lazy, option attraction_progress: expected a number in [0, 1000]"), std::string::npos)
+      << bad.out << bad.err;
+  const CliRun foreign = bench(grid + " --planners rrt,gart-lazy --option explore_field=false");
+  EXPECT_NE(foreign.status, 0);
+  EXPECT_NE((foreign.out + foreign.err).find("planner rrt has no option 'explore_field'"), std::string::npos) << foreign.out << foreign.err;
+  const CliRun good = bench(grid + " --planners 'gart-lazy{explore_event1_budget=0,k_nearest=5}' --option explore_field=false");
+  ASSERT_EQ(good.status, 0) << good.err;
+  const std::string csv = slurp(dir_ / "grid" / "runs.csv");
+  EXPECT_NE(csv.find("gart-lazy{explore_event1_budget=0,k_nearest=5}"), std::string::npos) << csv;
 }
 
 // Issue 13 rows 2 and 8: bounds of 1e15 ignored --time-limit, bounds of 1e200 crashed gart.

@@ -53,12 +53,20 @@ struct GartOptions {
   // While the self-limiting attraction is off for an iteration, v_near is the nearest node (RRT's Voronoi
   // choice) instead of the least-effort one among the k nearest (gart-lazy; needs attraction_patience > 0).
   bool explore_nearest = false;
+  // What exploring iterations (those explore_nearest applies to) redistribute with. Off, a part is skipped
+  // there as in plain RRT: explore_field the obstacle field (events 2 / 3), explore_event1 event 1 (a
+  // blocked extension adds nothing). explore_event1_budget > 0 (gart-lazy: 3): event 1 starts from one node
+  // in at most that many exploring iterations; 0: no limit.
+  bool explore_field = true;
+  bool explore_event1 = true;
+  int explore_event1_budget = 0;
   int restart_patience = 0;
 };
 
 // gart-lazy's defaults: the paper's GART with event 1's reach search refined down to a tenth of the robot's
-// radius, RRT*'s parent choice and rewiring deferred until the first solution, and a self-limiting goal
-// attraction (attraction_patience 20, goal_bias 0.1) (docs/planners.md).
+// radius, RRT*'s parent choice and rewiring deferred until the first solution, a self-limiting goal
+// attraction (attraction_patience 20, goal_bias 0.1), exploring iterations from the nearest node with
+// event 1 at most 3 times per node, and restarts on stagnation (docs/planners.md).
 GartOptions gartLazyOptions();
 
 // Which branch of the bidirectional potential field produced a candidate.
@@ -87,6 +95,9 @@ double gartControlEffort(const State& from, const Vec3& target, const ForwardReg
 std::vector<GartCandidate> gartRedistribute(const State& parent, const Vec3& sample, const Vec3& goal,
                                             const CollisionWorld& world, const ForwardRegion& region,
                                             const GartOptions& options);
+// The same into `out` (cleared first): the planner's loop reuses one buffer.
+void gartRedistribute(const State& parent, const Vec3& sample, const Vec3& goal, const CollisionWorld& world,
+                      const ForwardRegion& region, const GartOptions& options, std::vector<GartCandidate>& out);
 
 // The obstacle part of the bidirectional potential field at `p` (events 2 and 3): the displacement it
 // applies and which event fired (kFree when no obstacle is within the detection range).

@@ -36,6 +36,10 @@ struct TrackerConfig {
   double goal_tolerance = 0.1;   // m: goal reached when the reference is finished and the vehicle this close
   double replan_deviation = 1.0;      // m of cross-track error that asks for a new plan
   double replan_horizon = std::numeric_limits<double>::infinity();  // s of the remaining trajectory checked
+  // m of the remaining trajectory (arc length from the reference) checked as well, whichever of the two
+  // reaches farther: what the sensor can see is a distance, and at sea scale (2 m/s, a 200 m sonar) a time
+  // horizon sized for the 2-D yard saw the shore 15 m ahead. 0: the time horizon alone.
+  double replan_horizon_distance = 0.0;
 };
 
 struct TrackingStatus {
@@ -80,7 +84,8 @@ class TrajectoryTracker {
   const TrackerConfig& config() const { return config_; }
 
   // Whether the vehicle should ask for a new plan: cross-track error beyond replan_deviation, or a sample
-  // of the remaining trajectory (within replan_horizon) no longer free in `world` (new obstacles).
+  // of the remaining trajectory (within replan_horizon seconds or replan_horizon_distance metres of the
+  // reference, whichever reaches farther) no longer free in `world` (new obstacles).
   // `min_horizon_s`: check at least this far ahead (the caller's planning time: a block found later than
   // a plan takes cannot be planned around ahead).
   ReplanDecision checkReplan(const planner::CollisionWorld& world, double min_horizon_s = 0.0) const;

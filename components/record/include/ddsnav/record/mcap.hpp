@@ -37,8 +37,8 @@ class McapError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class Compression { None, Zstd };
-std::string_view compressionName(Compression c);  // "" | "zstd" (the spec's names)
+enum class Compression { None, Zstd, Lz4 };
+std::string_view compressionName(Compression c);  // "" | "zstd" | "lz4" (the spec's names; lz4: the LZ4 frame format)
 // Raises the calling thread's nice value by `increment` (lower priority; Linux per-thread nice).
 void lowerThreadPriority(int increment);
 
@@ -97,6 +97,8 @@ inline constexpr std::uint64_t kMaxChunkUncompressedBytes = 1ull << 30;
 struct McapWriterOptions {
   Compression compression = Compression::Zstd;
   int zstd_level = 1;                      // fast: recording must keep up with the sensors
+  // LZ4 frame compression level: 0 default (fast), < 0 faster still ("acceleration"), > 2 LZ4-HC (slow).
+  int lz4_level = 0;
   std::size_t chunk_size = 1 << 20;        // close a chunk once its records reach this many bytes
   std::chrono::milliseconds chunk_age{1000};  // ... or once its first message is this old (flushAged)
   std::string profile;                     // MCAP profile; "" (ddsnav's schemas are OMG IDL, not ROS)
@@ -112,6 +114,7 @@ struct McapWriterOptions {
 
 class McapWriter {
   struct PendingChunk;
+  struct Compressor;
   class Pool;
 
  public:
@@ -124,9 +127,18 @@ class McapWriter {
   std::uint16_t addSchema(const std::string& name, const std::string& encoding, const std::string& data);
   std::uint16_t addChannel(std::uint16_t schema_id, const std::string& topic, const std::string& message_encoding,
                            const StringMap& metadata = {});
-  // Sequence numbers count per channel from 1.
+  // Sequence numbers count per channel from 1. The bytes are copied into the open chunk.
   void write(std::uint16_t channel_id, std::uint64_t log_time, std::uint64_t publish_time,
              std::span<const std::uint8_t> data);
+  // The same, taking the buffer: a payload of at least kAttachBytes is not copied but kept with its
+  // chunk (CRC, compression and the file write read it where it is) until the chunk is in the file. The
+  // buffer then comes back through takeReleasedBuffers(), for the caller to reuse.
+  void write(std::uint16_t channel_id, std::uint64_t log_time, std::uint64_t publish_time,
+             std::vector<std::uint8_t>&& data);
+  static constexpr std::size_t kAttachBytes = 64 * 1024;
+  // Payload buffers given to write(&&) that are no longer needed (their chunk is written, or they were
+  // small enough to copy), emptied but with their capacity.
+  std::vector<std::vector<std::uint8_t>> takeReleasedBuffers();
   void addMetadata(const std::string& name, const StringMap& values);
   // Closes the open chunk (if any) when its first message is older than options.chunk_age.
   void flushAged();
@@ -153,6 +165,9 @@ class McapWriter {
   void closeChunk();
   void writePending(bool wait_all);
   void writeChunk(PendingChunk& chunk);
+  void appendMessageHeader(std::uint16_t channel_id, std::uint64_t log_time, std::uint64_t publish_time, std::size_t size);
+  void afterMessage(std::uint16_t channel_id, std::uint64_t log_time);
+  std::uint64_t openChunkBytes() const { return chunk_records_.size() + chunk_attached_bytes_; }
 
   std::string path_;
   McapWriterOptions options_;
@@ -164,8 +179,15 @@ class McapWriter {
   std::map<std::uint16_t, std::uint64_t> channel_counts_;
   std::uint64_t message_count_ = 0;
   std::uint64_t start_time_ = 0, end_time_ = 0;
-  // The open chunk.
+  // The open chunk: its bytes are chunk_records_ with each attached payload inserted at its offset.
   std::vector<std::uint8_t> chunk_records_;
+  struct Attached {
+    std::size_t at;  // offset in chunk_records_ where these bytes belong
+    std::vector<std::uint8_t> bytes;
+  };
+  std::vector<Attached> chunk_attached_;
+  std::uint64_t chunk_attached_bytes_ = 0;
+  std::vector<std::vector<std::uint8_t>> released_;  // payload buffers for takeReleasedBuffers()
   std::map<std::uint16_t, std::vector<std::pair<std::uint64_t, std::uint64_t>>> chunk_index_;  // channel -> (time, offset)
   std::uint64_t chunk_start_ = 0, chunk_end_ = 0;
   std::chrono::steady_clock::time_point chunk_opened_;
@@ -175,7 +197,7 @@ class McapWriter {
   std::unique_ptr<Pool> pool_;                              // compression workers, or none
   std::deque<std::shared_ptr<PendingChunk>> pending_;      // closed, not yet written, in file order
   std::vector<std::vector<std::uint8_t>> spare_buffers_;    // chunk buffers to reuse
-  void* zstd_ = nullptr;  // ZSTD_CCtx* of the calling thread (compression_threads == 0)
+  std::unique_ptr<Compressor> compressor_;  // of the calling thread (compression_threads == 0)
 };
 
 struct McapSummary {

@@ -1,0 +1,28 @@
+#pragma once
+// The mapper's resolution and range for a scenario, when the user leaves them unset (docs/world-model.md,
+// "The map's scale"). The mapper does not see the sensor; it reads the same scenario the simulator does and
+// follows the simulator's default sensor (sim::defaultMaxRange):
+//
+//   resolution = max(0.1 m, robot_radius / 5)   a mapped surface is up to a voxel diagonal nearer than the
+//                                               true one: a fifth of the robot radius keeps that small
+//                                               against the robot, never finer than the 0.1 m of the yard
+//   max_range  = min(sensor range, 300 voxels)  the whole sensor range, with the ray casting per beam
+//                                               bounded to 300 voxels (the cost of 30 m at 0.1 m)
+//
+// On every 2-D and 3-D world with robot_radius <= 0.5 m this is 0.1 m and 30 m (or the shorter sensor
+// range: the same map); at sea scale (auv_coastal:
+// robot radius 2 m, a 200 m sonar) 0.4 m and 120 m instead of a 30 m map of a 200 m sonar.
+
+#include <ddsnav/planner/scenario.hpp>
+
+namespace ddsnav::nodes {
+
+struct MapScale {
+  double resolution = 0.1;  // m, leaf size of the octree
+  double max_range = 30.0;  // m, beams are cut here
+};
+
+// The rule above; `sensor_range` is the simulator's range for the scenario (sim::defaultMaxRange).
+MapScale mapScaleFor(const planner::Scenario& scenario, double sensor_range);
+
+}  // namespace ddsnav::nodes

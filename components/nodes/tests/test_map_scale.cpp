@@ -1,0 +1,55 @@
+// The mapper's default resolution and range: unchanged on the yard-scale worlds, coarser and longer at sea
+// scale, and always bounded in voxels per beam.
+#include "ddsnav/nodes/map_scale.hpp"
+
+#include <ddsnav/sim/sensor_choice.hpp>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+namespace ddsnav::nodes {
+namespace {
+
+const std::string kScenarios = DDSNAV_SOURCE_DIR "/configs/scenarios/";
+
+MapScale shipped(const std::string& file) {
+  const auto scenario = planner::loadScenario(kScenarios + file);
+  return mapScaleFor(scenario, sim::defaultMaxRange(scenario));
+}
+
+TEST(MapScale, YardScaleWorldsKeepTheFormerDefaults) {
+  for (const char* file : {"demo_2d.yaml", "gart_cluttered_2d.yaml", "gart_terrain_3d.yaml", "stunnel_1.0.yaml"}) {
+    const auto scenario = planner::loadScenario(kScenarios + file);
+    const auto scale = shipped(file);
+    EXPECT_DOUBLE_EQ(scale.resolution, 0.1) << file;
+    // 30 m, or the sensor's range where it is shorter (demo_2d: 26.4 m): the same map either way.
+    EXPECT_DOUBLE_EQ(scale.max_range, std::min(30.0, sim::defaultMaxRange(scenario))) << file;
+  }
+}
+
+TEST(MapScale, SeaScaleFollowsTheRobotAndTheSonar) {
+  // auv_coastal: robot radius 2 m, 200 m sonar -> 0.4 m voxels, 300 of them per beam.
+  const auto coast = shipped("auv_coastal.yaml");
+  EXPECT_DOUBLE_EQ(coast.resolution, 0.4);
+  EXPECT_DOUBLE_EQ(coast.max_range, 120.0);
+  // variant_sea_800: the same robot, an 80 m sonar: the whole sonar range is mapped.
+  const auto bay = shipped("variants/sea_800.yaml");
+  EXPECT_DOUBLE_EQ(bay.resolution, 0.4);
+  EXPECT_DOUBLE_EQ(bay.max_range, 80.0);
+}
+
+TEST(MapScale, BoundedForAnyInput) {
+  planner::Scenario s;
+  s.robot_radius = 0.02;
+  EXPECT_DOUBLE_EQ(mapScaleFor(s, 5.0).resolution, 0.1);  // never finer than 0.1 m
+  EXPECT_DOUBLE_EQ(mapScaleFor(s, 5.0).max_range, 5.0);   // never beyond the sensor
+  s.robot_radius = 50.0;
+  const auto huge = mapScaleFor(s, 1e4);
+  EXPECT_DOUBLE_EQ(huge.resolution, 10.0);
+  EXPECT_DOUBLE_EQ(huge.max_range, 3000.0);
+  EXPECT_DOUBLE_EQ(mapScaleFor(s, 0.0).max_range, 30.0);  // no sensor range: the former default
+}
+
+}  // namespace
+}  // namespace ddsnav::nodes
