@@ -53,14 +53,9 @@ TEST(UserMessages, TypedRoundTripAcrossVendors) {
   bus::Participant cyclone({.vendor = bus::Vendor::CycloneDDS, .domain_id = domain.id(), .name = "user-cyclone"});
   auto inbox = cyclone.inbox<Reading>("sdk/readings", bus::Qos::commands());
   auto pub = fast.publisher<Reading>("sdk/readings", bus::Qos::commands());
-  ASSERT_TRUE(pub.waitForSubscribers(1, 10s));
-  // The type's round trip is what is tested here. A sample written right after matching is sometimes not
-  // delivered (open since session 5, see DISABLED_RecordedUserTypeReplaysOnTheBus), so it is re-sent until one arrives.
-  std::optional<Reading> got;
-  for (int attempt = 0; attempt < 50 && !got; ++attempt) {
-    pub.publish(reading(3));
-    got = inbox.wait(200ms);
-  }
+  ASSERT_TRUE(pub.waitForSubscribers(1, 10s));  // matched both ways: the one sample reaches the reader
+  pub.publish(reading(3));
+  const std::optional<Reading> got = inbox.wait(10s);
   ASSERT_TRUE(got);
   EXPECT_EQ(*got, reading(3));
 }
@@ -114,11 +109,7 @@ TEST_F(UserMessagesRecording, RecordedWithItsSchemaDecodedByFoxglove) {
   EXPECT_NE(decoded.find(R"("value":2)"), std::string::npos) << decoded;
 }
 
-// Disabled (session 5, open): in 2 of 5 runs after the composition merge only the first of the five replayed
-// readings reaches this test's Fast DDS reader (play reports all five published; matched, --settle 2 does not
-// help). Kept as a test to mend, not deleted; the cross-vendor record/replay tests (tests/record) still check
-// replay field by field on both vendors.
-TEST_F(UserMessagesRecording, DISABLED_RecordedUserTypeReplaysOnTheBus) {
+TEST_F(UserMessagesRecording, RecordedUserTypeReplaysOnTheBus) {
   harness::Harness h({.record = false});
   const std::string file = recordReadings(h);
   // ddsnav play puts the same samples back on the bus (Fast DDS this time).

@@ -19,6 +19,9 @@ class WriterImpl {
   virtual void writeSample(const void* sample) = 0;                 // a generated class
   virtual void writeRaw(std::span<const std::uint8_t> payload) = 0;  // encapsulation + body
   virtual std::size_t matched() const = 0;
+  // Matched readers that have also had time to match this writer (see the Fast DDS backend): what
+  // waitForSubscribers waits for. matched() is what delivery decisions use.
+  virtual std::size_t settled() const { return matched(); }
   // The writer's handle as a reader's SampleInfo::publication_handle shows it.
   virtual std::uint64_t handle() const = 0;
   // Whether a matched reader exists whose handle (ReaderImpl::handle) is not in `readers`.

@@ -174,6 +174,7 @@ void write(WriterImpl& writer, const void* sample) {
 }
 std::uint64_t ddsWrites(const WriterImpl& writer) { return writer.typed_writes.load(); }
 std::size_t matchedReaders(const WriterImpl& writer) { return writer.matched(); }
+std::size_t settledReaders(const WriterImpl& writer) { return writer.settled(); }
 std::size_t matchedWriters(const ReaderImpl& reader) { return reader.matched(); }
 std::uint64_t lostSamples(const ReaderImpl& reader) { return reader.lost(); }
 

@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include <cstdlib>
+#include <unistd.h>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -29,7 +30,15 @@ std::string domainConfig(const Transport& t) {
   x += "</AllowMulticast></General>"
        "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>32</MaxAutoParticipantIndex><Peers>";
   for (const std::string& peer : t.peers) x += "<Peer address=\"" + peer + "\"/>";
-  x += "</Peers></Discovery><Internal><SocketReceiveBufferSize min=\"4MB\"/></Internal></Domain></CycloneDDS>";
+  x += "</Peers></Discovery><Internal><SocketReceiveBufferSize min=\"4MB\"/></Internal>";
+  // DDSNAV_CYCLONE_TRACE=FILE: Cyclone's full protocol trace to FILE.<pid>, for interop questions (docs/bus.md).
+  if (const char* trace = std::getenv("DDSNAV_CYCLONE_TRACE"); trace != nullptr && *trace != '\0') {
+    const std::string file = trace;
+    if (file.find_first_of("<>&\"'") != std::string::npos)
+      throw BusError("DDSNAV_CYCLONE_TRACE='" + file + "': a file name without < > & \" '");
+    x += "<Tracing><Category>trace</Category><OutputFile>" + file + "." + std::to_string(::getpid()) + "</OutputFile></Tracing>";
+  }
+  x += "</Domain></CycloneDDS>";
   return x;
 }
 

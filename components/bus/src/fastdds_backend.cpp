@@ -28,6 +28,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -225,24 +226,49 @@ dds::DomainParticipantQos participantQos(const ParticipantOptions& options, cons
 
 class FastCore;
 
-// The readers a writer is matched with (Fast DDS 2.9 has no get_matched_subscriptions).
+// The readers a writer is matched with (Fast DDS 2.9 has no get_matched_subscriptions), and since when.
+//
+// A reader of another vendor may learn of this writer up to a second after the writer has matched it:
+// Cyclone DDS drops a HEARTBEAT that arrives before it has finished discovering the sending participant (it
+// handles SPDP on a delivery thread, HEARTBEATs on the receive thread, and Fast DDS sends both at once), and
+// Fast DDS 2.9 repeats the heartbeats of its discovery (SEDP) writers only every second, a period no API
+// changes. A sample written in that second never reaches the reader: volatile readers get nothing written
+// before they matched. Measured (session notes in docs/bus.md): a request written 0.5 s after the match was
+// lost in 4 of 8 runs, 2 s after it in none. So a foreign reader counts as *settled* -- what
+// waitForSubscribers waits for -- once it has been matched for longer than that period.
 class MatchedReaders : public dds::DataWriterListener {
  public:
+  static constexpr auto kForeignSettle = std::chrono::milliseconds(1200);  // Fast DDS's SEDP heartbeat period + margin
+
   void on_publication_matched(dds::DataWriter*, const dds::PublicationMatchedStatus& status) override {
+    const std::uint64_t reader = publicationHandle(status.last_subscription_handle);
     std::lock_guard lock(mutex_);
-    if (status.current_count_change > 0) readers_.insert(publicationHandle(status.last_subscription_handle));
-    else if (status.current_count_change < 0) readers_.erase(publicationHandle(status.last_subscription_handle));
+    if (status.current_count_change > 0) {
+      // The handle is the reader's GUID; its first two bytes are the vendor id (eProsima: 01.0f).
+      const auto& guid = status.last_subscription_handle.value;
+      const bool foreign = !(guid[0] == 0x01 && guid[1] == 0x0f);
+      readers_[reader] = foreign ? std::chrono::steady_clock::now() + kForeignSettle : std::chrono::steady_clock::time_point{};
+    } else if (status.current_count_change < 0) {
+      readers_.erase(reader);
+    }
   }
   bool beyond(const std::set<std::uint64_t>& readers) const {
     std::lock_guard lock(mutex_);
-    for (std::uint64_t r : readers_)
+    for (const auto& [r, settled_at] : readers_)
       if (!readers.count(r)) return true;
     return false;
+  }
+  std::size_t settled() const {
+    const auto now = std::chrono::steady_clock::now();
+    std::lock_guard lock(mutex_);
+    std::size_t n = 0;
+    for (const auto& [r, settled_at] : readers_) n += settled_at <= now;
+    return n;
   }
 
  private:
   mutable std::mutex mutex_;
-  std::set<std::uint64_t> readers_;
+  std::map<std::uint64_t, std::chrono::steady_clock::time_point> readers_;  // -> when it counts as settled
 };
 
 class FastWriter : public WriterImpl {
@@ -253,6 +279,7 @@ class FastWriter : public WriterImpl {
   ~FastWriter() override;
   std::uint64_t handle() const override { return handle_; }
   bool matchedBeyond(const std::set<std::uint64_t>& readers) const override { return matched_->beyond(readers); }
+  std::size_t settled() const override { return matched_->settled(); }
 
   void writeSample(const void* sample) override {
     Carrier c;

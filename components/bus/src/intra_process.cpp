@@ -110,22 +110,15 @@ bool IntraDomain::isLocalWriter(std::uint64_t handle) const {
   std::shared_lock lock(mutex_);
   return writers_.count(handle) > 0;
 }
-void IntraDomain::addWriter(std::uint64_t handle) {
+void IntraDomain::mark(std::set<std::uint64_t>& handles, std::uint64_t handle, bool present) {
   std::unique_lock lock(mutex_);
-  writers_.insert(handle);
+  if (present) handles.insert(handle);
+  else handles.erase(handle);
 }
-void IntraDomain::removeWriter(std::uint64_t handle) {
-  std::unique_lock lock(mutex_);
-  writers_.erase(handle);
-}
-void IntraDomain::addReader(std::uint64_t handle) {
-  std::unique_lock lock(mutex_);
-  readers_.insert(handle);
-}
-void IntraDomain::removeReader(std::uint64_t handle) {
-  std::unique_lock lock(mutex_);
-  readers_.erase(handle);
-}
+void IntraDomain::addWriter(std::uint64_t handle) { mark(writers_, handle, true); }
+void IntraDomain::removeWriter(std::uint64_t handle) { mark(writers_, handle, false); }
+void IntraDomain::addReader(std::uint64_t handle) { mark(readers_, handle, true); }
+void IntraDomain::removeReader(std::uint64_t handle) { mark(readers_, handle, false); }
 bool IntraDomain::matchedOutside(const WriterImpl& dds) const {
   std::shared_lock lock(mutex_);
   return dds.matchedBeyond(readers_);

@@ -43,6 +43,7 @@ class IntraDomain {
  private:
   mutable std::shared_mutex mutex_;
   std::map<std::string, std::shared_ptr<TopicEntry>> topics_;
+  void mark(std::set<std::uint64_t>& handles, std::uint64_t handle, bool present);
   std::set<std::uint64_t> writers_, readers_;
 };
 

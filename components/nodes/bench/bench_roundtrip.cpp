@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
           ::kill(pid, SIGKILL);
           return 1;
         }
-        std::this_thread::sleep_for(500ms);
+        
         std::vector<double> total, solve, overhead;
         for (int i = 1; i <= requests; ++i) {
           msg::PlanRequest r;

@@ -105,6 +105,7 @@ void play(runtime::Context& ctx, PlayCommandLine& c) {
   auto& options = c.options;
   options.wait_subscribers = std::chrono::milliseconds(static_cast<long>(c.wait_s * 1000));
   options.settle = std::chrono::milliseconds(static_cast<long>(c.settle_s * 1000));
+  options.linger = std::chrono::milliseconds(static_cast<long>(c.linger_s * 1000));
   std::thread stop_watch([&ctx] {
     while (!ctx.waitForShutdown(std::chrono::milliseconds(100)) && !g_stop.load()) {
     }
@@ -142,9 +143,6 @@ void play(runtime::Context& ctx, PlayCommandLine& c) {
   if (result.damaged_chunks) spdlog::warn("{} damaged chunk(s) skipped; their messages were not published", result.damaged_chunks);
   spdlog::info("published {} messages{}", result.published,
                result.failed ? " (" + std::to_string(result.failed) + " refused by the vendor)" : std::string());
-  // Reliable samples not yet acknowledged are resent on the next heartbeat; the bus cannot wait for
-  // acknowledgements, so keep the writers a while before they go away.
-  for (int i = 0; i < static_cast<int>(c.linger_s * 10) && !g_stop.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   if (result.failed) throw std::runtime_error(std::to_string(result.failed) + " message(s) refused by the vendor");
 }
 

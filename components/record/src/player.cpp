@@ -241,6 +241,12 @@ PlaybackProgress play(bus::Participant& bus, const McapReader& file, const Playe
   }
   p.paused = control && control->paused.load();
   if (progress) progress(p);
+  // Reliable samples not yet acknowledged are resent on the writer's next heartbeat, and the writers are
+  // `outputs`: they must outlive the last message by a while, or the tail is lost (ddsnav play delivered
+  // one of five readings to a Fast DDS reader in 3 of 5 runs while its wait ran after the writers were gone).
+  const auto linger_end = Clock::now() + options.linger;
+  while (p.published > 0 && !stop.load() && Clock::now() < linger_end)
+    std::this_thread::sleep_for(std::min<Clock::duration>(linger_end - Clock::now(), std::chrono::milliseconds(100)));
   return p;
 }
 

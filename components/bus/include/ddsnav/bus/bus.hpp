@@ -176,6 +176,7 @@ using RawCallback = std::function<void(const RawSample& sample)>;
 void write(WriterImpl& writer, const void* sample);
 std::uint64_t ddsWrites(const WriterImpl& writer);
 std::size_t matchedReaders(const WriterImpl& writer);
+std::size_t settledReaders(const WriterImpl& writer);
 std::size_t matchedWriters(const ReaderImpl& reader);
 std::uint64_t lostSamples(const ReaderImpl& reader);
 // Polls the matched count every few ms until it is >= count; false on timeout.
@@ -228,8 +229,11 @@ class Publisher {
     detail::write(checked(), sample.get());
   }
   std::size_t matchedSubscribers() const { return detail::matchedReaders(checked()); }
+  // True once `count` subscribers are matched *both ways*, so a sample published next reaches them: a
+  // Cyclone subscriber of a Fast DDS publisher may learn of the publisher up to a second after the
+  // publisher has matched it, and a volatile subscriber misses what was written before (docs/bus.md).
   bool waitForSubscribers(std::size_t count, std::chrono::milliseconds timeout) const {
-    return detail::waitMatched([this] { return matchedSubscribers(); }, count, timeout);
+    return detail::waitMatched([this] { return detail::settledReaders(checked()); }, count, timeout);
   }
   // Samples serialized and handed to DDS so far (intra-process deliveries not counted).
   std::uint64_t ddsWrites() const { return detail::ddsWrites(checked()); }
@@ -255,8 +259,10 @@ class RawPublisher {
     if (!impl_) throw BusError("use of an empty RawPublisher");
     return detail::matchedReaders(*impl_);
   }
+  // As Publisher::waitForSubscribers: matched both ways.
   bool waitForSubscribers(std::size_t count, std::chrono::milliseconds timeout) const {
-    return detail::waitMatched([this] { return matchedSubscribers(); }, count, timeout);
+    if (!impl_) throw BusError("use of an empty RawPublisher");
+    return detail::waitMatched([this] { return detail::settledReaders(*impl_); }, count, timeout);
   }
 
  private:

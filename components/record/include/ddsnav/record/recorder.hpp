@@ -210,6 +210,8 @@ struct PlayerOptions {
   // discovered by Cyclone only at its next announcement): samples sent before that wait for the next
   // heartbeat or are lost on best-effort topics. This pause covers it.
   std::chrono::milliseconds settle{1000};
+  // After the last message, the writers stay this long so reliable resends reach slow subscribers.
+  std::chrono::milliseconds linger{1000};
   PlaybackControl* control = nullptr;  // optional: pause/step from outside
 };
 
