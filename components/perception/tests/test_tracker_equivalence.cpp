@@ -126,18 +126,35 @@ struct Demo2dDrive {
   Eigen::Vector3d a{3, 3, 0}, b{8, 30, 0};
 };
 
+// A 16 x 1800 lidar (2 cm range noise, 0.5 % invalid returns) in city block 1, as ddsnav-bench-perception
+// drives it: the cloud and detections at a pose, and the detector parameters the trackers are matched to.
+struct CityLidarDrive {
+  explicit CityLidarDrive(std::uint64_t noise_seed) : sensor(world, sensorConfig(noise_seed)), detector(detectorParams()) {}
+  static sim::RangeSensorConfig sensorConfig(std::uint64_t noise_seed) {
+    auto config = sim::RangeSensorConfig::lidar3d(16, 1800, -15.0, 15.0, 60.0);
+    config.range_noise_sigma = 0.02;
+    config.invalid_fraction = 0.005;
+    config.seed = noise_seed;
+    return config;
+  }
+  static DetectorParams detectorParams() {
+    DetectorParams p;
+    p.beam_spacing = 2.0 * std::numbers::pi / 1800;
+    return p;
+  }
+  planner::Scenario world = sim::makeCityBlock(1);
+  sim::RangeSensor sensor;
+  DetectorParams params = detectorParams();
+  ObstacleDetector detector;
+};
+
 // A city-block lidar drive (as ddsnav-bench-perception drives it, shorter): 3-D tracks that grow,
 // refresh and compete for voxels over thousands of cells per scan.
 TEST(TrackerEquivalence, CityLidarDriveGivesExactlyTheReferenceTracks) {
-  const planner::Scenario world = sim::makeCityBlock(1);
-  auto config = sim::RangeSensorConfig::lidar3d(16, 1800, -15.0, 15.0, 60.0);
-  config.range_noise_sigma = 0.02;
-  config.invalid_fraction = 0.005;
-  config.seed = 3;
-  sim::RangeSensor sensor(world, config);
-  DetectorParams params;
-  params.beam_spacing = 2.0 * std::numbers::pi / 1800;
-  ObstacleDetector detector(params);
+  CityLidarDrive drive(3);
+  auto& sensor = drive.sensor;
+  auto& detector = drive.detector;
+  const DetectorParams& params = drive.params;
   ObstacleTracker fast(exact(TrackerParams::matching(params)));
   reference::ReferenceObstacleTracker ref(TrackerParams::matching(params));
   const int scans = 8;
@@ -165,15 +182,10 @@ TEST(TrackerEquivalence, CityLidarDriveGivesExactlyTheReferenceTracks) {
 // lookup structures rebuilt) while the drive goes on re-seeing parts of them; both trackers drop the same
 // tracks and keep the same evidence, and every voxel stays inside its ellipse.
 TEST(TrackerEquivalence, CityDriveForgettingBeyondARadiusGivesExactlyTheReferenceTracks) {
-  const planner::Scenario world = sim::makeCityBlock(1);
-  auto config = sim::RangeSensorConfig::lidar3d(16, 1800, -15.0, 15.0, 60.0);
-  config.range_noise_sigma = 0.02;
-  config.invalid_fraction = 0.005;
-  config.seed = 5;
-  sim::RangeSensor sensor(world, config);
-  DetectorParams params;
-  params.beam_spacing = 2.0 * std::numbers::pi / 1800;
-  ObstacleDetector detector(params);
+  CityLidarDrive drive(5);
+  auto& sensor = drive.sensor;
+  auto& detector = drive.detector;
+  const DetectorParams& params = drive.params;
   TrackerParams forgetting = TrackerParams::matching(params);
   forgetting.forget_radius = 12.0;
   ObstacleTracker fast(exact(forgetting));
