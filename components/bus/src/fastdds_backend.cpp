@@ -254,15 +254,15 @@ class MatchedReaders : public dds::DataWriterListener {
   }
   bool beyond(const std::set<std::uint64_t>& readers) const {
     std::lock_guard lock(mutex_);
-    for (const auto& [r, settled_at] : readers_)
-      if (!readers.count(r)) return true;
+    for (const auto& entry : readers_)
+      if (!readers.count(entry.first)) return true;
     return false;
   }
   std::size_t settled() const {
     const auto now = std::chrono::steady_clock::now();
     std::lock_guard lock(mutex_);
     std::size_t n = 0;
-    for (const auto& [r, settled_at] : readers_) n += settled_at <= now;
+    for (const auto& entry : readers_) n += entry.second <= now;
     return n;
   }
 
