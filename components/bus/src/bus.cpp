@@ -9,10 +9,12 @@
 #include <arpa/inet.h>
 #include <ifaddrs.h>
 #include <netdb.h>
+#include <net/if.h>
 #include <netinet/in.h>
 
 #include <algorithm>
 #include <charconv>
+#include <chrono>
 #include <cstdlib>
 #include <map>
 #include <set>
@@ -96,30 +98,59 @@ NetworkOptions networkFromEnvironment() {
 namespace detail {
 namespace {
 
-// The IPv4 address of a named interface; a clear error listing what exists when it does not.
-std::string interfaceAddress(const std::string& interface) {
+// What getifaddrs says of one interface.
+struct InterfaceState {
+  bool exists = false;
+  std::string address;  // its first IPv4 address, empty when it has none
+  unsigned flags = 0;   // IFF_*
+  std::string names;    // every interface of the host, for the error message
+};
+
+InterfaceState lookUpInterface(const std::string& interface) {
   ifaddrs* list = nullptr;
   if (getifaddrs(&list) != 0) throw BusError("network interface '" + interface + "': cannot list interfaces");
-  std::string address, names;
-  bool exists = false;
+  InterfaceState state;
   for (ifaddrs* it = list; it != nullptr; it = it->ifa_next) {
     if (it->ifa_name == nullptr) continue;
     const std::string name = it->ifa_name;
-    if (names.find(" " + name + ",") == std::string::npos) names += " " + name + ",";
+    if (state.names.find(" " + name + ",") == std::string::npos) state.names += " " + name + ",";
     if (name != interface) continue;
-    exists = true;
-    if (it->ifa_addr != nullptr && it->ifa_addr->sa_family == AF_INET && address.empty()) {
+    state.exists = true;
+    state.flags = it->ifa_flags;
+    if (it->ifa_addr != nullptr && it->ifa_addr->sa_family == AF_INET && state.address.empty()) {
       char text[INET_ADDRSTRLEN];
       inet_ntop(AF_INET, &reinterpret_cast<const sockaddr_in*>(it->ifa_addr)->sin_addr, text, sizeof(text));
-      address = text;
+      state.address = text;
     }
   }
   freeifaddrs(list);
-  if (!names.empty()) names.pop_back();
-  if (!exists)
-    throw BusError("network interface '" + interface + "' does not exist on this host (interfaces:" + names + ")");
-  if (address.empty()) throw BusError("network interface '" + interface + "' has no IPv4 address");
-  return address;
+  if (!state.names.empty()) state.names.pop_back();
+  return state;
+}
+
+// A link that was just brought up gets its carrier (IFF_RUNNING) from the kernel's link watch, up to about
+// a second later; waiting this long covers that and a cable plugged in while the robot boots.
+constexpr auto kCarrierWait = std::chrono::seconds(3);
+
+// The IPv4 address of a named interface that can carry traffic; a clear error otherwise (listing what
+// exists when it does not). Fast DDS 2.9 leaves out every interface without IFF_RUNNING when it applies its
+// whitelist, logs "All whitelist interfaces were filtered out" and runs on without UDP at all -- a
+// participant that looks alive and never talks. So an interface without carrier is waited for, then refused.
+std::string interfaceAddress(const std::string& interface) {
+  InterfaceState state = lookUpInterface(interface);
+  if (!state.exists)
+    throw BusError("network interface '" + interface + "' does not exist on this host (interfaces:" + state.names + ")");
+  if (state.address.empty()) throw BusError("network interface '" + interface + "' has no IPv4 address");
+  if (!(state.flags & IFF_UP)) throw BusError("network interface '" + interface + "' is down (ip link set " + interface + " up)");
+  const auto until = std::chrono::steady_clock::now() + kCarrierWait;
+  while (!(state.flags & IFF_RUNNING) && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    state = lookUpInterface(interface);
+  }
+  if (!(state.flags & IFF_RUNNING))
+    throw BusError("network interface '" + interface + "' is up but has no carrier after " +
+                   std::to_string(kCarrierWait.count()) + " s (cable unplugged or the link's peer down)");
+  return state.address;
 }
 
 std::string resolvePeer(const std::string& peer) {
