@@ -72,6 +72,22 @@ TEST(BusErrors, DomainOutOfRange) {
   }
 }
 
+// A network that cannot be used is refused before a participant exists, never replaced by loopback.
+TEST(BusErrors, NetworkThatCannotBeUsedIsNamed) {
+  for (Vendor v : {Vendor::FastDDS, Vendor::CycloneDDS}) {
+    bus::ParticipantOptions o;
+    o.vendor = v;
+    o.domain_id = 0;
+    o.network = bus::NetworkOptions{"ddsnav-nosuch0", {"127.0.0.1"}, false};
+    // The error lists the interfaces that do exist (loopback is always there).
+    expectBusError([&] { bus::Participant p(o); }, {"'ddsnav-nosuch0' does not exist", "lo"});
+    o.network = bus::NetworkOptions{"lo", {"no-such-host.invalid"}, false};
+    expectBusError([&] { bus::Participant p(o); }, {"peer 'no-such-host.invalid'"});
+    o.network = bus::NetworkOptions{"", {"127.0.0.1"}, false};
+    expectBusError([&] { bus::Participant p(o); }, {"without an interface"});
+  }
+}
+
 TEST(BusErrors, TopicTypeMismatchInOneParticipant) {
   for (Vendor v : {Vendor::FastDDS, Vendor::CycloneDDS}) {
     bus::Participant p(options(v, 15, "mismatch"));
