@@ -28,6 +28,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -336,7 +337,11 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
     std::uint64_t n = 0;
     if (reader_->get_sample_lost_status(lost) == ReturnCode_t::RETCODE_OK) n += static_cast<std::uint64_t>(std::max(0, lost.total_count));
     if (reader_->get_sample_rejected_status(rejected) == ReturnCode_t::RETCODE_OK) n += rejected.total_count;
-    return n;
+    // The vendor's statuses miss what a reliable writer gave up on (its keep-last history overwrote samples
+    // this reader had not acknowledged: RTPS calls them irrelevant, sends a GAP, and no status counts them),
+    // while every sample lost or rejected shows up as a gap in the writer's sequence numbers too. So the
+    // gaps are the count, the statuses only a floor (they can see a loss before a later sample shows it).
+    return std::max(n, sequence_gaps_.load(std::memory_order_relaxed));
   }
 
   void on_data_available(dds::DataReader* reader) override {
@@ -345,11 +350,13 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
     // (a copy, no decoding) and dropped.
     if (spec_.ignore_writer) {
       while (reader->get_first_untaken_info(&info) == ReturnCode_t::RETCODE_OK &&
-             spec_.ignore_writer(publicationHandle(info.publication_handle)))
-        reader->take_next_sample(&skipped_, &info);
+             spec_.ignore_writer(publicationHandle(info.publication_handle))) {
+        if (reader->take_next_sample(&skipped_, &info) == ReturnCode_t::RETCODE_OK) countSequenceGap(info);
+      }
     }
     // Fast DDS calls this once per reader at a time, so the one carrier (and its grown buffers) is reused.
     while (reader->take_next_sample(&carrier_, &info) == ReturnCode_t::RETCODE_OK) {
+      countSequenceGap(info);
       if (spec_.ignore_writer && spec_.ignore_writer(publicationHandle(info.publication_handle))) continue;
       if (!info.valid_data) continue;
       SampleInfo si{info.source_timestamp.to_ns(), publicationHandle(info.publication_handle)};
@@ -363,10 +370,34 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
   }
 
  private:
+  // Samples of a writer that never reached this reader: the jumps in its sequence numbers between the samples
+  // taken (the first one taken from a writer sets where counting starts: what it wrote before this reader
+  // matched was never meant for it). Called only from on_data_available, which Fast DDS runs once per reader at
+  // a time.
+  void countSequenceGap(const dds::SampleInfo& info) {
+    const rtps::GUID_t& writer = info.sample_identity.writer_guid();
+    const std::int64_t sequence = info.sample_identity.sequence_number().to64long();
+    if (sequence <= 0 || writer == rtps::GUID_t::unknown()) return;
+    if (!(writer == last_writer_)) {
+      if (last_sequence_by_writer_.size() >= kMaxTrackedWriters && !last_sequence_by_writer_.count(writer))
+        last_sequence_by_writer_.clear();  // bounded; a writer seen again only starts counting anew
+      last_writer_ = writer;
+      last_sequence_ = &last_sequence_by_writer_[writer];
+    }
+    if (*last_sequence_ > 0 && sequence > *last_sequence_ + 1)
+      sequence_gaps_.fetch_add(static_cast<std::uint64_t>(sequence - *last_sequence_ - 1), std::memory_order_relaxed);
+    if (sequence > *last_sequence_) *last_sequence_ = sequence;
+  }
+  static constexpr std::size_t kMaxTrackedWriters = 4096;
+
   std::shared_ptr<FastCore> core_;
   EndpointSpec spec_;
   SampleCallback typed_;
   RawCallback raw_;
+  std::map<rtps::GUID_t, std::int64_t> last_sequence_by_writer_;
+  rtps::GUID_t last_writer_ = rtps::GUID_t::unknown();
+  std::int64_t* last_sequence_ = nullptr;  // last_sequence_by_writer_[last_writer_] (map nodes do not move)
+  std::atomic<std::uint64_t> sequence_gaps_{0};
   Carrier carrier_;
   Carrier skipped_;  // raw: what samples of ignored writers are taken into
   dds::DataReader* reader_ = nullptr;
