@@ -129,13 +129,21 @@ GoalFeasibility checkGoalFeasible(const planner::Scenario& scenario, std::size_t
   return out;
 }
 
-std::optional<double> minTrueClearance(const planner::Scenario& scenario, const std::vector<planner::Vec3>& track) {
+std::optional<ClosestApproach> closestApproach(const planner::Scenario& scenario, const std::vector<planner::Vec3>& track) {
   if (track.empty() || scenario.obstacles.empty()) return std::nullopt;
   const auto world = planner::makeScenarioWorld(scenario);
-  double best = std::numeric_limits<double>::infinity();
-  for (const auto& p : track) best = std::min(best, world->clearance(p));
-  if (!std::isfinite(best)) return std::nullopt;
+  ClosestApproach best{std::numeric_limits<double>::infinity(), 0};
+  for (std::size_t i = 0; i < track.size(); ++i) {
+    const double c = world->clearance(track[i]);
+    if (c < best.clearance_m) best = {c, i};
+  }
+  if (!std::isfinite(best.clearance_m)) return std::nullopt;
   return best;
+}
+
+std::optional<double> minTrueClearance(const planner::Scenario& scenario, const std::vector<planner::Vec3>& track) {
+  const auto closest = closestApproach(scenario, track);
+  return closest ? std::optional<double>(closest->clearance_m) : std::nullopt;
 }
 
 }  // namespace ddsnav::nodes

@@ -195,7 +195,10 @@ class MonitorComponent : public runtime::Component {
                             : seen_.first_trajectory_ns;
       if (from) run.sim_time_to_goal_s = (*seen_.goal_entered_ns - *from) * 1e-9;
     }
-    run.min_true_clearance_m = nodes::minTrueClearance(scenario_, seen_.track);
+    if (const auto closest = nodes::closestApproach(scenario_, seen_.track)) {
+      run.min_true_clearance_m = closest->clearance_m;
+      run.min_true_clearance_at = seen_.track[closest->index];
+    }
     nodes::judgeGoal(run, scenario_, seen_.status && seen_.status->goal_reached(), seen_.goal_entered_at ? seen_.goal_entered_at : seen_.vehicle,
                      timed_out_ ? std::optional<double>(params_.timeout_s) : std::nullopt);
     nodes::writeReport(out_dir_, scenario_, run);

@@ -75,6 +75,8 @@ nlohmann::json summaryJson(const RunObservations& run) {
   summary["tracker_reported_goal"] = run.tracker_reported_goal;
   if (run.sim_time_to_goal_s) summary["sim_time_to_goal_s"] = *run.sim_time_to_goal_s;
   if (run.min_true_clearance_m) summary["min_true_clearance_m"] = *run.min_true_clearance_m;
+  if (run.min_true_clearance_at)
+    summary["min_true_clearance_at"] = {run.min_true_clearance_at->x(), run.min_true_clearance_at->y(), run.min_true_clearance_at->z()};
   if (!run.infeasible_why.empty()) summary["infeasible"] = run.infeasible_why;
   summary["tracked_obstacles_max"] = run.tracked_obstacles_max;
   // Every request after the first is a replan; each with its reason, and the count per kind of reason.

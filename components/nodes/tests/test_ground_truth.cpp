@@ -87,6 +87,11 @@ TEST(GroundTruth, MinClearanceOfATrackSubtractsTheRobotRadius) {
   // A track through the wall: negative.
   EXPECT_LT(*nodes::minTrueClearance(s, {{9.8, 5, 0}}), 0.0);
   EXPECT_FALSE(nodes::minTrueClearance(s, {}).has_value());
+  // Where: (8, 5), 1.5 m from the face; (8, 9) is 1.8 m from the corner (9.5, 8).
+  const auto closest = nodes::closestApproach(s, {{2, 5, 0}, {8, 5, 0}, {8, 9, 0}, {3, 9, 0}});
+  ASSERT_TRUE(closest.has_value());
+  EXPECT_EQ(closest->index, 1u);
+  EXPECT_NEAR(closest->clearance_m, 1.1, 1e-9);
 }
 
 }  // namespace

@@ -29,4 +29,11 @@ GoalFeasibility checkGoalFeasible(const planner::Scenario& scenario, std::size_t
 // empty track or a world without obstacles.
 std::optional<double> minTrueClearance(const planner::Scenario& scenario, const std::vector<planner::Vec3>& track);
 
+// The same, with where along the track it happened (the report names the place, so a touch can be found).
+struct ClosestApproach {
+  double clearance_m = 0.0;
+  std::size_t index = 0;  // into the track
+};
+std::optional<ClosestApproach> closestApproach(const planner::Scenario& scenario, const std::vector<planner::Vec3>& track);
+
 }  // namespace ddsnav::nodes

@@ -62,6 +62,7 @@ struct RunObservations {
   std::optional<double> sim_time_to_goal_s;
   // Ground truth (ground_truth.hpp): the driven track's smallest clearance to the true obstacles.
   std::optional<double> min_true_clearance_m;
+  std::optional<planner::Vec3> min_true_clearance_at;  // the vehicle's true position there
   std::string infeasible_why;   // set when the scenario's truth says the goal cannot be reached at all
   std::vector<PlanRequestSeen> requests;
   std::size_t tracked_obstacles_max = 0;  // the largest perception/obstacles array heard
