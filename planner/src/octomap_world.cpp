@@ -142,6 +142,7 @@ class OctoMapWorld final : public CollisionWorld {
         bmax_(bounds_max),
         radius_(robot_radius),
         unknown_blocked_(options.unknown_is_occupied),
+        solid_below_surface_(options.solid_below_surface && dimensions == 3),
         outside_margin_(options.outside_bounds_margin_m),
         max_bricks_(options.max_bricks) {
     if (dims_ == 2) bmin_.z() = bmax_.z() = 0.0;
@@ -156,12 +157,15 @@ class OctoMapWorld final : public CollisionWorld {
   bool isFree(const Vec3& p) const override {
     countCheck();
     if (!insideBounds(p)) return false;
-    if (blocked(cellOf(p))) return false;
+    const Cell c = cellOf(p);
+    if (blocked(c) || depthBelowSurface(c, p) > 0.0) return false;
     return radius_ <= 0.0 || !blockedWithin(p, radius_);
   }
 
   double clearance(const Vec3& p) const override {
     if (!p.allFinite()) return -radius_;
+    const double depth = depthBelowSurface(cellOf(p), p);
+    if (depth > 0.0) return -depth - radius_;
     const double d = nearestOccupied(p);
     return d == kInf ? kInf : d - radius_;
   }
@@ -393,6 +397,44 @@ class OctoMapWorld final : public CollisionWorld {
       occ_lo_ = {std::min(occ_lo_.x, lo.x), std::min(occ_lo_.y, lo.y), std::min(occ_lo_.z, lo.z)};
       occ_hi_ = {std::max(occ_hi_.x, hi.x), std::max(occ_hi_.y, hi.y), std::max(occ_hi_.z, hi.z)};
     }
+    if (solid_below_surface_) loadColumnTops();
+  }
+
+  // The highest occupied voxel of every (x, y) column, on a grid over the occupied voxels' box. Columns are
+  // merged 2^k to a cell (the highest of them: more blocked, never less) so that the grid stays within
+  // kMaxColumnCells however wide the map.
+  static constexpr std::int64_t kMaxColumnCells = std::int64_t(1) << 22;  // 16 MB of int32
+  void loadColumnTops() {
+    if (occupied_bricks_.empty()) return;
+    column_shift_ = 0;
+    auto extent = [&](std::int64_t lo, std::int64_t hi) { return ((hi - lo) >> column_shift_) + 1; };
+    while (extent(occ_lo_.x, occ_hi_.x) * extent(occ_lo_.y, occ_hi_.y) > kMaxColumnCells) ++column_shift_;
+    column_nx_ = extent(occ_lo_.x, occ_hi_.x);
+    column_top_.assign(static_cast<std::size_t>(column_nx_ * extent(occ_lo_.y, occ_hi_.y)), kNoColumnTop);
+    for (std::uint32_t i : occupied_bricks_) {
+      const Brick& b = bricks_[i];
+      for (int w = 7; w >= 0; --w) {  // z layers, highest first: the first set bit of a column is its top here
+        std::uint64_t layer = b.occupied[w];
+        while (layer != 0) {
+          const unsigned bit = static_cast<unsigned>(std::countr_zero(layer));
+          layer &= layer - 1;
+          const std::int64_t x = std::int64_t(b.bx) * 8 + (bit & 7), y = std::int64_t(b.by) * 8 + (bit >> 3);
+          std::int32_t& top = column_top_[columnIndex(x, y)];
+          top = std::max(top, static_cast<std::int32_t>(std::int64_t(b.bz) * 8 + w));
+        }
+      }
+    }
+  }
+  std::size_t columnIndex(std::int64_t x, std::int64_t y) const {
+    return static_cast<std::size_t>(((y - occ_lo_.y) >> column_shift_) * column_nx_ + ((x - occ_lo_.x) >> column_shift_));
+  }
+  // How far p lies below the top face of the highest occupied voxel of its column; 0 when above it, when the
+  // column has none, or without solid_below_surface.
+  double depthBelowSurface(const Cell& c, const Vec3& p) const {
+    if (column_top_.empty() || c.x < occ_lo_.x || c.x > occ_hi_.x || c.y < occ_lo_.y || c.y > occ_hi_.y) return 0.0;
+    const std::int32_t top = column_top_[columnIndex(c.x, c.y)];
+    if (top == kNoColumnTop || c.z > top) return 0.0;
+    return std::max(0.0, (static_cast<double>(top) + 1.0) * resolution_ - p.z());
   }
 
   // Marks the voxels [lo, hi] known (and occupied), a brick at a time.
@@ -533,6 +575,11 @@ class OctoMapWorld final : public CollisionWorld {
   Vec3 bmin_, bmax_;
   double radius_;
   bool unknown_blocked_;
+  bool solid_below_surface_;
+  static constexpr std::int32_t kNoColumnTop = std::numeric_limits<std::int32_t>::min();
+  std::vector<std::int32_t> column_top_;  // solid_below_surface: highest occupied cell z per column cell
+  std::int64_t column_nx_ = 0;
+  int column_shift_ = 0;
   double outside_margin_;
   std::size_t max_bricks_;
   double resolution_ = 0.0, factor_ = 0.0;

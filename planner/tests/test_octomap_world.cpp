@@ -325,3 +325,51 @@ TEST(OctoMapWorld, ClippingKeepsAnswersInsideTheBounds) {
 
 }  // namespace
 }  // namespace ddsnav::planner
+
+namespace ddsnav::planner {
+namespace {
+
+// A roof of occupied voxels at z in [2.0, 2.1) over x, y in [0, 1]; nothing else observed.
+octomap::OcTree makeRoof() {
+  octomap::OcTree tree(0.1);
+  for (double x = 0.05; x < 1.0; x += 0.1)
+    for (double y = 0.05; y < 1.0; y += 0.1) tree.updateNode(octomap::point3d(float(x), float(y), 2.05f), true);
+  return tree;
+}
+
+TEST(OctoMapWorld, SolidBelowSurfaceBlocksWhatLiesUnderTheHighestOccupiedVoxelOfAColumn) {
+  const auto bytes = toBytes(makeRoof());
+  OctoMapWorldOptions below;
+  below.solid_below_surface = true;
+  const auto plain = makeOctoMapWorld(3, Vec3(-5, -5, -5), Vec3(5, 5, 5), 0.0, bytes);
+  const auto solid = makeOctoMapWorld(3, Vec3(-5, -5, -5), Vec3(5, 5, 5), 0.0, bytes, below);
+  const Vec3 under(0.55, 0.45, 1.0), above(0.55, 0.45, 3.0), beside(2.5, 2.5, 1.0);
+  // Without the rule the unobserved space under the roof is free (optimistic); with it, solid.
+  EXPECT_TRUE(plain->isFree(under));
+  EXPECT_FALSE(solid->isFree(under));
+  EXPECT_NEAR(solid->clearance(under), -(2.1 - 1.0), 1e-9);  // the depth below the roof's top face
+  EXPECT_TRUE(solid->isFree(above));
+  EXPECT_NEAR(solid->clearance(above), 3.0 - 2.1, 1e-9);
+  EXPECT_TRUE(solid->isFree(beside));  // a column with nothing observed in it
+  EXPECT_FALSE(solid->isSegmentFree(Vec3(2.5, 0.5, 1.0), Vec3(-1.5, 0.5, 1.0)));  // under the roof on the way
+  EXPECT_TRUE(plain->isSegmentFree(Vec3(2.5, 0.5, 1.0), Vec3(-1.5, 0.5, 1.0)));
+  // The robot radius still counts from the roof's voxels above it.
+  OctoMapWorldOptions below_radius = below;
+  const auto solid_radius = makeOctoMapWorld(3, Vec3(-5, -5, -5), Vec3(5, 5, 5), 0.3, bytes, below_radius);
+  EXPECT_FALSE(solid_radius->isFree(Vec3(0.5, 0.5, 2.3)));
+  EXPECT_TRUE(solid_radius->isFree(Vec3(0.5, 0.5, 2.5)));
+}
+
+TEST(OctoMapWorld, SolidBelowSurfaceIsThreeDimensionalOnly) {
+  octomap::OcTree tree(0.1);
+  tree.updateNode(octomap::point3d(0.55f, 0.55f, 0.05f), true);
+  OctoMapWorldOptions below;
+  below.solid_below_surface = true;
+  const auto flat = makeOctoMapWorld(2, Vec3(-5, -5, 0), Vec3(5, 5, 0), 0.0, toBytes(tree), below);
+  EXPECT_FALSE(flat->isFree(Vec3(0.55, 0.55, 0.0)));  // the occupied column itself
+  EXPECT_TRUE(flat->isFree(Vec3(1.55, 0.55, 0.0)));
+  EXPECT_NEAR(flat->clearance(Vec3(1.55, 0.55, 0.0)), 0.95, 1e-9);  // to the voxel [0.5, 0.6): no depth rule
+}
+
+}  // namespace
+}  // namespace ddsnav::planner

@@ -26,6 +26,7 @@ class MapperComponent : public runtime::Component {
     mapper::MapperConfig config;
     double max_range;
     double publish_rate_hz;
+    int cloud_queue;
     std::string save_path;
     std::string frame;
     explicit Params(runtime::Parameters& p) {
@@ -49,6 +50,12 @@ class MapperComponent : public runtime::Component {
       config.clamping_min = p.declare<double>("clamping_min", d.clamping_min, {.doc = "lower clamping bound of a leaf's probability"});
       config.clamping_max = p.declare<double>("clamping_max", d.clamping_max, {.doc = "upper clamping bound of a leaf's probability"});
       publish_rate_hz = p.declare<double>("publish_rate_hz", 1.0, {.above = 0, .max = 100, .unit = "Hz", .doc = "at most this often, and only when changed"});
+      cloud_queue = static_cast<int>(p.declare<std::int64_t>(
+          "cloud_queue", 1,
+          {.min = 1, .max = 100,
+           .doc = "clouds waiting to be inserted; when insertion falls behind the sensor the oldest are dropped and counted, so the map "
+                  "lags the sensor by at most this many insertions (a 3-D map at 0.1 m takes longer per cloud than a 10 Hz lidar "
+                  "allows on a small machine: a deeper queue only delays what the planner sees)"}));
       save_path = p.declare<std::string>("save_path", "", {.doc = "write the octree (.bt) here on shutdown; empty: do not"});
       frame = p.declare<std::string>("frame", nodes::kWorldFrame, {.doc = "frame_id clouds must carry"});
     }
@@ -61,7 +68,9 @@ class MapperComponent : public runtime::Component {
     if (check.dimensions == 0) check.dimensions = 3;
     if (const auto error = mapper::validateConfig(check); !error.empty()) throw runtime::ParameterError(error);
     maps_ = publisher(runtime::topics::octomap);
-    clouds_ = subscribe(runtime::topics::points, [this](const msg::PointCloud& c) { onCloud(c); });
+    bus::Qos clouds_qos = runtime::topics::points.qos;
+    clouds_qos.depth = params_.cloud_queue;
+    clouds_ = ctx.subscribe<msg::PointCloud>(runtime::topics::points.name, clouds_qos, [this](const msg::PointCloud& c) { onCloud(c); });
     publish_ = every(std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / params_.publish_rate_hz)), [this] { publishIfChanged(); });
   }
 

@@ -55,7 +55,11 @@ WorldParameters::WorldParameters(runtime::Parameters& params)
       first_map_wait_s(params.declare<double>(
           "first_map_wait_s", 5.0,
           {.min = 0, .max = 3600, .unit = "s",
-           .doc = "fused world: how long after the first perception/obstacles it waits for the first map/octomap before it is planned on without one (optimistic only)"})) {}
+           .doc = "fused world: how long after the first perception/obstacles it waits for the first map/octomap before it is planned on without one (optimistic only)"})),
+      solid_below_surface(params.declare<bool>(
+          "solid_below_surface", true,
+          {.doc = "3-D map and fused worlds: below the highest observed occupied voxel of its (x, y) column a point is solid, "
+                  "as inside terrain (the space under an overhang too: a 2.5-D elevation map); false: only observed voxels"})) {}
 
 bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unknown, double since_first_obstacles_s,
                      double first_map_wait_s) {
@@ -65,7 +69,12 @@ bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unk
 }
 
 WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario)
-    : kind_(world.kind), scenario_(scenario), unknown_(world.unknown), first_map_wait_s_(world.first_map_wait_s), clock_(ctx.clock()) {
+    : kind_(world.kind),
+      scenario_(scenario),
+      unknown_(world.unknown),
+      first_map_wait_s_(world.first_map_wait_s),
+      solid_below_surface_(world.solid_below_surface),
+      clock_(ctx.clock()) {
   // On the component's executor: the arrays are checked there, not on a DDS thread.
   obstacles_sub_ = ctx.subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& a) {
     const auto error = checkObstacleArray(a, kWorldFrame);
@@ -95,6 +104,7 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
 void WorldSource::buildMap(const msg::OccupancyMap& m) {
   planner::OctoMapWorldOptions options;
   options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
+  options.solid_below_surface = solid_below_surface_;
   auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, options);
   std::lock_guard lock(mutex_);
   if (!checked.error.empty()) {

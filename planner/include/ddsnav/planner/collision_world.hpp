@@ -107,6 +107,13 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
 inline constexpr std::size_t kOctoMapWorldMaxBricks = std::size_t(1) << 19;  // 2^28 voxels
 struct OctoMapWorldOptions {
   bool unknown_is_occupied = false;
+  // 3-D only: a point below the highest observed occupied voxel of its (x, y) column is blocked, unknown or
+  // not. A lidar sees a terrain's surface and never its inside; optimistic planning would fly through a hill
+  // once past its mapped skin (a trajectory into it stays "free" beyond the one-voxel shell, so a replan
+  // check that sees the shell late sees nothing ahead). The price: the space under an overhang (a floating
+  // obstacle's underside) counts as solid too, as in a 2.5-D elevation map. clearance() is then negative
+  // below a column's top, by the depth below it.
+  bool solid_below_surface = false;
   double outside_bounds_margin_m = 5.0;
   std::size_t max_bricks = kOctoMapWorldMaxBricks;
 };

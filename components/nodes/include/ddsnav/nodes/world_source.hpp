@@ -31,6 +31,7 @@ struct WorldParameters {
   WorldKind kind = WorldKind::Obstacles;
   planner::UnknownSpace unknown = planner::UnknownSpace::Optimistic;
   double first_map_wait_s = 5.0;  // `first_map_wait_s`: see fusedWorldReady
+  bool solid_below_surface = true;  // `solid_below_surface`: planner::OctoMapWorldOptions (3-D maps)
   WorldParameters() = default;
   explicit WorldParameters(runtime::Parameters& params);
 };
@@ -72,6 +73,7 @@ class WorldSource {
   const planner::Scenario& scenario_;
   planner::UnknownSpace unknown_;
   double first_map_wait_s_;
+  bool solid_below_surface_;
   const runtime::Clock& clock_;
   mutable std::mutex mutex_;
   // The newest map as a collision world, built once per map (not per snapshot: a 3-D map takes a while)
