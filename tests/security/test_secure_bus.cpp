@@ -181,6 +181,9 @@ TEST_P(SecureBus, BadCredentialsStopTheParticipantBeforeItStarts) {
   // An identity that is not in the directory: no fall-back to an unsecured participant.
   error = busError([&] { bus::Participant p({.vendor = vendor, .domain_id = 0, .name = "nobody", .security_dir = keys.dir.string()}); });
   EXPECT_NE(error.find("no identity 'nobody'"), std::string::npos) << error;
+  // A domain the governance does not cover (Cyclone refuses ids above 230 in it): named, before any vendor call.
+  error = busError([&] { bus::Participant p({.vendor = vendor, .domain_id = 231, .name = "sim", .security_dir = keys.dir.string()}); });
+  EXPECT_NE(error.find("domain 231 is outside the domains 0..230"), std::string::npos) << error;
   // The environment variable is just as binding.
   {
     SecuredEnvironment secured(keys.dir / "missing");

@@ -373,12 +373,15 @@ int main(int argc, char** argv) {
       // Repeats alternate the order of the APIs so that load drifts on a shared machine hit both alike;
       // each figure reported is the median over the repeats.
       std::map<std::string, std::vector<Result>> runs;
+      const bool impls_secure = std::find(impls.begin(), impls.end(), "secure") != impls.end();
       for (int rep = 0; rep < repeat; ++rep) {
         std::vector<std::string> order = impls;
         if (rep % 2 == 1) std::reverse(order.begin(), order.end());
         for (const std::string& impl : order) {
           runs[impl].push_back(measure(impl, it->second, parseSize(sz), case_domain, scale));
-          case_domain = case_domain >= 232 ? domain : case_domain + 1;
+          // Secured participants live on 0..security::kMaxDomain (230), the others up to 232.
+          const int last_domain = impls_secure ? ddsnav::security::kMaxDomain : 232;  // bus::kMaxDomainId (this file uses the vendors directly)
+          case_domain = case_domain >= last_domain ? domain : case_domain + 1;
         }
       }
       for (const std::string& impl : impls) {

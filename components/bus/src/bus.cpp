@@ -186,6 +186,11 @@ Transport resolveTransport(const ParticipantOptions& options) {
   if (options.security_dir) dir = *options.security_dir;
   else if (const char* env = std::getenv("DDSNAV_SECURITY")) dir = env;
   if (!dir.empty()) {
+    if (options.domain_id < security::kMinDomain || options.domain_id > security::kMaxDomain)
+      throw BusError("security: domain " + std::to_string(options.domain_id) + " is outside the domains " +
+                     std::to_string(security::kMinDomain) + ".." + std::to_string(security::kMaxDomain) +
+                     " that ddsnav's governance and permissions cover (Cyclone DDS refuses ids above 230); participant '" +
+                     options.name + "' not created");
     std::string identity = options.identity;
     if (identity.empty()) identity = options.name.starts_with("ddsnav-") ? options.name.substr(7) : options.name;
     try {
