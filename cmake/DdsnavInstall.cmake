@@ -53,6 +53,9 @@ set(ddsnav_programs ddsnav ddsnav-talker ddsnav-echo ddsnav-launch ddsnav-record
   ddsnav-bench-mapper ddsnav-bench-perception ddsnav-bench-tracker
   ddsnav-sim ddsnav-perception ddsnav-mapper ddsnav-planner ddsnav-tracker ddsnav-monitor ddsnav-container
   ddsnav-security ddsnav-bench-roundtrip ddsnav-bench-intra ddsnav-bench-busy ddsnav-bench-mission ddsnav-test-with-domain)
+if(NOT DDSNAV_BENCHMARKS)
+  list(REMOVE_ITEM ddsnav_programs ${ddsnav_untested_benchmarks})
+endif()
 install(TARGETS ${ddsnav_programs} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 
 set(ddsnav_share ${CMAKE_INSTALL_DATADIR}/ddsnav)

@@ -99,11 +99,14 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   octomap::point3d origin(scan.origin.x, scan.origin.y, scan.origin.z);
   if (config_.dimensions == 2) origin.z() = static_cast<float>(config_.slab_z);
   octomap::OcTreeKey origin_key;
-  if (!std::isfinite(origin.x()) || !std::isfinite(origin.y()) || !std::isfinite(origin.z()) ||
-      !tree.coordToKeyChecked(origin, origin_key)) {
+  // OctoMap's 16-bit keys span +-32768 voxels. Bounded here before coordToKeyChecked, which converts
+  // coordinate / resolution to int before it checks the range (undefined for |coordinate| >= 2^31 voxels).
+  const double half_extent = 32768.0 * config_.resolution;
+  const auto inMap = [half_extent](float v) { return std::isfinite(v) && std::fabs(v) < half_extent; };
+  if (!inMap(origin.x()) || !inMap(origin.y()) || !inMap(origin.z()) || !tree.coordToKeyChecked(origin, origin_key)) {
     result.message = "scan sensor origin (" + fmt(scan.origin.x) + ", " + fmt(scan.origin.y) + ", " +
                      fmt(scan.origin.z) + ") is not finite or outside the map (|coordinate| < " +
-                     fmt(32768.0 * config_.resolution) + " m); scan skipped";
+                     fmt(half_extent) + " m); scan skipped";
     return result;
   }
   if (scan.points.size() > config_.max_points) {

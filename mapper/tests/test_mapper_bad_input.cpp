@@ -59,7 +59,10 @@ TEST(MapperBadInput, BadOriginOrRangeSkipsTheScan) {
   OccupancyMapper mapper(coarse());
   Scan scan;
   scan.points = {{1, 1, 1}, {2, 2, 2}};
-  for (const Point3f origin : {Point3f{kNaN, 0, 0}, Point3f{0, kInf, 0}, Point3f{1e6f, 0, 0}, Point3f{0, 0, -7000.0f}}) {
+  // 1e12 and -3e38 overflow OctoMap's int key arithmetic (coordToKeyChecked casts before it checks: undefined
+  // behaviour, found by UBSan through the bad-input pipeline test): refused before OctoMap sees them.
+  for (const Point3f origin : {Point3f{kNaN, 0, 0}, Point3f{0, kInf, 0}, Point3f{1e6f, 0, 0}, Point3f{0, 0, -7000.0f},
+                               Point3f{1e12f, 0, 0}, Point3f{0, -3e38f, 0}}) {
     scan.origin = origin;
     const InsertResult r = mapper.insert(scan);
     EXPECT_FALSE(r.inserted);

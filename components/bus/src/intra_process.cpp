@@ -117,11 +117,25 @@ void IntraDomain::mark(std::set<std::uint64_t>& handles, std::uint64_t handle, b
 }
 void IntraDomain::addWriter(std::uint64_t handle) { mark(writers_, handle, true); }
 void IntraDomain::removeWriter(std::uint64_t handle) { mark(writers_, handle, false); }
-void IntraDomain::addReader(std::uint64_t handle) { mark(readers_, handle, true); }
-void IntraDomain::removeReader(std::uint64_t handle) { mark(readers_, handle, false); }
+void IntraDomain::markReader(std::uint64_t handle, bool present) {
+  std::unique_lock lock(mutex_);
+  auto readers = std::make_shared<std::set<std::uint64_t>>(*readers_);
+  if (present) readers->insert(handle);
+  else readers->erase(handle);
+  readers_ = std::move(readers);
+}
+void IntraDomain::addReader(std::uint64_t handle) { markReader(handle, true); }
+void IntraDomain::removeReader(std::uint64_t handle) { markReader(handle, false); }
 bool IntraDomain::matchedOutside(const WriterImpl& dds) const {
-  std::shared_lock lock(mutex_);
-  return dds.matchedBeyond(readers_);
+  std::shared_ptr<const std::set<std::uint64_t>> readers;
+  {
+    std::shared_lock lock(mutex_);
+    readers = readers_;
+  }
+  // Asked without mutex_: matchedBeyond takes the vendor's own locks, and the vendor calls back into
+  // isLocalWriter (a reader's data callback) while it holds them. Holding mutex_ here was a lock-order
+  // inversion (ThreadSanitizer, bus IntraProcess tests).
+  return dds.matchedBeyond(*readers);
 }
 
 std::shared_ptr<IntraDomain> intraDomain(Vendor vendor, int domain_id) {

@@ -44,7 +44,10 @@ class IntraDomain {
   mutable std::shared_mutex mutex_;
   std::map<std::string, std::shared_ptr<TopicEntry>> topics_;
   void mark(std::set<std::uint64_t>& handles, std::uint64_t handle, bool present);
-  std::set<std::uint64_t> writers_, readers_;
+  void markReader(std::uint64_t handle, bool present);
+  std::set<std::uint64_t> writers_;
+  // Replaced, never changed in place: matchedOutside reads a snapshot without holding mutex_.
+  std::shared_ptr<const std::set<std::uint64_t>> readers_ = std::make_shared<const std::set<std::uint64_t>>();
 };
 
 // The shared state of (vendor, domain_id); created on first use, kept for the process's life.

@@ -75,8 +75,10 @@ PlaybackProgress play(bus::Participant& bus, const McapReader& file, const Playe
 
   // One raw publisher per recorded channel, with the recorded type and QoS.
   std::map<std::uint16_t, Output> outputs;
-  for (const auto& [id, channel] : file.channels()) {
-    Output& out = outputs[id];
+  for (const auto& entry : file.channels()) {
+    // Not a structured binding: the lambda below captures the channel, which clang before 16 refuses for one.
+    const auto& channel = entry.second;
+    Output& out = outputs[entry.first];
     const auto remapped = options.remap.find(channel.topic);
     out.topic = remapped == options.remap.end() ? channel.topic : remapped->second;
     if (!chosen(options, channel.topic)) continue;

@@ -220,13 +220,20 @@ class ContextImpl : public Context {
     }
     publishState(state);
     stopHeartbeat();
+    bus::Publisher<msg::ComponentStatus> status_pub;
+    std::unique_ptr<Clock> clock;
     {
       // The signal thread may still be publishing SHUTTING_DOWN.
       std::lock_guard lock(publish_mutex_);
       status_open_ = false;
-      status_pub_ = {};
-      clock_.reset();
+      status_pub = std::move(status_pub_);
+      clock = std::move(clock_);
     }
+    // Destroyed after publish_mutex_ is released: deleting a writer or reader takes the bus's and the vendor's
+    // locks, and a callback on a vendor thread that holds the vendor's locks can be waiting for publish_mutex_
+    // in publishStatus (ThreadSanitizer: lock-order inversion, ddsnav-echo under the bus tests).
+    status_pub = {};
+    clock.reset();
     participant_.reset();
   }
 
