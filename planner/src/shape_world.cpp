@@ -171,6 +171,9 @@ ShapeWorld::ShapeWorld(int dimensions, const Vec3& bounds_min, const Vec3& bound
   const double wx = bmax_.x() - bmin_.x(), wy = bmax_.y() - bmin_.y();
   cell_size_ = shapes_.empty() ? std::max(wx, wy) : std::max(extent_sum / shapes_.size(), 1e-3);
   cell_size_ = std::max(cell_size_, std::sqrt(wx * wy / double(1 << 18)));
+  // And at most 2^18 cells along either side: bounds of 110 x 1e33 m passed the area cap with 1.7e18 cells
+  // along y, which overflowed the int cell count (UBSan, scenario fuzz target).
+  cell_size_ = std::max(cell_size_, std::max(wx, wy) / double(1 << 18));
   nx_ = std::max(1, static_cast<int>(std::ceil(wx / cell_size_)));
   ny_ = std::max(1, static_cast<int>(std::ceil(wy / cell_size_)));
   std::vector<int> counts(static_cast<std::size_t>(nx_) * ny_ + 1, 0);

@@ -154,6 +154,16 @@ std::size_t clearFootprint(std::vector<planner::EllipsoidObstacle>& obstacles, c
   // The planner's own ellipse test (exact distance to the ellipse), one obstacle at a time, with bounds
   // far enough away not to matter.
   const Eigen::Vector3d far = Eigen::Vector3d::Constant(1e9);
+  if (dimensions == 2) {
+    // A 2-D world takes each ellipse's in-plane axes, which must be orthonormal: an orientation tilted out
+    // of the plane (a valid quaternion, accepted by checkObstacleArray) keeps only its heading, the rotation
+    // of its first axis about z. Without this, makeEllipsoidWorld threw on such a sample here and in the
+    // world built after it (found by the cdr fuzz target).
+    for (planner::EllipsoidObstacle& e : obstacles) {
+      const double yaw = std::atan2(e.axes(1, 0), e.axes(0, 0));
+      e.axes = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    }
+  }
   const auto before = obstacles.size();
   std::erase_if(obstacles, [&](const planner::EllipsoidObstacle& e) {
     return !planner::makeEllipsoidWorld(dimensions, -far, far, radius, {e})->isFree(position);

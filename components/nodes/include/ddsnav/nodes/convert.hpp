@@ -63,7 +63,8 @@ msg::ObstacleEllipsoid toMsg(const perception::ObstacleEllipsoid& obstacle);
 std::vector<planner::EllipsoidObstacle> toEllipsoidObstacles(const msg::ObstacleArray& array);
 // Removes the obstacles that a robot of `radius` at `position` would touch. The robot is physically there, so such an ellipse is
 // perception's over-estimate of an obstacle's extent, not a wall around the robot; keeping it would leave
-// the planner with a start in collision. Returns how many were removed.
+// the planner with a start in collision. Returns how many were removed. In 2-D it also reduces every
+// orientation to its heading (rotation about z), the only rotation a 2-D world represents.
 std::size_t clearFootprint(std::vector<planner::EllipsoidObstacle>& obstacles, const Eigen::Vector3d& position, double radius,
                            int dimensions);
 
