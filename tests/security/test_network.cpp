@@ -17,6 +17,8 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cerrno>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -44,6 +46,21 @@ std::pair<int, std::string> run(const std::string& command) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text};
 }
 
+// Namespaces of an earlier run of this test that was killed before its destructors ran (named
+// ddsnav<pid>a/b/c after its pid): deleted when that pid is gone, so a killed run leaves nothing behind for long.
+void removeStaleNamespaces() {
+  std::istringstream names(run("ip netns list").second);
+  for (std::string line; std::getline(names, line);) {
+    const std::string name = line.substr(0, line.find(' '));
+    static const std::regex ours(R"(ddsnav([0-9]+)[abc])");
+    std::smatch m;
+    if (!std::regex_match(name, m, ours)) continue;
+    if (::kill(std::stoi(m[1].str()), 0) == 0 || errno == EPERM) continue;  // its process still runs
+    run("ip netns pids " + name + " | xargs -r kill -9");
+    run("ip netns del " + name);
+  }
+}
+
 // Two namespaces and the veth pair between them, named uniquely for this run; removed on destruction,
 // which also removes the veth ends (they live only inside the namespaces).
 class TwoHosts {
@@ -68,6 +85,7 @@ class TwoHosts {
   // Empty on success, else why the namespaces could not be made.
   std::string create() {
     if (::geteuid() != 0) return "not root";
+    removeStaleNamespaces();
     for (const std::string& ns : {a, b}) {
       auto [rc, out] = run("ip netns add " + ns);
       if (rc != 0) return "ip netns add " + ns + ": " + out;
@@ -219,6 +237,7 @@ TEST(Network, AnInterfaceWithoutCarrierIsRefusedByName) {
   if (::geteuid() != 0) GTEST_SKIP() << "cannot make network namespaces here (not root); skipping";
   const std::string id = std::to_string(::getpid() % 100000);
   const std::string ns = "ddsnav" + id + "c", link = "dnvc" + id, peer = "dnvd" + id;
+  removeStaleNamespaces();
   if (auto [rc, out] = run("ip netns add " + ns); rc != 0) GTEST_SKIP() << "cannot make network namespaces here (" << out << "); skipping";
   for (const std::string& step : {"ip -n " + ns + " link add " + link + " type veth peer name " + peer,
                                   "ip -n " + ns + " addr add 10.232.1.1/24 dev " + link, "ip -n " + ns + " link set " + link + " up"}) {
