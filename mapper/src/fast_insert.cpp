@@ -11,29 +11,41 @@
 #include <thread>
 #include <utility>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace ddsnav::mapper::detail {
 namespace {
 
 constexpr std::uint64_t kEmpty = ~0ull;
 constexpr unsigned kTreeDepth = 16;  // OcTree keys are 16 bits per axis
 
-// Spreads the low 13 bits of v to every third bit.
-std::uint64_t spread13(std::uint64_t v) {
-  std::uint64_t r = 0;
-  for (unsigned i = 0; i < 13; ++i) r |= ((v >> i) & 1ull) << (3 * i);
-  return r;
+// Spreads the 16 bits of v to every third bit (bit i to bit 3i).
+constexpr std::uint64_t spread16(std::uint64_t v) {
+  v &= 0xffff;
+  v = (v | (v << 16)) & 0x0000ff0000ffull;
+  v = (v | (v << 8)) & 0x00f00f00f00full;
+  v = (v | (v << 4)) & 0x0c30c30c30c3ull;
+  v = (v | (v << 2)) & 0x249249249249ull;
+  return v;
 }
 
-std::uint64_t packBrick(const BrickMap::Brick& b) {
-  return std::uint64_t(b.bx) | (std::uint64_t(b.by) << 13) | (std::uint64_t(b.bz) << 26);
+// Inverse of spread16: every third bit of v, from bit 0, gathered into the low 16 bits.
+constexpr std::uint64_t compact16(std::uint64_t v) {
+  v &= 0x249249249249ull;
+  v = (v | (v >> 2)) & 0x0c30c30c30c3ull;
+  v = (v | (v >> 4)) & 0x00f00f00f00full;
+  v = (v | (v >> 8)) & 0x0000ff0000ffull;
+  v = (v | (v >> 16)) & 0xffff;
+  return v;
 }
 
-std::uint64_t brickMorton(std::uint64_t packed) {
-  return spread13(packed & 0x1fff) | (spread13((packed >> 13) & 0x1fff) << 1) | (spread13(packed >> 26) << 2);
-}
+// The code bits of one axis in a Morton code.
+constexpr std::uint64_t kAxisBits[3] = {0x249249249249ull, 0x249249249249ull << 1, 0x249249249249ull << 2};
 
-std::size_t slotOf(std::uint64_t packed, std::size_t mask) {
-  return static_cast<std::size_t>((packed * 0x9E3779B97F4A7C15ull) >> 20) & mask;
+std::size_t slotOf(std::uint64_t brick_code, std::size_t mask) {
+  return static_cast<std::size_t>((brick_code * 0x9E3779B97F4A7C15ull) >> 20) & mask;
 }
 
 // Inverse of BrickMap's in-brick index: bit i of the 9-bit Morton index -> (x, y, z) offsets.
@@ -349,25 +361,36 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
 // OcTreeBaseImpl::computeRayKeys, statement for statement and in the same precision (float vectors, double
 // tMax / tDelta), but marking the keys straight into the brick map instead of a KeyRay. Returns false, marking
 // nothing, when the end point is outside the map (the origin was checked by the caller).
+//
+// The loop is where the mapper spends most of its time, so each step is as few instructions as the exact
+// arithmetic allows:
+// - the current key is kept as its Morton code: stepping one axis by +-1 is an add on that axis's bits with
+//   the other bits filled with ones to carry across them (so each axis still wraps at 16 bits, as the key's
+//   uint16 does), the end test is one compare, and the brick and in-brick bit of the mark are a shift and a
+//   mask;
+// - the axis is chosen with the same comparisons as OctoMap's if/else (ties included), as all-ones/zero masks,
+//   without branches (the axis is close to random from step to step, so branches would mispredict about half
+//   the time); the chosen tMax gets tDelta added, the others +0.0, which leaves them unchanged.
 bool traceRay(const octomap::OcTree& tree, const octomap::point3d& origin, const octomap::OcTreeKey& key_origin,
-              const octomap::point3d& end, BrickMap& map) {
+              std::uint64_t code_origin, const octomap::point3d& end, BrickMap& map) {
   octomap::OcTreeKey key_end;
   if (!tree.coordToKeyChecked(end, key_end)) return false;
   if (key_origin == key_end) return true;  // same cell: no free cells
-  map.markFree(key_origin);
+  BrickMap::Cursor cursor;
+  map.markFree(code_origin, cursor);
 
   octomap::point3d direction = (end - origin);
   const float length = static_cast<float>(direction.norm());
   direction /= length;
   const double resolution = tree.getResolution();
-  int step[3];
   double t_max[3], t_delta[3];
-  octomap::OcTreeKey current = key_origin;
+  std::uint64_t axis_step[3];  // +1 or -1 on the axis's bits: 1 << axis, or all of the axis's bits (0xffff)
   for (unsigned i = 0; i < 3; ++i) {
-    step[i] = direction(i) > 0.0 ? 1 : (direction(i) < 0.0 ? -1 : 0);
-    if (step[i] != 0) {
-      double voxel_border = tree.keyToCoord(current[i]);
-      voxel_border += static_cast<float>(step[i] * resolution * 0.5);
+    const int step = direction(i) > 0.0 ? 1 : (direction(i) < 0.0 ? -1 : 0);
+    axis_step[i] = step > 0 ? (1ull << i) : (step < 0 ? kAxisBits[i] : 0);
+    if (step != 0) {
+      double voxel_border = tree.keyToCoord(key_origin[i]);
+      voxel_border += static_cast<float>(step * resolution * 0.5);
       t_max[i] = (voxel_border - origin(i)) / direction(i);
       t_delta[i] = resolution / std::fabs(direction(i));
     } else {
@@ -375,27 +398,54 @@ bool traceRay(const octomap::OcTree& tree, const octomap::point3d& origin, const
       t_delta[i] = std::numeric_limits<double>::max();
     }
   }
-  // The same choice of axis as OctoMap's if/else (ties included), computed without branches: the axis is
-  // close to random from step to step, so branches mispredict about half the time. Adding t_delta * 0.0
-  // or * 1.0 gives exactly t_max or t_max + t_delta, so the arithmetic is unchanged.
+  const std::uint64_t code_end = mortonCode(key_end);
+  std::uint64_t code = code_origin;
+#if defined(__SSE2__)
+  __m128d t0 = _mm_set_sd(t_max[0]), t1 = _mm_set_sd(t_max[1]), t2 = _mm_set_sd(t_max[2]);
+  const __m128d dt0 = _mm_set_sd(t_delta[0]), dt1 = _mm_set_sd(t_delta[1]), dt2 = _mm_set_sd(t_delta[2]);
+  const __m128d limit = _mm_set_sd(static_cast<double>(length));
+  const __m128d ones = _mm_castsi128_pd(_mm_set1_epi64x(-1));
+  const __m128i bits0 = _mm_set_epi64x(0, static_cast<long long>(kAxisBits[0]));
+  const __m128i bits1 = _mm_set_epi64x(0, static_cast<long long>(kAxisBits[1]));
+  const __m128i bits2 = _mm_set_epi64x(0, static_cast<long long>(kAxisBits[2]));
+  const __m128i step0 = _mm_set_epi64x(0, static_cast<long long>(axis_step[0]));
+  const __m128i step1 = _mm_set_epi64x(0, static_cast<long long>(axis_step[1]));
+  const __m128i step2 = _mm_set_epi64x(0, static_cast<long long>(axis_step[2]));
+  while (true) {
+    const __m128d c01 = _mm_cmplt_sd(t0, t1), c02 = _mm_cmplt_sd(t0, t2), c12 = _mm_cmplt_sd(t1, t2);
+    const __m128d d0 = _mm_and_pd(c01, c02);
+    const __m128d d1 = _mm_andnot_pd(c01, c12);
+    const __m128d d2 = _mm_andnot_pd(_mm_or_pd(d0, d1), ones);
+    t0 = _mm_add_sd(t0, _mm_and_pd(dt0, d0));
+    t1 = _mm_add_sd(t1, _mm_and_pd(dt1, d1));
+    t2 = _mm_add_sd(t2, _mm_and_pd(dt2, d2));
+    const __m128i i0 = _mm_castpd_si128(d0), i1 = _mm_castpd_si128(d1), i2 = _mm_castpd_si128(d2);
+    const auto axis = static_cast<std::uint64_t>(_mm_cvtsi128_si64(
+        _mm_or_si128(_mm_or_si128(_mm_and_si128(i0, bits0), _mm_and_si128(i1, bits1)), _mm_and_si128(i2, bits2))));
+    const auto step = static_cast<std::uint64_t>(_mm_cvtsi128_si64(
+        _mm_or_si128(_mm_or_si128(_mm_and_si128(i0, step0), _mm_and_si128(i1, step1)), _mm_and_si128(i2, step2))));
+    code = (((code | ~axis) + step) & axis) | (code & ~axis);
+    if (code == code_end) return true;
+    // Past the end point's distance without reaching its key (rounding): stop, as OctoMap does.
+    if (_mm_comigt_sd(_mm_min_sd(_mm_min_sd(t0, t1), t2), limit)) return true;
+    map.markFree(code, cursor);
+  }
+#else
   double t0 = t_max[0], t1 = t_max[1], t2 = t_max[2];
-  int k0 = current[0], k1 = current[1], k2 = current[2];
-  const int e0 = key_end[0], e1 = key_end[1], e2 = key_end[2];
   while (true) {
     const bool c01 = t0 < t1, c02 = t0 < t2, c12 = t1 < t2;
     const bool d0 = c01 & c02, d1 = !c01 & c12, d2 = !(d0 | d1);
-    k0 = (k0 + step[0] * d0) & 0xffff;
-    k1 = (k1 + step[1] * d1) & 0xffff;
-    k2 = (k2 + step[2] * d2) & 0xffff;
+    const std::uint64_t axis = kAxisBits[0] * d0 + kAxisBits[1] * d1 + kAxisBits[2] * d2;
+    const std::uint64_t step = axis_step[0] * d0 + axis_step[1] * d1 + axis_step[2] * d2;
+    code = (((code | ~axis) + step) & axis) | (code & ~axis);
     t0 += t_delta[0] * static_cast<double>(d0);
     t1 += t_delta[1] * static_cast<double>(d1);
     t2 += t_delta[2] * static_cast<double>(d2);
-    if (k0 == e0 && k1 == e1 && k2 == e2) return true;
-    // Past the end point's distance without reaching its key (rounding): stop, as OctoMap does.
+    if (code == code_end) return true;
     if (std::min(std::min(t0, t1), t2) > length) return true;
-    map.markFree(octomap::OcTreeKey(static_cast<octomap::key_type>(k0), static_cast<octomap::key_type>(k1),
-                                    static_cast<octomap::key_type>(k2)));
+    map.markFree(code, cursor);
   }
+#endif
 }
 
 // One thread's share of OccupancyOcTreeBase::computeUpdate, with the same tests in the same precision.
@@ -403,41 +453,46 @@ void markRays(const octomap::OcTree& tree, const octomap::point3d* points, std::
               const octomap::point3d& origin, double max_range, BrickMap& map) {
   octomap::OcTreeKey key_origin, key;
   if (!tree.coordToKeyChecked(origin, key_origin)) return;  // OctoMap: every ray fails
+  const std::uint64_t code_origin = mortonCode(key_origin);
   for (std::size_t i = 0; i < count; ++i) {
     const octomap::point3d& p = points[i];
     if (max_range < 0.0 || (p - origin).norm() <= max_range) {
-      traceRay(tree, origin, key_origin, p, map);
+      traceRay(tree, origin, key_origin, code_origin, p, map);
       if (tree.coordToKeyChecked(p, key)) map.markOccupied(key);
     } else {
       const octomap::point3d direction = (p - origin).normalized();
       const octomap::point3d new_end = origin + direction * static_cast<float>(max_range);
-      traceRay(tree, origin, key_origin, new_end, map);
+      traceRay(tree, origin, key_origin, code_origin, new_end, map);
     }
   }
 }
 
 }  // namespace
 
+std::uint64_t mortonCode(const octomap::OcTreeKey& key) {
+  return spread16(key[0]) | (spread16(key[1]) << 1) | (spread16(key[2]) << 2);
+}
+
 void BrickMap::clear() {
   bricks_.clear();
   std::fill(slot_keys_.begin(), slot_keys_.end(), kEmpty);
-  cached_packed_ = kEmpty;
+  cursor_ = Cursor{};
 }
 
-std::uint32_t BrickMap::findOrAdd(std::uint64_t packed) {
+std::uint32_t BrickMap::findOrAdd(std::uint64_t brick_code) {
   if ((bricks_.size() + 1) * 2 > slot_keys_.size()) grow();
   const std::size_t mask = slot_keys_.size() - 1;
-  for (std::size_t s = slotOf(packed, mask);; s = (s + 1) & mask) {
-    if (slot_keys_[s] == packed) return slot_bricks_[s];
+  for (std::size_t s = slotOf(brick_code, mask);; s = (s + 1) & mask) {
+    if (slot_keys_[s] == brick_code) return slot_bricks_[s];
     if (slot_keys_[s] == kEmpty) {
-      slot_keys_[s] = packed;
+      slot_keys_[s] = brick_code;
       slot_bricks_[s] = static_cast<std::uint32_t>(bricks_.size());
       Brick& b = bricks_.emplace_back();
       std::memset(&b, 0, sizeof(Brick));
-      b.morton = brickMorton(packed);
-      b.bx = static_cast<std::uint16_t>(packed & 0x1fff);
-      b.by = static_cast<std::uint16_t>((packed >> 13) & 0x1fff);
-      b.bz = static_cast<std::uint16_t>(packed >> 26);
+      b.morton = brick_code;
+      b.bx = static_cast<std::uint16_t>(compact16(brick_code));
+      b.by = static_cast<std::uint16_t>(compact16(brick_code >> 1));
+      b.bz = static_cast<std::uint16_t>(compact16(brick_code >> 2));
       return slot_bricks_[s];
     }
   }
@@ -448,25 +503,23 @@ void BrickMap::grow() {
   slot_keys_.assign(capacity, kEmpty);
   slot_bricks_.assign(capacity, 0);
   const std::size_t mask = capacity - 1;
-  // Re-derive the packed coordinates from each brick's Morton code.
   for (std::uint32_t i = 0; i < bricks_.size(); ++i) {
-    const std::uint64_t packed = packBrick(bricks_[i]);
-    std::size_t s = slotOf(packed, mask);
+    std::size_t s = slotOf(bricks_[i].morton, mask);
     while (slot_keys_[s] != kEmpty) s = (s + 1) & mask;
-    slot_keys_[s] = packed;
+    slot_keys_[s] = bricks_[i].morton;
     slot_bricks_[s] = i;
   }
 }
 
 void BrickMap::mergeFrom(const BrickMap& other) {
   for (const Brick& src : other.bricks_) {
-    Brick& dst = bricks_[findOrAdd(packBrick(src))];
+    Brick& dst = bricks_[findOrAdd(src.morton)];
     for (int w = 0; w < 8; ++w) {
       dst.free[w] |= src.free[w];
       dst.occupied[w] |= src.occupied[w];
     }
   }
-  cached_packed_ = kEmpty;
+  cursor_ = Cursor{};
 }
 
 std::size_t BrickMap::memoryUsage() const {
@@ -580,8 +633,24 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   finish();
   counts.seconds_wait = std::chrono::duration<double>(std::chrono::steady_clock::now() - waited).count();
   counts.seconds_tree = job_seconds_;
+  const bool waited_for_walk = job_seconds_ > 0.0;
   job_seconds_ = 0.0;
   if (keys.cells == 0) return counts;
+  // Overlapping pays only while one thread walks the tree at least as fast as all threads cast the next
+  // scan's rays. When the walk is the slower stage (fine maps: many new nodes per scan), waiting for it
+  // wastes a core: then walk this scan now on every thread. Decided from the previous scan, so the choice
+  // follows the map as it fills; either way the scans reach the tree in order and the tree is the same.
+  if (waited_for_walk) walk_is_slower_ = counts.seconds_wait > 0.2 * counts.seconds_rays;
+  if (walk_is_slower_ && threads > 1) {
+    const auto started = std::chrono::steady_clock::now();
+    counts.walk_threads = applyKeys(tree, keys, threads);
+    const double walked = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    counts.seconds_tree += walked;
+    // One thread would take up to `threads` times as long (the walk scales less than that, so this leans
+    // towards staying here); back to overlapping once that is clearly below the rays' time.
+    walk_is_slower_ = walked * threads > 2.0 * counts.seconds_rays;
+    return counts;
+  }
   counts.walk_threads = 1;
   if (!worker_.joinable()) worker_ = std::thread([this] { treeThread(); });
   {

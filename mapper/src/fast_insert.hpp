@@ -31,6 +31,11 @@
 
 namespace ddsnav::mapper::detail {
 
+// Voxel keys as 48-bit Morton codes: bit 3i of the code is bit i of the x key, 3i+1 of y, 3i+2 of z (OctoMap's
+// child numbering at every level). The code of a key's 8x8x8 brick is then code >> 9, its place inside the
+// brick code & 511, and codes in ascending order visit voxels in the octree's depth-first order.
+std::uint64_t mortonCode(const octomap::OcTreeKey& key);
+
 // The voxels one scan updates, as bitmasks over 8x8x8 bricks.
 class BrickMap {
  public:
@@ -40,10 +45,17 @@ class BrickMap {
     std::uint64_t morton;  // Morton code of the brick coordinates (key >> 3 on each axis)
     std::uint16_t bx, by, bz;
   };
+  // The brick a stream of marks touched last: neighbouring ray cells mostly share it, so a mark is usually
+  // one compare and one OR.
+  struct Cursor {
+    std::uint64_t brick_code = ~0ull;  // no brick has this code (codes have 39 bits)
+    std::uint32_t brick = 0;
+  };
 
   void clear();
-  void markFree(const octomap::OcTreeKey& key) { bitsFor(key, false); }
-  void markOccupied(const octomap::OcTreeKey& key) { bitsFor(key, true); }
+  void markFree(std::uint64_t code, Cursor& cursor) { mark(code, false, cursor); }
+  void markFree(const octomap::OcTreeKey& key) { mark(mortonCode(key), false, cursor_); }
+  void markOccupied(const octomap::OcTreeKey& key) { mark(mortonCode(key), true, cursor_); }
   void mergeFrom(const BrickMap& other);
 
   const std::vector<Brick>& bricks() const { return bricks_; }
@@ -51,27 +63,23 @@ class BrickMap {
   std::size_t memoryUsage() const;
 
  private:
-  void bitsFor(const octomap::OcTreeKey& key, bool occupied) {
-    const std::uint64_t packed =
-        std::uint64_t(key[0] >> 3) | (std::uint64_t(key[1] >> 3) << 13) | (std::uint64_t(key[2] >> 3) << 26);
-    if (packed != cached_packed_) {
-      cached_brick_ = findOrAdd(packed);
-      cached_packed_ = packed;
+  void mark(std::uint64_t code, bool occupied, Cursor& cursor) {
+    const std::uint64_t brick_code = code >> 9;
+    if (brick_code != cursor.brick_code) {
+      cursor.brick = findOrAdd(brick_code);
+      cursor.brick_code = brick_code;
     }
-    Brick& b = bricks_[cached_brick_];
-    // 9-bit Morton index inside the brick: x at bit 0, y at 1, z at 2 (OctoMap's child numbering).
-    const std::uint32_t bit = kSpread3[key[0] & 7] | (kSpread3[key[1] & 7] << 1) | (kSpread3[key[2] & 7] << 2);
+    Brick& b = bricks_[cursor.brick];
+    const unsigned bit = static_cast<unsigned>(code & 511);
     (occupied ? b.occupied : b.free)[bit >> 6] |= 1ull << (bit & 63);
   }
-  static constexpr std::uint32_t kSpread3[8] = {0, 1, 8, 9, 64, 65, 72, 73};
-  std::uint32_t findOrAdd(std::uint64_t packed);
+  std::uint32_t findOrAdd(std::uint64_t brick_code);
   void grow();
 
-  std::vector<std::uint64_t> slot_keys_;     // packed brick coordinates, kEmpty when unused
+  std::vector<std::uint64_t> slot_keys_;     // brick Morton codes, kEmpty when unused
   std::vector<std::uint32_t> slot_bricks_;   // index into bricks_
   std::vector<Brick> bricks_;
-  std::uint64_t cached_packed_ = ~0ull;
-  std::uint32_t cached_brick_ = 0;
+  Cursor cursor_;  // of the marks made without a cursor of their own
 };
 
 struct InsertCounts {
@@ -134,6 +142,9 @@ class FastInserter {
   const ScanKeys* job_ = nullptr;  // non-null while an update is pending or running
   bool stop_ = false;
   double job_seconds_ = 0.0;
+  // Pipelined: the tree walk, not the rays, limited the last scans. True at first: the first scans into an
+  // empty tree create most of its nodes, the slowest walks there are.
+  bool walk_is_slower_ = true;
   std::exception_ptr job_error_;
 };
 
