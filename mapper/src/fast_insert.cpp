@@ -20,6 +20,7 @@ namespace {
 
 constexpr std::uint64_t kEmpty = ~0ull;
 constexpr unsigned kTreeDepth = 16;  // OcTree keys are 16 bits per axis
+constexpr int kBrickDepth = 13;      // the depth of an 8x8x8-voxel brick's node
 
 // Spreads the 16 bits of v to every third bit (bit i to bit 3i).
 constexpr std::uint64_t spread16(std::uint64_t v) {
@@ -144,13 +145,17 @@ class TreeWalk {
     has_previous_ = false;
   }
 
-  void update(std::uint64_t morton, const octomap::OcTreeKey& key, bool occupied) {
+  // Updates the voxel `key` (Morton code `morton`). With `leaf_depth` kBrickDepth, updates the whole 8x8x8
+  // brick of voxels [morton, last_morton] as its node at that depth, which must have no children (see
+  // walkBricks).
+  void update(std::uint64_t morton, const octomap::OcTreeKey& key, bool occupied, int leaf_depth = kTreeDepth,
+              std::uint64_t last_morton = 0) {
     int keep = base_;
     if (has_previous_) {
       const unsigned level = (63u - static_cast<unsigned>(std::countl_zero(morton ^ previous_))) / 3u;
       keep = std::max(keep, static_cast<int>(kTreeDepth - 1 - level));  // deepest shared ancestor
     }
-    previous_ = morton;
+    previous_ = leaf_depth == static_cast<int>(kTreeDepth) ? morton : last_morton;
     has_previous_ = true;
     keep = std::min(keep, valid_);
     settleDownTo(keep);
@@ -158,7 +163,7 @@ class TreeWalk {
     const float delta = occupied ? hit_ : miss_;
     int d = keep;
     octomap::OcTreeNode* node = path_[d];
-    while (d < static_cast<int>(kTreeDepth)) {
+    while (d < leaf_depth) {
       const unsigned pos = childIndex(key, kTreeDepth - 1 - d);
       bool created = false;
       if (!tree_.nodeChildExists(node, pos)) {
@@ -183,6 +188,18 @@ class TreeWalk {
     valid_ = d;
     if (!fresh_[d] && atClamp(node, delta)) return;
     tree_.updateNodeLogOdds(node, delta);
+  }
+
+  // Whether the node of the brick holding `key` (depth kBrickDepth) exists and has children. Reads only
+  // nodes below this walk's subtree root, so it is safe while other threads walk other subtrees.
+  bool brickNodeHasChildren(const octomap::OcTreeKey& key) const {
+    const octomap::OcTreeNode* node = path_[base_];
+    for (int d = base_; d < kBrickDepth; ++d) {
+      const unsigned pos = childIndex(key, kTreeDepth - 1 - d);
+      if (!tree_.nodeChildExists(node, pos)) return false;
+      node = tree_.getNodeChild(node, pos);
+    }
+    return tree_.nodeHasChildren(node);
   }
 
   // Settles every node still on the path, the subtree root included.
@@ -214,12 +231,26 @@ class TreeWalk {
 };
 
 // Feeds the voxels of Morton-sorted bricks [first, last) to a walk.
+//
+// A brick whose 512 voxels all get a miss (near the sensor, where rays are dense: 15 % of the cells of a
+// 64x1800 scan at 0.1 m, 28 % at 0.2 m) is updated as one node when its node has no children. Voxel by
+// voxel, OctoMap would give every voxel the same value — a new node's 0 + miss, or the pruned leaf's
+// value + miss, clamped, or nothing when that leaf is already clamped — and then prune the brick back to one
+// leaf at its depth: exactly the node this sets, with the same arithmetic (`updateNodeLogOdds` once).
 void walkBricks(const std::vector<BrickMap::Brick>& bricks, const std::uint64_t* first, const std::uint64_t* last,
                 TreeWalk& walk) {
   for (const std::uint64_t* e = first; e != last; ++e) {
     const BrickMap::Brick& b = bricks[*e & 0xffffff];
     const std::uint64_t base = b.morton << 9;
     const unsigned kx = unsigned(b.bx) << 3, ky = unsigned(b.by) << 3, kz = unsigned(b.bz) << 3;
+    const octomap::OcTreeKey brick_key(static_cast<octomap::key_type>(kx), static_cast<octomap::key_type>(ky),
+                                       static_cast<octomap::key_type>(kz));
+    bool all_free = true;
+    for (unsigned w = 0; w < 8; ++w) all_free &= b.free[w] == ~0ull;
+    if (all_free && !walk.brickNodeHasChildren(brick_key)) {
+      walk.update(base, brick_key, false, kBrickDepth, base | 511);
+      continue;
+    }
     for (unsigned w = 0; w < 8; ++w) {
       std::uint64_t any = b.free[w] | b.occupied[w];
       while (any != 0) {
