@@ -81,7 +81,7 @@ struct NodeAccess : octomap::OcTreeNode {
 // OcTreeBaseImpl::createNodeChild / expandNode / pruneNode, allocation for allocation, except that the
 // change in node count goes to a per-thread counter instead of the tree's (so disjoint subtrees can be
 // updated from several threads); the caller adds the counters to the tree afterwards.
-class NodeOps {
+class alignas(64) NodeOps {  // one cache line each: the per-thread counters are written on every new node
  public:
   explicit NodeOps(const octomap::OcTree& tree) : tree_(tree) {}
 
