@@ -677,9 +677,9 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
     counts.walk_threads = applyKeys(tree, keys, threads);
     const double walked = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     counts.seconds_tree += walked;
-    // One thread would take up to `threads` times as long (the walk scales less than that, so this leans
-    // towards staying here); back to overlapping once that is clearly below the rays' time.
-    walk_is_slower_ = walked * threads > 2.0 * counts.seconds_rays;
+    // One thread would take up to `threads` times as long (the walk scales a little less than that, so this
+    // leans towards staying here); back to overlapping once that is below the rays' time.
+    walk_is_slower_ = walked * threads > counts.seconds_rays;
     return counts;
   }
   counts.walk_threads = 1;
