@@ -61,7 +61,9 @@ struct TrackerParams {
   // Updates a refresh-only change may wait for its refit (0: refit every changed track in the same
   // update, bit for bit the reference tracker). Only with enclose_points: a refreshed voxel outside
   // the current ellipse always refits at once.
-  unsigned max_refit_delay = 4;
+  // 8 rather than 4: 6-8 % less tracker time on the city drives (docs/benchmarks/perception.md, 2026-12-02);
+  // 16 gained nothing more.
+  unsigned max_refit_delay = 8;
   std::size_t max_deferred_refits = 2000;  // per update, oldest first; the rest wait for the next one
   // m; update(detections, sensor_origin) forgets tracks with every voxel farther than this from the
   // sensor (infinity: keep everything; matching() gives max_range + 4 association distances).
