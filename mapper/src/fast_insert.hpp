@@ -54,7 +54,6 @@ class BrickMap {
 
   void clear();
   void markFree(std::uint64_t code, Cursor& cursor) { mark(code, false, cursor); }
-  void markFree(const octomap::OcTreeKey& key) { mark(mortonCode(key), false, cursor_); }
   void markOccupied(const octomap::OcTreeKey& key) { mark(mortonCode(key), true, cursor_); }
   void mergeFrom(const BrickMap& other);
 
@@ -79,7 +78,7 @@ class BrickMap {
   std::vector<std::uint64_t> slot_keys_;     // brick Morton codes, kEmpty when unused
   std::vector<std::uint32_t> slot_bricks_;   // index into bricks_
   std::vector<Brick> bricks_;
-  Cursor cursor_;  // of the marks made without a cursor of their own
+  Cursor cursor_;  // of markOccupied (the end points), which has no cursor of its own
 };
 
 struct InsertCounts {
@@ -87,7 +86,8 @@ struct InsertCounts {
   std::size_t occupied_cells = 0;
   double seconds_rays = 0.0;   // ray keys + de-duplication (parallel part)
   double seconds_merge = 0.0;  // merging the thread maps, occupied-wins, Morton sort
-  double seconds_tree = 0.0;   // the tree walk (pipelined: the previous scan's, which ran meanwhile)
+  double seconds_tree = 0.0;   // the tree walk (pipelined: the previous scan's background walk, if any, plus
+                               // this scan's when it was walked at once)
   double seconds_wait = 0.0;   // pipelined: waiting for the previous scan's tree walk after our keys
   int walk_threads = 0;        // threads that walked the tree (1 when the scan was small or not splittable)
 };
@@ -119,7 +119,8 @@ class FastInserter {
 
   // points: already finite. max_range < 0 means unlimited (OctoMap's convention).
   // pipelined: the tree update is handed to a background thread and runs while the caller computes the
-  // next scan's keys (two key buffers alternate); finish() waits for it. The tree after finish() is the
+  // next scan's keys (two key buffers alternate); finish() waits for it. While the walk is the slower stage
+  // the scan is walked at once on all `threads` instead (see insert()). The tree after finish() is the
   // same as without pipelining: every scan's update is the same, applied in the same order.
   InsertCounts insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                       const octomap::point3d& origin, double max_range, bool discretize, int threads,

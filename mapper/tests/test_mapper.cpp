@@ -91,7 +91,7 @@ TEST(MapperIdentical, SingleThreadDefaultMatchesToo) {
   Case c{"3-D one thread", {}, lidar3d(8, 400), 12.0, {{0, 0, 1.8f}, {-2.0f, 1.0f, 1.8f}}};
   c.config.resolution = 0.15;
   c.config.threads = 1;
-  expectIdentical(c, false, /*walk_threads: 1 or all*/ -1);
+  expectIdentical(c, false, /*walk_threads=*/1);
 }
 
 TEST(MapperIdentical, DiscretizeMatchesOctoMapDiscretize) {

@@ -9,16 +9,18 @@
 // its points (explicit mode) or, in fan mode, the bytes that set the fan's ranges.
 // Contract: both mappers accept or refuse the same scans, and their trees are byte-identical (OcTree::write:
 // structure and every log-odds) after every scan.
-#include "fuzz_input.hpp"
-
 #include <ddsnav/mapper/occupancy_mapper.hpp>
 #include <octomap/OcTree.h>
 
+#include "../../mapper/tests/mapper_test_util.hpp"  // fullBytes: the tree as OcTree::write bytes
+
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
-#include <sstream>
 #include <vector>
 
 namespace {
@@ -28,12 +30,7 @@ using ddsnav::mapper::MapperConfig;
 using ddsnav::mapper::OccupancyMapper;
 using ddsnav::mapper::Point3f;
 using ddsnav::mapper::Scan;
-
-std::string treeBytes(const OccupancyMapper& mapper) {
-  std::ostringstream s;
-  mapper.octree().write(s);
-  return s.str();
-}
+using ddsnav::mapper::testing::fullBytes;
 
 class Reader {
  public:
@@ -128,7 +125,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                    b.inserted ? "inserted" : "refused", a.message.c_str(), b.message.c_str());
       std::abort();
     }
-    if (treeBytes(fast) != treeBytes(reference)) {
+    if (fullBytes(fast.octree()) != fullBytes(reference.octree())) {
       std::fprintf(stderr, "scan %d: the fast tree differs from OctoMap's (resolution %g, max_range %g, threads %d, "
                    "pipeline %d, discretize %d, %d-D, %zu points)\n", s, config.resolution, max_range, config.threads,
                    int(config.pipeline), int(config.discretize), config.dimensions, scan.points.size());

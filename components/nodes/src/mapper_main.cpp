@@ -53,7 +53,7 @@ class MapperComponent : public runtime::Component {
           "threads", 2,
           {.min = 1, .max = 64,
            .doc = "threads that cast the rays and walk the tree (the map is the same for any count; with 2 and the pipeline a "
-                  "64x1800 scan at 0.2 m takes 62-75 ms on 2 cores, with 1 about 120 ms: docs/benchmarks/mapper.md)"}));
+                  "64x1800 scan at 0.2 m took 57-69 ms on 2 cores, with 1 thread 111-132 ms: docs/benchmarks/mapper.md)"}));
       config.pipeline = p.declare<bool>(
           "pipeline", true,
           {.doc = "overlap each cloud's tree update with the next cloud's ray casting while one thread keeps up with the tree, "
