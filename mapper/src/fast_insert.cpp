@@ -8,8 +8,11 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <new>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -78,20 +81,42 @@ struct NodeAccess : octomap::OcTreeNode {
   static octomap::AbstractOcTreeNode**& childrenOf(octomap::OcTreeNode& n) { return n.*(&NodeAccess::children); }
 };
 
-// OcTreeBaseImpl::createNodeChild / expandNode / pruneNode, allocation for allocation, except that the
-// change in node count goes to a per-thread counter instead of the tree's (so disjoint subtrees can be
-// updated from several threads); the caller adds the counters to the tree afterwards.
+// OcTreeBaseImpl::createNodeChild / expandNode / pruneNode, with two differences: the change in node
+// count goes to a per-thread counter instead of the tree's (so disjoint subtrees can be updated from
+// several threads; the caller adds the counters to the tree afterwards), and the nodes and child arrays a
+// prune frees are kept for the next nodes this walk creates instead of going back to malloc (a walk prunes
+// and creates in the same regions; glibc's free + malloc of them was a good part of the walk's time). What
+// is left over goes back with delete when the walk ends: every node in the tree still comes from `new`.
 class alignas(64) NodeOps {  // one cache line each: the per-thread counters are written on every new node
  public:
   explicit NodeOps(const octomap::OcTree& tree) : tree_(tree) {}
+  NodeOps(const NodeOps&) = delete;
+  NodeOps& operator=(const NodeOps&) = delete;
+  ~NodeOps() {
+    for (octomap::OcTreeNode* node : spare_nodes_) delete node;
+    for (octomap::AbstractOcTreeNode** children : spare_arrays_) delete[] children;
+  }
 
   octomap::OcTreeNode* createChild(octomap::OcTreeNode* node, unsigned pos) {
     octomap::AbstractOcTreeNode**& children = NodeAccess::childrenOf(*node);
     if (children == nullptr) {
-      children = new octomap::AbstractOcTreeNode*[8];
+      if (spare_arrays_.empty()) {
+        children = new octomap::AbstractOcTreeNode*[8];
+      } else {
+        children = spare_arrays_.back();
+        spare_arrays_.pop_back();
+      }
       for (unsigned i = 0; i < 8; ++i) children[i] = nullptr;
     }
-    auto* child = new octomap::OcTreeNode();
+    octomap::OcTreeNode* child;
+    if (spare_nodes_.empty()) {
+      child = new octomap::OcTreeNode();
+    } else {
+      child = spare_nodes_.back();  // a pruned leaf: no children, so ending its life frees nothing
+      spare_nodes_.pop_back();
+      child->~OcTreeNode();
+      new (child) octomap::OcTreeNode();
+    }
     children[pos] = child;
     ++node_delta_;
     return child;
@@ -104,10 +129,19 @@ class alignas(64) NodeOps {  // one cache line each: the per-thread counters are
     node->copyData(*tree_.getNodeChild(node, 0));
     octomap::AbstractOcTreeNode**& children = NodeAccess::childrenOf(*node);
     for (unsigned i = 0; i < 8; ++i) {
-      delete static_cast<octomap::OcTreeNode*>(children[i]);
+      auto* child = static_cast<octomap::OcTreeNode*>(children[i]);  // a leaf (isNodeCollapsible)
+      if (spare_nodes_.size() < kMaxSpareNodes) {
+        spare_nodes_.push_back(child);
+      } else {
+        delete child;
+      }
       children[i] = nullptr;
     }
-    delete[] children;
+    if (spare_arrays_.size() < kMaxSpareNodes / 8) {
+      spare_arrays_.push_back(children);
+    } else {
+      delete[] children;
+    }
     children = nullptr;
     node_delta_ -= 8;
     return true;
@@ -121,8 +155,11 @@ class alignas(64) NodeOps {  // one cache line each: the per-thread counters are
   long nodeDelta() const { return node_delta_; }
 
  private:
+  static constexpr std::size_t kMaxSpareNodes = 1 << 16;  // 1 MB of nodes at most, per thread
   const octomap::OcTree& tree_;
   long node_delta_ = 0;
+  std::vector<octomap::OcTreeNode*> spare_nodes_;
+  std::vector<octomap::AbstractOcTreeNode**> spare_arrays_;
 };
 
 // The walk over Morton-ordered voxels described in fast_insert.hpp, below one subtree root.
@@ -363,10 +400,11 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
 
   // Threads take subtrees from a shared counter, so a thread the OS delays (2 cores shared with other
   // processes) holds up at most one subtree instead of a fixed share.
-  std::vector<NodeOps> ops(threads, NodeOps(tree));
+  std::vector<std::unique_ptr<NodeOps>> ops;
+  for (int t = 0; t < threads; ++t) ops.push_back(std::make_unique<NodeOps>(tree));
   std::atomic<std::size_t> next{0};
   auto work = [&](int t) {
-    TreeWalk walk(tree, ops[t]);
+    TreeWalk walk(tree, *ops[t]);
     for (std::size_t i = next.fetch_add(1); i < subtrees.size(); i = next.fetch_add(1)) {
       const Subtree& st = subtrees[i];
       walk.begin(st.node, split_depth, st.fresh);
@@ -384,7 +422,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
     for (octomap::OcTreeNode* node : above[d]) main_ops.settle(node);
   }
   long delta = main_ops.nodeDelta();
-  for (const NodeOps& o : ops) delta += o.nodeDelta();
+  for (const auto& o : ops) delta += o->nodeDelta();
   TreeAccess::sizeOf(tree) += delta;
   return threads;
 }
