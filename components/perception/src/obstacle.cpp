@@ -238,8 +238,19 @@ Eigen::Matrix3f principalAxes(std::span<const Eigen::Vector3f> points, std::span
 
 namespace {
 
-void splitRecursive(std::span<const Eigen::Vector3f> points, std::vector<int> piece, int dimensions, float max_length,
-                    float max_width, int depth, Clusters& out) {
+// Scratch of splitByExtent, kept per thread across calls: the split runs for every part of every scan
+// (thousands per cloud), and a vector per piece and per slab was most of the detector's allocations.
+struct SplitScratch {
+  std::vector<int> sorted;  // one level's counting sort, copied back before the recursion
+  std::vector<int> slab;    // one level's slab of each index
+  std::vector<int> bounds;  // a stack: the slab boundaries of every level still being split
+};
+
+// Splits piece (a range of indices, reordered in place: each slab's indices in their original order,
+// slabs in ascending order — as if each slab were a list filled in the order of piece) and appends the
+// pieces to out in the order the recursion emits them.
+void splitRecursive(std::span<const Eigen::Vector3f> points, std::span<int> piece, int dimensions, float max_length,
+                    float max_width, int depth, Clusters& out, SplitScratch& scratch) {
   auto emit = [&] {
     out.indices.insert(out.indices.end(), piece.begin(), piece.end());
     out.offsets.push_back(static_cast<int>(out.indices.size()));
@@ -259,14 +270,33 @@ void splitRecursive(std::span<const Eigen::Vector3f> points, std::vector<int> pi
   // Cut across the longest extent: into pieces of at most max_length, and at least in two (a piece
   // that is short enough but too thick — an L of two faces, a strongly curved arc — is halved).
   const int slabs = std::max(2, static_cast<int>(std::ceil(longest / max_length)));
-  std::vector<std::vector<int>> parts(static_cast<std::size_t>(slabs));
-  for (int i : piece) {
-    const float s = axes.col(axis).dot(points[static_cast<std::size_t>(i)]) - lo[axis];
+  // A stable counting sort by slab, then each non-empty slab split in turn.
+  const std::size_t base = scratch.bounds.size();
+  scratch.bounds.resize(base + static_cast<std::size_t>(slabs) + 1, 0);
+  scratch.slab.resize(piece.size());
+  for (std::size_t j = 0; j < piece.size(); ++j) {
+    const float s = axes.col(axis).dot(points[static_cast<std::size_t>(piece[j])]) - lo[axis];
     const int k = std::clamp(static_cast<int>(s / longest * static_cast<float>(slabs)), 0, slabs - 1);
-    parts[static_cast<std::size_t>(k)].push_back(i);
+    scratch.slab[j] = k;
+    ++scratch.bounds[base + static_cast<std::size_t>(k) + 1];
   }
-  for (auto& part : parts)
-    if (!part.empty()) splitRecursive(points, std::move(part), dimensions, max_length, max_width, depth + 1, out);
+  for (int k = 0; k < slabs; ++k) scratch.bounds[base + k + 1] += scratch.bounds[base + k];
+  scratch.sorted.resize(piece.size());
+  for (std::size_t j = 0; j < piece.size(); ++j) {  // bounds[k] is slab k's next free place
+    const auto k = static_cast<std::size_t>(scratch.slab[j]);
+    scratch.sorted[static_cast<std::size_t>(scratch.bounds[base + k]++)] = piece[j];
+  }
+  // Each slab's place ended at its end, the next slab's start: shift back by one for the starts.
+  for (int k = slabs; k > 0; --k) scratch.bounds[base + k] = scratch.bounds[base + k - 1];
+  scratch.bounds[base] = 0;
+  std::copy(scratch.sorted.begin(), scratch.sorted.begin() + static_cast<std::ptrdiff_t>(piece.size()), piece.begin());
+  for (int k = 0; k < slabs; ++k) {
+    const auto first = static_cast<std::size_t>(scratch.bounds[base + k]);
+    const auto last = static_cast<std::size_t>(scratch.bounds[base + k + 1]);
+    if (first < last)
+      splitRecursive(points, piece.subspan(first, last - first), dimensions, max_length, max_width, depth + 1, out, scratch);
+  }
+  scratch.bounds.resize(base);
 }
 
 }  // namespace
@@ -285,8 +315,10 @@ void splitByExtent(std::span<const Eigen::Vector3f> points, std::span<const int>
     return;
   }
   const double width = max_width > 0.0 ? std::min(max_width, max_length) : max_length;
-  splitRecursive(points, std::vector<int>(indices.begin(), indices.end()), dimensions, static_cast<float>(max_length),
-                 static_cast<float>(width), 0, out);
+  thread_local SplitScratch scratch;
+  thread_local std::vector<int> piece;
+  piece.assign(indices.begin(), indices.end());
+  splitRecursive(points, piece, dimensions, static_cast<float>(max_length), static_cast<float>(width), 0, out, scratch);
 }
 
 }  // namespace ddsnav::perception
