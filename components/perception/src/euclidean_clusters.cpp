@@ -69,6 +69,7 @@ struct EuclideanClusterer::Buffers {
   std::vector<std::uint32_t> parent;         // union-find over cells
   std::vector<std::uint32_t> point_cell;     // cell of each input point
   std::vector<int> root_cluster, cluster_size, cluster_first;
+  std::vector<int> component_of_cell, kept, write;  // the clusters' assembly (kept: no allocation per call)
   ColumnMap columns;
 };
 
@@ -217,7 +218,8 @@ void EuclideanClusterer::extract(std::span<const Eigen::Vector3f> points, Cluste
   b.root_cluster.assign(cell_count, -1);
   b.cluster_size.clear();
   b.cluster_first.clear();
-  std::vector<int> component_of_cell(cell_count);
+  auto& component_of_cell = b.component_of_cell;
+  component_of_cell.resize(cell_count);
   for (std::uint32_t c = 0; c < cell_count; ++c) {
     const std::uint32_t r = find(c);
     if (b.root_cluster[r] < 0) {
@@ -229,7 +231,8 @@ void EuclideanClusterer::extract(std::span<const Eigen::Vector3f> points, Cluste
     component_of_cell[c] = k;
     b.cluster_size[k] += static_cast<int>(b.starts[c + 1] - b.starts[c]);
   }
-  std::vector<int> kept;
+  auto& kept = b.kept;
+  kept.clear();
   for (int k = 0; k < static_cast<int>(b.cluster_size.size()); ++k) {
     const auto size = static_cast<std::size_t>(b.cluster_size[k]);
     if (size >= params_.min_size && size <= params_.max_size) kept.push_back(k);
@@ -242,7 +245,8 @@ void EuclideanClusterer::extract(std::span<const Eigen::Vector3f> points, Cluste
     if (b.cluster_size[x] != b.cluster_size[y]) return b.cluster_size[x] > b.cluster_size[y];
     return b.cluster_first[x] < b.cluster_first[y];
   });
-  std::vector<int> write(b.cluster_size.size(), -1);  // next write position per component
+  auto& write = b.write;  // next write position per component
+  write.assign(b.cluster_size.size(), -1);
   clusters.offsets.resize(kept.size() + 1);
   clusters.offsets[0] = 0;
   for (std::size_t i = 0; i < kept.size(); ++i) {
