@@ -117,13 +117,15 @@ class ContextImpl : public Context {
   void start(const bus::ParticipantOptions& options) {
     participant_ = std::make_unique<bus::Participant>(options);
     status_pub_ = participant_->publisher<msg::ComponentStatus>("system/status", bus::Qos::state(1));
-    status_open_ = true;
-    publishState(msg::LIFECYCLE_STARTING);
+    // The clock before the first status: a component on `clock: topic` stamps even its STARTING status
+    // with simulated time (0 until the first clock sample), never with the wall clock.
     runtime_params_ = RuntimeParams(params_);
     if (runtime_params_.clock == "system")
       clock_ = std::make_unique<SystemClock>();
     else
       clock_ = std::make_unique<TopicClock>(*participant_, topics::clock.name);
+    status_open_ = true;
+    publishState(msg::LIFECYCLE_STARTING);
     heartbeat_period_ = runtime_params_.heartbeat_period_s;
     heartbeat_ = std::thread([this] { heartbeatLoop(); });
     publishState(msg::LIFECYCLE_CONFIGURING);
