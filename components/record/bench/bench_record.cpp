@@ -148,13 +148,14 @@ struct RunSpec {
   std::size_t chunk_kb = 1024;
   int zstd_level = 1;
   int lz4_level = 0;
+  std::size_t resident_bytes = 0;  // payload memory touched before each run (as ddsnav record does at start)
 };
 
 Result runSink(const std::string& self, const RunSpec& spec, const std::string& sink, const fs::path& file) {
   const std::string& dds = spec.dds;
   const int domain = spec.domain, count = spec.count;
   const std::string& kind = spec.kind;
-  const double cpu0 = cpuSeconds();
+  double cpu0 = cpuSeconds();
   bus::Participant p({.vendor = bus::parseVendor(dds), .domain_id = domain, .name = "bench-record-sub"});
   const std::string topic = kind == "cloud" ? "bench/points" : "bench/small";
   std::atomic<std::uint64_t> received{0}, bytes{0};
@@ -173,6 +174,13 @@ Result runSink(const std::string& self, const RunSpec& spec, const std::string& 
     ::execl(self.c_str(), self.c_str(), "--role", "publish", "--dds", spec.pub_dds.c_str(), "--domain", d.c_str(), "--kind",
             kind.c_str(), "--count", c.c_str(), "--rate", r.c_str(), "--qos", spec.qos.c_str(), static_cast<char*>(nullptr));
     ::_exit(127);
+  }
+  // After the fork, not before: a fork write-protects every page of this process, and the first write to
+  // each would fault again. (ddsnav record forks nothing.)
+  {
+    const double before = cpuSeconds();
+    record::prefaultPayloadMemory(spec.resident_bytes);
+    cpu0 += cpuSeconds() - before;  // the set-up is not the sink's cost per message
   }
   std::unique_ptr<record::Recorder> recorder;
   bus::Subscription discard;
@@ -388,6 +396,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(-1, 64));
   app.add_option("--writer-nice", spec.writer_nice, "recorder writer/worker nice increment")->check(CLI::Range(0, 19));
   app.add_option("--queue-mb", spec.queue_mb, "recorder queue limit")->check(CLI::Range(1, 1 << 16));
+  double preallocate_mb = -1;
+  app.add_option("--preallocate-mb", preallocate_mb, "as ddsnav record's (default: the queue size, at most 1024; 0: none)")
+      ->check(CLI::Range(0.0, 1048576.0));
   app.add_option("--disk-count", disk_count, "messages for the disk-only runs (default: 1000 clouds, 1000000 small)")
       ->check(CLI::PositiveNumber);
   app.add_option("--disk-levels", levels, "zstd levels for the disk-only runs")->delimiter(',');
@@ -411,6 +422,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (role == "publish") return runPublisher(spec.pub_dds, spec.domain, spec.kind, spec.count, spec.rate, spec.qos);
+  // The sinks run in this process, on the allocator settings and resident payload memory `ddsnav record`
+  // has (recorder.hpp); no thread exists yet. The discarding sink gets them too: one process, one allocator.
+  record::configureAllocatorForRecording();
+  const double warm_mb = preallocate_mb >= 0 ? preallocate_mb : std::min<double>(static_cast<double>(spec.queue_mb), 1024.0);
+  spec.resident_bytes = static_cast<std::size_t>(warm_mb * (1 << 20));
 
   // A bad --dir is a usage error, said once, before any process starts.
   {
@@ -435,11 +451,13 @@ int main(int argc, char** argv) {
   report["qos"] = spec.qos;
   report["count"] = spec.count;
   report["rate"] = spec.rate;
+  report["resident_payload_mb"] = spec.resident_bytes >> 20;
   std::map<std::string, std::vector<double>> delivered_fraction, cpu_per_msg;
   bool all_accounted = true;
   if (!json && !no_dds)
     std::printf("%s -> %s, %s %s, %d sent at %s\n", spec.pub_dds.c_str(), spec.dds.c_str(), spec.qos.c_str(), spec.kind.c_str(),
                 spec.count, spec.rate > 0 ? (std::to_string(static_cast<long>(spec.rate)) + "/s").c_str() : "flood");
+  if (!json && !no_dds) std::printf("payload memory made resident before each run: %zu MB\n", spec.resident_bytes >> 20);
   for (int rep = 0; rep < repeats && !no_dds; ++rep) {
     for (const std::string& sink : sinks) {
       Result r;

@@ -73,6 +73,7 @@ struct RecordOptions {
   double duration = 0;
   std::string compression = "zstd";
   double queue_mb = 256;
+  double preallocate_mb = -1;  // -1: the queue's size, at most 1024 MB
   std::size_t chunk_kb = 1024;
   long write_delay_us = 0;
   double max_file_mb = 0, max_file_s = 0;
@@ -95,6 +96,10 @@ struct RecordOptions {
     app.add_option("--chunk-kb", chunk_kb, "close a chunk at this many KB of messages (also after 1 s)")->check(CLI::Range(1, 1 << 20));
     app.add_option("--queue-mb", queue_mb, "writer queue limit in MB; samples beyond it are dropped and counted")
         ->check(CLI::PositiveNumber);
+    app.add_option("--preallocate-mb", preallocate_mb,
+                   "payload memory made resident at start, so a flood's samples never wait for page faults "
+                   "(default: the queue size, at most 1024; 0: none)")
+        ->check(CLI::Range(0.0, 1048576.0));
     app.add_option("--queue-messages", options.queue_messages, "writer queue limit in samples")->check(CLI::PositiveNumber);
     app.add_option("--write-delay-us", write_delay_us, "pause after each write (simulates a slow disk; tests)")
         ->check(CLI::NonNegativeNumber);
@@ -168,6 +173,11 @@ void runRecording(runtime::Context& ctx, RecordOptions& o, sigset_t snapshot_sig
   }
   std::optional<planner::Scenario> scenario;
   if (!o.scenario_file.empty()) scenario = planner::loadScenario(o.scenario_file);  // errors name the file, before recording starts
+  {
+    const double mb = o.preallocate_mb >= 0 ? o.preallocate_mb : std::min(o.queue_mb, 1024.0);
+    const std::size_t touched = record::prefaultPayloadMemory(static_cast<std::size_t>(mb * (1 << 20)));
+    spdlog::debug("record: {} MB of payload memory resident", touched >> 20);
+  }
   bus::Participant& participant = ctx.bus();
   options.vendor_name = std::string(bus::vendorName(participant.vendor()));
   record::Recorder recorder(participant, options);
@@ -279,6 +289,7 @@ void runRecording(runtime::Context& ctx, RecordOptions& o, sigset_t snapshot_sig
 }  // namespace
 
 int main(int argc, char** argv) {
+  record::configureAllocatorForRecording();  // before any thread exists (recorder.hpp)
   // Blocked before any thread exists: only the recording loop's sigtimedwait sees it.
   sigset_t snapshot_signal;
   sigemptyset(&snapshot_signal);

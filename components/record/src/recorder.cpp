@@ -4,7 +4,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include <malloc.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <climits>
+#include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
 
@@ -38,6 +43,30 @@ TopicQos qosForProfile(const std::string& profile, const std::string& topic) {
   if (profile == "commands") return {bus::Qos::commands(10), profile};
   if (profile == "default") return {bus::Qos::commands(10), profile};
   return qosForTopic(topic);
+}
+
+void configureAllocatorForRecording() {
+#ifdef __GLIBC__
+  mallopt(M_ARENA_MAX, 1);
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest: bigger blocks still get their own mmap
+  mallopt(M_TRIM_THRESHOLD, INT_MAX);
+#endif
+}
+
+std::size_t prefaultPayloadMemory(std::size_t bytes) {
+  constexpr std::size_t kBlock = 1 << 20;
+  const long page = ::sysconf(_SC_PAGESIZE), available = ::sysconf(_SC_AVPHYS_PAGES);
+  if (page > 0 && available > 0) bytes = std::min(bytes, static_cast<std::size_t>(page) * static_cast<std::size_t>(available) / 2);
+  std::vector<void*> blocks;
+  blocks.reserve(bytes / kBlock);
+  for (std::size_t done = 0; done + kBlock <= bytes; done += kBlock) {
+    void* block = std::malloc(kBlock);
+    if (block == nullptr) break;
+    for (std::size_t i = 0; i < kBlock; i += 4096) static_cast<volatile char*>(block)[i] = 0;
+    blocks.push_back(block);
+  }
+  for (void* block : blocks) std::free(block);
+  return blocks.size() * kBlock;
 }
 
 Recorder::Recorder(bus::Participant& bus, RecorderOptions options) : bus_(bus), options_(std::move(options)) {

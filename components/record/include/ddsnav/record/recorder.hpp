@@ -35,6 +35,20 @@ TopicQos qosForTopic(const std::string& topic);
 // The profile named in a recording's channel metadata (falls back to the table for unknown names).
 TopicQos qosForProfile(const std::string& profile, const std::string& topic);
 
+// Memory for floods (docs/record.md, "Payload memory kept warm"). A 1 MB sample copied into memory the
+// process never touched costs ~470 us of page faults on the DDS thread, ten times the copy into resident
+// memory: at a flood of 1 MB clouds that alone made the receive thread too slow and the publisher gave
+// samples up. So a recording process keeps its payload memory resident and reuses it:
+//
+// configureAllocatorForRecording() — first thing in main(), before any thread starts: one glibc malloc
+// arena for all threads (so a buffer the DDS thread frees is reused by the next one it allocates, and
+// memory touched by main() serves every thread), blocks up to 32 MB from the heap instead of each its own
+// mmap, and freed memory kept instead of handed back to the system. No-op with another allocator.
+void configureAllocatorForRecording();
+// Touches `bytes` of heap now, in 1 MB blocks, and frees them: the first payloads of a flood land in these
+// resident pages. Capped at half of the memory available now; returns the bytes touched.
+std::size_t prefaultPayloadMemory(std::size_t bytes);
+
 struct RecorderOptions {
   std::string output;                 // .mcap path (with splitting or snapshots: the name files are numbered from)
   std::vector<std::string> topics;    // empty: every topic discovered
