@@ -386,7 +386,13 @@ class FastReader : public ReaderImpl, public dds::DataReaderListener {
     }
     if (*last_sequence_ > 0 && sequence > *last_sequence_ + 1)
       sequence_gaps_.fetch_add(static_cast<std::uint64_t>(sequence - *last_sequence_ - 1), std::memory_order_relaxed);
-    if (sequence > *last_sequence_) *last_sequence_ = sequence;
+    if (sequence > *last_sequence_) {
+      *last_sequence_ = sequence;
+    } else if (sequence < *last_sequence_ && sequence_gaps_.load(std::memory_order_relaxed) > 0) {
+      // Taken after a later one (seen with fragmented 1 MB samples of a Cyclone writer): the gap had counted
+      // it as lost. Only this thread writes the counter.
+      sequence_gaps_.fetch_sub(1, std::memory_order_relaxed);
+    }
   }
   static constexpr std::size_t kMaxTrackedWriters = 4096;
 
