@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <deque>
 #include <limits>
@@ -788,8 +787,6 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
         ev.quantile = chiSquareQuantile(detection.probability, dims);
       }
       track.quantile = ev.quantile;
-      // Room to grow to twice the first piece in one allocation (growing by push_back took ~5 per track).
-      track.voxels.reserve(std::bit_ceil(std::max<std::size_t>(8, 2 * piece.size())));
       track.frame = principalAxes(ev.leftover_points, piece, dims);
       track.lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
       track.hi = -track.lo;
