@@ -60,6 +60,12 @@ using eprosima::fastrtps::types::ReturnCode_t;
 
 // Loopback defaults (see docs/bus.md and dds-notes.md).
 constexpr std::uint32_t kShmSegmentSize = 16 * 1024 * 1024;
+// Messages a shared-memory port (a reader participant's inbox) holds before a sender's push fails and the
+// sample must wait for a repair. Fast DDS's 512 made a reader of 200 000 small messages/s lose 40-60 % of them
+// (reliable: GAP'd, counted) while spending 11-16 us of CPU per sample in repairs; 8192 delivered all of them at
+// 4-6 us per sample (docs/benchmarks/record.md, 2026-12-02). A port is created by whichever participant opens
+// it first, so every ddsnav participant asks for the same size.
+constexpr std::uint32_t kShmPortQueueCapacity = 8192;
 constexpr std::uint32_t kSocketBufferSize = 4 * 1024 * 1024;
 constexpr std::uint32_t kMaxParticipantsPerHost = 32;
 
@@ -198,6 +204,7 @@ dds::DomainParticipantQos participantQos(const ParticipantOptions& options, cons
   if (options.fast_shared_memory) {
     auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
     shm->segment_size(kShmSegmentSize);
+    shm->port_queue_capacity(kShmPortQueueCapacity);
     transport.user_transports.push_back(shm);
   }
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
