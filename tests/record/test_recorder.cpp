@@ -32,6 +32,21 @@ fs::path tempFile(const std::string& name) {
   return dir / name;
 }
 
+// docs/record.md "Payload memory kept warm": whole 1 MB blocks are touched, a partial one is not; nothing in
+// the sanitizer builds; the default follows the queue up to 1 GB.
+TEST(RecordPayloadMemory, PrefaultsWholeBlocksAndTheDefaultFollowsTheQueue) {
+#ifdef DDSNAV_SANITIZED
+  EXPECT_EQ(record::prefaultPayloadMemory(std::size_t(3) << 20), 0u);
+#else
+  EXPECT_EQ(record::prefaultPayloadMemory(std::size_t(3) << 20), std::size_t(3) << 20);
+  EXPECT_EQ(record::prefaultPayloadMemory((std::size_t(2) << 20) + 4096), std::size_t(2) << 20);
+#endif
+  EXPECT_EQ(record::prefaultPayloadMemory(0), 0u);
+  EXPECT_EQ(record::prefaultPayloadMemory((1u << 20) - 1), 0u);
+  EXPECT_EQ(record::defaultPayloadPreallocation(std::size_t(256) << 20), std::size_t(256) << 20);
+  EXPECT_EQ(record::defaultPayloadPreallocation(std::size_t(64) << 30), std::size_t(1) << 30);
+}
+
 TEST(RecordSchemas, IdlTextOfTheTypeWithItsIncludes) {
   const auto path = record::idlSchemaFor("ddsnav::msg::Path");
   ASSERT_TRUE(path);

@@ -425,8 +425,8 @@ int main(int argc, char** argv) {
   // The sinks run in this process, on the allocator settings and resident payload memory `ddsnav record`
   // has (recorder.hpp); no thread exists yet. The discarding sink gets them too: one process, one allocator.
   record::configureAllocatorForRecording();
-  const double warm_mb = preallocate_mb >= 0 ? preallocate_mb : std::min<double>(static_cast<double>(spec.queue_mb), 1024.0);
-  spec.resident_bytes = static_cast<std::size_t>(warm_mb * (1 << 20));
+  spec.resident_bytes = preallocate_mb >= 0 ? static_cast<std::size_t>(preallocate_mb * (1 << 20))
+                                            : record::defaultPayloadPreallocation(spec.queue_mb << 20);
 
   // A bad --dir is a usage error, said once, before any process starts.
   {

@@ -73,7 +73,7 @@ struct RecordOptions {
   double duration = 0;
   std::string compression = "zstd";
   double queue_mb = 256;
-  double preallocate_mb = -1;  // -1: the queue's size, at most 1024 MB
+  double preallocate_mb = -1;  // -1: record::defaultPayloadPreallocation
   std::size_t chunk_kb = 1024;
   long write_delay_us = 0;
   double max_file_mb = 0, max_file_s = 0;
@@ -174,8 +174,9 @@ void runRecording(runtime::Context& ctx, RecordOptions& o, sigset_t snapshot_sig
   std::optional<planner::Scenario> scenario;
   if (!o.scenario_file.empty()) scenario = planner::loadScenario(o.scenario_file);  // errors name the file, before recording starts
   {
-    const double mb = o.preallocate_mb >= 0 ? o.preallocate_mb : std::min(o.queue_mb, 1024.0);
-    const std::size_t touched = record::prefaultPayloadMemory(static_cast<std::size_t>(mb * (1 << 20)));
+    const std::size_t bytes = o.preallocate_mb >= 0 ? static_cast<std::size_t>(o.preallocate_mb * (1 << 20))
+                                                    : record::defaultPayloadPreallocation(options.queue_bytes);
+    const std::size_t touched = record::prefaultPayloadMemory(bytes);
     spdlog::debug("record: {} MB of payload memory resident", touched >> 20);
   }
   bus::Participant& participant = ctx.bus();

@@ -53,17 +53,10 @@ void configureAllocatorForRecording() {
 #endif
 }
 
-// ASan and TSan builds (gcc defines the first pair, clang answers __has_feature).
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define DDSNAV_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define DDSNAV_SANITIZED 1
-#endif
-#endif
+std::size_t defaultPayloadPreallocation(std::size_t queue_bytes) { return std::min<std::size_t>(queue_bytes, 1u << 30); }
 
 std::size_t prefaultPayloadMemory(std::size_t bytes) {
-#ifdef DDSNAV_SANITIZED
+#ifdef DDSNAV_SANITIZED  // ASan / TSan builds (top-level CMakeLists.txt)
   // The sanitizers bring their own allocator, which neither keeps these pages for payloads nor needs the
   // help; touching them would only cost the instrumented tests memory and time.
   (void)bytes;

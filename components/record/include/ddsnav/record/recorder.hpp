@@ -45,9 +45,12 @@ TopicQos qosForProfile(const std::string& profile, const std::string& topic);
 // memory touched by main() serves every thread), blocks up to 32 MB from the heap instead of each its own
 // mmap, and freed memory kept instead of handed back to the system. No-op with another allocator.
 void configureAllocatorForRecording();
-// Touches `bytes` of heap now, in 1 MB blocks, and frees them: the first payloads of a flood land in these
-// resident pages. Capped at half of the memory available now; returns the bytes touched.
+// Touches `bytes` of heap now, in whole 1 MB blocks, and frees them: the first payloads of a flood land in
+// these resident pages. Capped at half of the memory available now; returns the bytes touched (0 in ASan and
+// TSan builds, whose allocators keep nothing of it).
 std::size_t prefaultPayloadMemory(std::size_t bytes);
+// What to prefault when the user says nothing: the memory a full queue would hold anyway, at most 1 GB.
+std::size_t defaultPayloadPreallocation(std::size_t queue_bytes);
 
 struct RecorderOptions {
   std::string output;                 // .mcap path (with splitting or snapshots: the name files are numbered from)
