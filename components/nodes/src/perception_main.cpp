@@ -56,6 +56,8 @@ class PerceptionComponent : public runtime::Component {
           "forget_radius_m", perception::TrackerParams::matching(detector).forget_radius,
           {.above = 0, .max = 1e6, .unit = "m",
            .doc = "tracks entirely farther from the cloud's sensor origin are forgotten (default max_range + 4 cluster_tolerance)"});
+      // Only tracks are published, and the tracker refits them from the detections' voxels.
+      detector.fit_detections = false;
       max_obstacles = p.declare<std::int64_t>("max_obstacles", 1500, {.min = 1, .max = 1000000, .doc = "most obstacles published per array"});
       frame = p.declare<std::string>("frame", nodes::kWorldFrame, {.doc = "frame_id clouds must carry"});
     }

@@ -132,7 +132,16 @@ std::vector<ObstacleEllipsoid> ObstacleDetector::detect(std::span<const Eigen::V
   std::vector<ObstacleEllipsoid> obstacles;
   obstacles.reserve(pieces_.size());
   for (std::size_t i = 0; i < pieces_.size(); ++i) {
-    ObstacleEllipsoid e = fitEllipsoid(voxels_, pieces_[i], sensor_origin, dimensions, fit);
+    ObstacleEllipsoid e;
+    if (params_.fit_detections) {
+      e = fitEllipsoid(voxels_, pieces_[i], sensor_origin, dimensions, fit);
+    } else {
+      e.dimensions = dimensions;
+      e.probability = params_.probability;
+      e.point_count = pieces_[i].size();
+      for (int k : pieces_[i]) e.center += voxels_[static_cast<std::size_t>(k)].cast<double>();
+      e.center /= static_cast<double>(pieces_[i].size());
+    }
     e.support.reserve(pieces_[i].size());
     for (int k : pieces_[i]) {
       const Eigen::Vector3f& v = voxels_[static_cast<std::size_t>(k)];

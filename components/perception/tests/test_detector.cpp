@@ -1,5 +1,6 @@
 #include "ddsnav/perception/chi_square.hpp"
 #include "ddsnav/perception/obstacle_detector.hpp"
+#include "ddsnav/perception/obstacle_tracker.hpp"
 #include "ddsnav/sim/range_sensor.hpp"
 #include "ddsnav/sim/ray_primitives.hpp"
 
@@ -308,6 +309,52 @@ TEST(Detector, LongWallBecomesAChainOfBoundedPieces) {
 
 namespace ddsnav::perception {
 namespace {
+
+TEST(Detector, WithoutTheFitDetectionsCarryTheSameVoxelsAndTrackTheSame) {
+  // fit_detections = false (the perception component): the same pieces with the same voxels and bearings,
+  // no ellipse, the voxels' mean as centre; a tracker fed either gives the same tracks.
+  for (int dimensions : {2, 3}) {
+    SCOPED_TRACE(dimensions);
+    const planner::Scenario world = scatteredWorld(dimensions);
+    sim::RangeSensor sensor(world, sensorFor(dimensions, 0.02, 3));
+    DetectorParams params = paramsFor(dimensions, 0.02);
+    ObstacleDetector fitted(params);
+    params.fit_detections = false;
+    ObstacleDetector unfitted(params);
+    ObstacleTracker from_fitted(TrackerParams::matching(params)), from_unfitted(TrackerParams::matching(params));
+    for (int step = 0; step < 4; ++step) {
+      const auto cloud = sensor.scan({sensorAt(dimensions) + Eigen::Vector3d(0.5 * step, 0.2 * step, 0), 0.1 * step});
+      const auto a = fitted.detect(cloud.points, cloud.origin);
+      const auto b = unfitted.detect(cloud.points, cloud.origin);
+      ASSERT_EQ(a.size(), b.size());
+      ASSERT_FALSE(a.empty());
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        ASSERT_EQ(a[i].support.size(), b[i].support.size());
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (std::size_t k = 0; k < a[i].support.size(); ++k) {
+          EXPECT_EQ(a[i].support[k].position, b[i].support[k].position);
+          EXPECT_EQ(a[i].support[k].bearing, b[i].support[k].bearing);
+          mean += b[i].support[k].position.cast<double>();
+        }
+        EXPECT_GT(a[i].semi_axes.x(), 0.0);
+        EXPECT_EQ(b[i].semi_axes, Eigen::Vector3d::Zero());
+        EXPECT_EQ(b[i].covariance, Eigen::Matrix3d::Zero());
+        EXPECT_EQ(b[i].dimensions, a[i].dimensions);
+        EXPECT_EQ(b[i].probability, a[i].probability);
+        EXPECT_EQ(b[i].point_count, b[i].support.size());
+        EXPECT_LT((b[i].center - mean / static_cast<double>(b[i].support.size())).norm(), 1e-9);
+      }
+      const auto& ta = from_fitted.update(a, cloud.origin);
+      const auto& tb = from_unfitted.update(b, cloud.origin);
+      ASSERT_EQ(ta.size(), tb.size());
+      for (std::size_t i = 0; i < ta.size(); ++i) {
+        EXPECT_EQ(ta[i].id, tb[i].id);
+        EXPECT_EQ(ta[i].center, tb[i].center);
+        EXPECT_EQ(ta[i].covariance, tb[i].covariance);
+      }
+    }
+  }
+}
 
 TEST(Pieces, SplitByExtentBoundsEveryPieceAndKeepsEveryPoint) {
   // An L of two 5 m faces (0.1 m spacing): every piece fits the rule, no point is lost or doubled.

@@ -19,7 +19,7 @@
 //      consecutive pieces (splitByExtent), so a wall becomes a chain of tight ellipses instead of
 //      one that spans free space
 //   7. fit the probability-p ellipsoid to each piece (fitEllipsoid); each carries its voxels as
-//      `support` for the tracker
+//      `support` for the tracker (fit_detections = false: the voxels only, for a tracker that refits)
 
 #include <ddsnav/perception/euclidean_clusters.hpp>
 #include <ddsnav/perception/obstacle.hpp>
@@ -53,6 +53,11 @@ struct DetectorParams {
   bool enclose_points = true;          // see EllipsoidFitParams::enclose_points
   std::size_t max_points = 20000000;   // larger clouds are rejected (std::invalid_argument)
   double structure_extent = 0.0;       // m; clusters with a longer box diagonal are structure (step 4); 0: none
+  // Step 7 on or off. Off, a detection carries its voxels (`support`), `dimensions`, `probability`,
+  // `point_count` and the voxels' mean as `center`, but no ellipse (zero covariance and semi-axes):
+  // all ObstacleTracker reads, which refits its tracks from the voxels anyway — the perception
+  // component publishes tracks only, so it saves the fit (~20 % of detection time on a 16-beam lidar).
+  bool fit_detections = true;
 
   // Throws std::invalid_argument naming the first bad parameter.
   void validate() const;
