@@ -228,6 +228,7 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
   perception::ObstacleTracker exact_tracker(exact_params);
   perception::reference::ReferenceObstacleTracker reference_tracker(tracker_params);
   std::vector<double> unfitted_cpu, pcl_cpu, ours_cpu, sim_cpu, track_cpu, exact_track_cpu, ref_track_cpu, total_cpu, total_ms;
+  std::vector<std::pair<std::vector<perception::ObstacleEllipsoid>, Eigen::Vector3d>> tmp_replay;
   std::size_t track_mismatches = 0, exact_mismatches = 0, not_enclosed = 0, unfitted_mismatches = 0;
   std::size_t forgotten = 0, most_tracks = 0;
   std::size_t refreshed = 0, added = 0, created = 0, refitted = 0, refitted_late = 0, deferred = 0;
@@ -260,6 +261,7 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
     if (k >= 0) unfitted_mismatches += !same_pieces;
     start = Clock::now();
     cpu = threadCpuMs();
+    tmp_replay.push_back({pieces, cloud.origin});
     tracker.update(pieces, cloud.origin);
     const double c_track = threadCpuMs() - cpu, t_track = msSince(start);
     cpu = threadCpuMs();
@@ -391,6 +393,21 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
                  {"ratio_detect_track_cpu_median", tot_c.median / pcl_c.median},
                  {"ratio_detect_track_median", tot.median / pcl.median},
                  {"tracks", tracker.obstacles().size()}});
+  if (const char* env = std::getenv("TRK_REPLAY")) {
+    std::vector<double> totals;
+    for (int r = 0; r < std::atoi(env); ++r) {
+      perception::ObstacleTracker t(tracker_params);
+      double sum = 0;
+      for (std::size_t i = 0; i < tmp_replay.size(); ++i) {
+        const double c0 = threadCpuMs();
+        t.update(tmp_replay[i].first, tmp_replay[i].second);
+        if (i >= 2) sum += threadCpuMs() - c0;
+      }
+      totals.push_back(sum / (tmp_replay.size() - 2));
+    }
+    std::sort(totals.begin(), totals.end());
+    std::printf("REPLAY %s: tracker ms/scan min %.2f median %.2f\n", model.name.c_str(), totals.front(), totals[totals.size() / 2]);
+  }
   if (mismatches) spdlog::error("{}: {} of {} scans differ from the PCL pipeline", model.name, mismatches, scans);
   if (track_mismatches)
     spdlog::error("{}: {} of {} scans: evidence differs from the reference tracker", model.name, track_mismatches, scans);

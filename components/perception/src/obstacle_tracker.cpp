@@ -94,7 +94,7 @@ class CellGrid {
   const std::uint32_t* find(const CellKey& cell) {
     const std::uint32_t block = blockOf(cell, false);
     if (block == kNone) return nullptr;
-    const std::uint32_t* value = &blocks_[block][slotOf(cell)];
+    const std::uint32_t* value = &blockAt(block)[slotOf(cell)];
     return *value == kNone ? nullptr : value;
   }
   // The values of the 3 x 3 x 3 cells around c (3 x 3 in 2-D) in the order dx, dy, dz from -1 to
@@ -118,7 +118,7 @@ class CellGrid {
           if (!looked[b]) {
             looked[b] = true;
             const std::uint32_t index = blockOf(cell, false);
-            near[b] = index == kNone ? nullptr : &blocks_[index];
+            near[b] = index == kNone ? nullptr : &blockAt(index);
           }
           out[n++] = near[b] == nullptr ? kNone : (*near[b])[slotOf(cell)];
         }
@@ -126,7 +126,7 @@ class CellGrid {
   }
   // The value stored for cell; `value` is stored first when the cell has none (never overwrites).
   std::uint32_t& emplace(const CellKey& cell, std::uint32_t value) {
-    std::uint32_t& stored = blocks_[blockOf(cell, true)][slotOf(cell)];
+    std::uint32_t& stored = blockAt(blockOf(cell, true))[slotOf(cell)];
     if (stored == kNone) stored = value;
     return stored;
   }
@@ -154,16 +154,25 @@ class CellGrid {
   [[gnu::noinline]] std::uint32_t lookUp(const CellKey& key, bool create, Cached& cached) {
     std::uint32_t index = kNone;
     if (create) {
-      index = index_.emplace(key, static_cast<std::uint32_t>(blocks_.size()));
-      if (index == blocks_.size()) blocks_.emplace_back().fill(kNone);
+      index = index_.emplace(key, static_cast<std::uint32_t>(block_count_));
+      if (index == block_count_) {
+        if (block_count_ % kChunk == 0) chunks_.push_back(std::make_unique<std::array<Block, kChunk>>());
+        blockAt(index).fill(kNone);
+        ++block_count_;
+      }
     } else if (const std::uint32_t* found = index_.find(key)) {
       index = *found;
     }
     cached = {key, index, true};
     return index;
   }
-  CellMap<std::uint32_t> index_;  // block key -> index in blocks_
-  std::vector<Block> blocks_;
+  // Blocks live in chunks that never move: growing the grid allocates a chunk instead of copying every
+  // block (tens of MB on a long drive) when a vector would reallocate.
+  static constexpr std::size_t kChunk = 1024;  // blocks per chunk (256 KB)
+  Block& blockAt(std::uint32_t index) { return (*chunks_[index / kChunk])[index % kChunk]; }
+  CellMap<std::uint32_t> index_;  // block key -> block index
+  std::vector<std::unique_ptr<std::array<Block, kChunk>>> chunks_;
+  std::size_t block_count_ = 0;
   std::array<Cached, 8> cache_{};  // the blocks used last
 };
 
@@ -578,6 +587,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   // would fail the second pass the same way (same evidence, and no previous voxel yet), so it is
   // skipped there.
   std::uint64_t events = 0;
+  CellKey last_coarse{0, 0, 0, 0};  // the coarse cell addVoxel marked last (dims 0: none yet)
   auto addVoxel = [&](std::uint32_t t, const SupportPoint& s, const CellKey& key) {
     ++events;
     previous_track = t;
@@ -598,7 +608,11 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
         head = node;
       }
     }
-    if (cellOf(s.position, Evidence::kCoarseCell, dims, near_key)) ev.coarse.emplace(near_key, true);
+    // Consecutive voxels mostly share their coarse cell: probe the map only when it changes.
+    if (cellOf(s.position, Evidence::kCoarseCell, dims, near_key) && !(near_key == last_coarse)) {
+      ev.coarse.emplace(near_key, true);
+      last_coarse = near_key;
+    }
   };
   // A voxel in a cell a track owns refreshes it (the centroid averages the noise out over scans).
   auto refresh = [&](const SupportPoint& s, const CellKey& key) {
