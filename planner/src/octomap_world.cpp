@@ -143,6 +143,7 @@ class OctoMapWorld final : public CollisionWorld {
         radius_(robot_radius),
         unknown_blocked_(options.unknown_is_occupied),
         solid_below_surface_(options.solid_below_surface && dimensions == 3),
+        surface_margin_(options.surface_margin_m),
         outside_margin_(options.outside_bounds_margin_m),
         max_bricks_(options.max_bricks) {
     if (dims_ == 2) bmin_.z() = bmax_.z() = 0.0;
@@ -406,11 +407,16 @@ class OctoMapWorld final : public CollisionWorld {
   static constexpr std::int64_t kMaxColumnCells = std::int64_t(1) << 22;  // 16 MB of int32
   void loadColumnTops() {
     if (occupied_bricks_.empty()) return;
+    // The grid reaches surface_margin_m beyond the occupied box on every side: the dilated tops spill there.
+    const std::int64_t margin_cells = static_cast<std::int64_t>(std::ceil(surface_margin_ * factor_ - 1e-9));
+    column_lo_ = {occ_lo_.x - margin_cells, occ_lo_.y - margin_cells, 0};
+    column_hi_ = {occ_hi_.x + margin_cells, occ_hi_.y + margin_cells, 0};
     column_shift_ = 0;
     auto extent = [&](std::int64_t lo, std::int64_t hi) { return ((hi - lo) >> column_shift_) + 1; };
-    while (extent(occ_lo_.x, occ_hi_.x) * extent(occ_lo_.y, occ_hi_.y) > kMaxColumnCells) ++column_shift_;
-    column_nx_ = extent(occ_lo_.x, occ_hi_.x);
-    column_top_.assign(static_cast<std::size_t>(column_nx_ * extent(occ_lo_.y, occ_hi_.y)), kNoColumnTop);
+    while (extent(column_lo_.x, column_hi_.x) * extent(column_lo_.y, column_hi_.y) > kMaxColumnCells) ++column_shift_;
+    column_nx_ = extent(column_lo_.x, column_hi_.x);
+    const std::int64_t column_ny = extent(column_lo_.y, column_hi_.y);
+    column_top_.assign(static_cast<std::size_t>(column_nx_ * column_ny), kNoColumnTop);
     for (std::uint32_t i : occupied_bricks_) {
       const Brick& b = bricks_[i];
       for (int w = 7; w >= 0; --w) {  // z layers, highest first: the first set bit of a column is its top here
@@ -424,14 +430,47 @@ class OctoMapWorld final : public CollisionWorld {
         }
       }
     }
+    // Every column takes the highest top within surface_margin_m (a square window: a separable max filter).
+    const int radius = static_cast<int>(std::min<std::int64_t>(margin_cells >> column_shift_, 1 << 20));
+    if (radius > 0) {
+      std::vector<std::int32_t> line, out;
+      for (std::int64_t y = 0; y < column_ny; ++y) {  // rows
+        line.assign(column_top_.begin() + y * column_nx_, column_top_.begin() + (y + 1) * column_nx_);
+        slidingMax(line, radius, out);
+        std::copy(out.begin(), out.end(), column_top_.begin() + y * column_nx_);
+      }
+      line.resize(static_cast<std::size_t>(column_ny));
+      for (std::int64_t x = 0; x < column_nx_; ++x) {  // columns
+        for (std::int64_t y = 0; y < column_ny; ++y) line[y] = column_top_[y * column_nx_ + x];
+        slidingMax(line, radius, out);
+        for (std::int64_t y = 0; y < column_ny; ++y) column_top_[y * column_nx_ + x] = out[y];
+      }
+    }
+  }
+  // out[i] = max(in[i - radius .. i + radius]) (kNoColumnTop outside), in O(n) whatever the radius: the
+  // van Herk / Gil-Werman scheme (prefix maxima rising and falling within blocks of the window's width).
+  static void slidingMax(const std::vector<std::int32_t>& in, int radius, std::vector<std::int32_t>& out) {
+    const std::size_t n = in.size(), w = 2 * static_cast<std::size_t>(radius) + 1;
+    const std::size_t padded = n + 2 * static_cast<std::size_t>(radius);
+    const std::size_t blocks = (padded + w - 1) / w;
+    std::vector<std::int32_t> rising(blocks * w, kNoColumnTop), falling(blocks * w, kNoColumnTop);
+    for (std::size_t i = 0; i < n; ++i) rising[i + radius] = falling[i + radius] = in[i];
+    for (std::size_t b = 0; b < blocks; ++b) {
+      const std::size_t lo = b * w, hi = lo + w - 1;
+      for (std::size_t i = lo + 1; i <= hi; ++i) rising[i] = std::max(rising[i], rising[i - 1]);
+      for (std::size_t i = hi; i-- > lo;) falling[i] = std::max(falling[i], falling[i + 1]);
+    }
+    out.resize(n);
+    // The window of out[i] is padded [i, i + w - 1]: the falling maximum from its start, the rising one to its end.
+    for (std::size_t i = 0; i < n; ++i) out[i] = std::max(falling[i], rising[i + w - 1]);
   }
   std::size_t columnIndex(std::int64_t x, std::int64_t y) const {
-    return static_cast<std::size_t>(((y - occ_lo_.y) >> column_shift_) * column_nx_ + ((x - occ_lo_.x) >> column_shift_));
+    return static_cast<std::size_t>(((y - column_lo_.y) >> column_shift_) * column_nx_ + ((x - column_lo_.x) >> column_shift_));
   }
   // How far p lies below the top face of the highest occupied voxel of its column; 0 when above it, when the
   // column has none, or without solid_below_surface.
   double depthBelowSurface(const Cell& c, const Vec3& p) const {
-    if (column_top_.empty() || c.x < occ_lo_.x || c.x > occ_hi_.x || c.y < occ_lo_.y || c.y > occ_hi_.y) return 0.0;
+    if (column_top_.empty() || c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return 0.0;
     const std::int32_t top = column_top_[columnIndex(c.x, c.y)];
     if (top == kNoColumnTop || c.z > top) return 0.0;
     return std::max(0.0, (static_cast<double>(top) + 1.0) * resolution_ - p.z());
@@ -576,9 +615,11 @@ class OctoMapWorld final : public CollisionWorld {
   double radius_;
   bool unknown_blocked_;
   bool solid_below_surface_;
+  double surface_margin_;  // m; solid_below_surface: a column is as high as the highest one this close
   static constexpr std::int32_t kNoColumnTop = std::numeric_limits<std::int32_t>::min();
   std::vector<std::int32_t> column_top_;  // solid_below_surface: highest occupied cell z per column cell
   std::int64_t column_nx_ = 0;
+  Cell column_lo_{}, column_hi_{};  // the column grid's cells: the occupied box widened by surface_margin_m
   int column_shift_ = 0;
   double outside_margin_;
   std::size_t max_bricks_;
@@ -608,6 +649,8 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
   }
   if (!std::isfinite(options.outside_bounds_margin_m) || options.outside_bounds_margin_m < 0.0)
     throw std::invalid_argument("makeOctoMapWorld: outside_bounds_margin_m must be finite and >= 0");
+  if (!(options.surface_margin_m >= 0.0 && options.surface_margin_m <= 1000.0))
+    throw std::invalid_argument("makeOctoMapWorld: surface_margin_m must be in [0, 1000] m");
   if (options.max_bricks < 1) throw std::invalid_argument("makeOctoMapWorld: max_bricks must be at least 1");
   return std::make_unique<OctoMapWorld>(dimensions, bounds_min, bounds_max, robot_radius, octree_binary, options);
 }

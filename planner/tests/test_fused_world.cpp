@@ -118,6 +118,49 @@ TEST(FusedWorld, AStartAgainstTheMapMovesToTheNearestFreeStateOnItsSide) {
   EXPECT_THROW(nearestFreePosition(*world, against, 100.0, 0.01), std::invalid_argument);
 }
 
+TEST(SensorViewWorld, BlocksWhatTheFanCannotSeeNearTheVehicleOnly) {
+  SensorView view;
+  view.origin = Vec3(2, 4, 2);
+  view.vertical_min_deg = -15;
+  view.vertical_max_deg = 15;
+  view.range = 6;
+  view.slack = 0.5;
+  const auto world = makeSensorViewWorld(fused(UnknownSpace::Optimistic, {}), view);
+  const double up = std::tan(15.0 * M_PI / 180.0);
+  // In the fan (and at the vehicle itself): what the world says.
+  EXPECT_TRUE(world->isFree(view.origin));
+  EXPECT_TRUE(world->isFree(Vec3(6, 4, 2 + 4 * up + 0.4)));
+  EXPECT_TRUE(world->isFree(Vec3(6, 4, 2 - 4 * up - 0.4)));
+  // Above or below it by more than the slack, within the range: blocked.
+  EXPECT_FALSE(world->isFree(Vec3(6, 4, 2 + 4 * up + 0.6)));
+  EXPECT_FALSE(world->isFree(Vec3(6, 4, 2 - 4 * up - 0.6)));
+  EXPECT_FALSE(world->isFree(Vec3(2.5, 4, 3)));  // steeply above, close by
+  // Beyond the range the optimistic policy is back.
+  EXPECT_TRUE(world->isFree(Vec3(2, 10.5, 8)));
+  // A climb steeper than the fan is blocked on the way, a gentle one is not; the wall still blocks.
+  EXPECT_FALSE(world->isSegmentFree(Vec3(2, 4, 2), Vec3(5, 4, 4.5)));
+  EXPECT_TRUE(world->isSegmentFree(Vec3(2, 4, 2), Vec3(7, 4, 3)));
+  EXPECT_FALSE(world->isSegmentFree(Vec3(2, 4, 2), Vec3(12, 4, 2)));
+  // The exempt ball (the goal region) is never unseen.
+  SensorView to_goal = view;
+  to_goal.exempt_center = Vec3(6, 4, 2 + 4 * up + 1.5);
+  to_goal.exempt_radius = 1.0;
+  const auto with_goal = makeSensorViewWorld(fused(UnknownSpace::Optimistic, {}), to_goal);
+  EXPECT_TRUE(with_goal->isFree(to_goal.exempt_center));
+  EXPECT_FALSE(with_goal->isFree(Vec3(6, 4, 2 + 4 * up + 3.0)));
+  // Contact information is the world's: the unseen space is no obstacle.
+  const auto plain = fused(UnknownSpace::Optimistic, {});
+  EXPECT_DOUBLE_EQ(world->clearance(Vec3(6, 4, 5)), plain->clearance(Vec3(6, 4, 5)));
+  // Bad views are refused.
+  SensorView bad = view;
+  bad.vertical_min_deg = 20;
+  EXPECT_THROW(makeSensorViewWorld(fused(UnknownSpace::Optimistic, {}), bad), std::invalid_argument);
+  bad = view;
+  bad.origin.x() = std::nan("");
+  EXPECT_THROW(makeSensorViewWorld(fused(UnknownSpace::Optimistic, {}), bad), std::invalid_argument);
+  EXPECT_THROW(makeSensorViewWorld(makeEllipsoidWorld(2, Vec3(0, 0, 0), Vec3(5, 5, 0), 0.5, {}), view), std::invalid_argument);
+}
+
 TEST(FusedWorld, RefusesMismatchedSources) {
   std::shared_ptr<const CollisionWorld> structure = makeOctoMapWorld(3, kMin, kMax, kRadius, wallMap());
   EXPECT_THROW(makeFusedWorld(structure, makeEllipsoidWorld(3, kMin, kMax, 0.3, {})), std::invalid_argument);

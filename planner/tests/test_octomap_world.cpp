@@ -360,6 +360,47 @@ TEST(OctoMapWorld, SolidBelowSurfaceBlocksWhatLiesUnderTheHighestOccupiedVoxelOf
   EXPECT_TRUE(solid_radius->isFree(Vec3(0.5, 0.5, 2.5)));
 }
 
+TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForceScanSays) {
+  // Scattered surface voxels at random heights: with surface_margin_m a point is blocked by the depth rule
+  // exactly when some occupied voxel whose column lies within the margin (a square window of whole columns)
+  // has its top face above the point.
+  octomap::OcTree tree(0.1);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f), uz(0.0f, 4.0f);
+  std::vector<octomap::point3d> hits;
+  for (int i = 0; i < 60; ++i) {
+    hits.emplace_back(u(rng), u(rng), uz(rng));
+    tree.updateNode(hits.back(), true);
+  }
+  OctoMapWorldOptions options;
+  options.solid_below_surface = true;
+  options.surface_margin_m = 0.75;  // 8 columns of 0.1 m (rounded up)
+  const auto world = makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options);
+  auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
+  std::uniform_real_distribution<double> q(-4.5, 4.5), qz(-0.5, 4.5);
+  int blocked = 0, checked = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3 p(q(rng), q(rng), qz(rng));
+    if (tree.search(p.x(), p.y(), p.z()) != nullptr) continue;  // the voxels themselves answer for themselves
+    bool below = false;
+    for (const auto& h : hits) {
+      const double top = (std::floor(h.z() / 0.1) + 1) * 0.1;
+      if (std::labs(cell(h.x()) - cell(p.x())) <= 8 && std::labs(cell(h.y()) - cell(p.y())) <= 8 && p.z() < top) below = true;
+    }
+    ++checked;
+    blocked += below;
+    ASSERT_EQ(world->isFree(p), !below) << p.transpose();
+    if (below) EXPECT_LT(world->clearance(p), 0.0);
+  }
+  EXPECT_GT(blocked, 1000);  // both answers were exercised
+  EXPECT_GT(checked - blocked, 1000);
+  OctoMapWorldOptions bad = options;
+  bad.surface_margin_m = -1.0;
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), bad), std::invalid_argument);
+  bad.surface_margin_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), bad), std::invalid_argument);
+}
+
 TEST(OctoMapWorld, SolidBelowSurfaceIsThreeDimensionalOnly) {
   octomap::OcTree tree(0.1);
   tree.updateNode(octomap::point3d(0.55f, 0.55f, 0.05f), true);

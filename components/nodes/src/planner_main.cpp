@@ -99,7 +99,7 @@ class PlannerComponent : public runtime::Component {
     if (stop.stop_requested()) return stopped();
     std::unique_ptr<planner::CollisionWorld> world;
     try {
-      world = world_source_.snapshot(nodes::fromMsg(request.start()).position);
+      world = world_source_.snapshot(nodes::fromMsg(request.start()).position, nodes::fromMsg(request.goal()).position, request.goal_radius());
     } catch (const std::exception& e) {
       return fail(request, std::string("cannot build the world: ") + e.what());
     }
@@ -111,8 +111,12 @@ class PlannerComponent : public runtime::Component {
     problem.world = world.get();
     problem.start = nodes::fromMsg(request.start());
     // A vehicle right next to a mapped surface is "in collision" with the map's voxels while it physically
-    // is not (docs/world-model.md): plan from the nearest free state within the robot radius instead.
-    if (const double reach = scenario_.robot_radius; reach > 0.0 && !world->isFree(problem.start.position)) {
+    // is not (docs/world-model.md): plan from the nearest free state within the robot radius instead (in 3-D
+    // plus the surface margin, by which a map widens observed terrain).
+    const bool widened = scenario_.dimensions == 3 && kind_ != nodes::WorldKind::Obstacles && kind_ != nodes::WorldKind::Scenario &&
+                         params_.world.solid_below_surface;
+    const double reach = scenario_.robot_radius + (widened ? params_.world.surface_margin_m : 0.0);
+    if (reach > 0.0 && !world->isFree(problem.start.position)) {
       if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0)) {
         spdlog::info("request {}: the start ({:.2f}, {:.2f}, {:.2f}) is in collision in the planner's world; planning from the nearest "
                      "free state, {:.2f} m away", request.request_id(), problem.start.position.x(), problem.start.position.y(),

@@ -142,7 +142,7 @@ class TrackerComponent : public runtime::Component {
   // nullptr (logged) when there is none yet or it cannot be built: the tracker keeps running either way.
   std::unique_ptr<planner::CollisionWorld> currentWorld(const Eigen::Vector3d& position) {
     try {
-      return world_source_.snapshot(position);
+      return world_source_.snapshot(position, scenario_.goal, scenario_.goal_radius);
     } catch (const std::exception& e) {
       spdlog::warn("cannot build the planner's world: {}", e.what());
       return nullptr;

@@ -1,10 +1,14 @@
 #include "ddsnav/nodes/world_source.hpp"
 
+#include <ddsnav/sim/sensor_choice.hpp>
+
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace ddsnav::nodes {
@@ -59,7 +63,22 @@ WorldParameters::WorldParameters(runtime::Parameters& params)
       solid_below_surface(params.declare<bool>(
           "solid_below_surface", true,
           {.doc = "3-D map and fused worlds: below the highest observed occupied voxel of its (x, y) column a point is solid, "
-                  "as inside terrain (the space under an overhang too: a 2.5-D elevation map); false: only observed voxels"})) {}
+                  "as inside terrain (the space under an overhang too: a 2.5-D elevation map); false: only observed voxels"})),
+      surface_margin_m(params.declare<double>(
+          "surface_margin_m", 1.0,
+          {.min = 0, .max = 100, .unit = "m",
+           .doc = "3-D, with solid_below_surface: a column is solid below the highest observed surface within this horizontal distance "
+                  "(lidar rings sample a steep flank sparsely; docs/world-model.md)"})),
+      sensor_view(params.declare<bool>(
+          "sensor_view", true,
+          {.doc = "3-D map and fused worlds: space above and below the lidar's vertical field of view, within its range of the "
+                  "vehicle, is blocked (it sees nothing there; docs/world-model.md)"})),
+      sensor_vertical_min_deg(params.declareOptional<double>(
+          "sensor_vertical_min_deg", {.above = -90, .below = 90, .unit = "deg", .doc = "the lidar fan's lower edge; default: the simulator's sensor for the scenario"})),
+      sensor_vertical_max_deg(params.declareOptional<double>(
+          "sensor_vertical_max_deg", {.above = -90, .below = 90, .unit = "deg", .doc = "the lidar fan's upper edge; default: the simulator's sensor for the scenario"})),
+      sensor_view_range_m(params.declareOptional<double>(
+          "sensor_view_range_m", {.min = 0, .max = 1e5, .unit = "m", .doc = "how far from the vehicle the unseen space is blocked; default: the simulator's sensor range"})) {}
 
 bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unknown, double since_first_obstacles_s,
                      double first_map_wait_s) {
@@ -74,7 +93,22 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       unknown_(world.unknown),
       first_map_wait_s_(world.first_map_wait_s),
       solid_below_surface_(world.solid_below_surface),
+      surface_margin_m_(world.surface_margin_m),
       clock_(ctx.clock()) {
+  if (world.sensor_view && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)) {
+    const auto sensor = sim::chooseSensor(scenario).config;
+    planner::SensorView view;
+    view.vertical_min_deg = world.sensor_vertical_min_deg.value_or(sensor.vertical_min_deg);
+    view.vertical_max_deg = world.sensor_vertical_max_deg.value_or(sensor.vertical_max_deg);
+    view.range = world.sensor_view_range_m.value_or(sensor.max_range);
+    // The vehicle is a robot radius wide and follows its trajectory within a few decimetres vertically.
+    view.slack = std::max(1.0, 2.0 * scenario.robot_radius);
+    if (!(view.vertical_min_deg < view.vertical_max_deg))
+      throw runtime::ParameterError("parameters sensor_vertical_min_deg / sensor_vertical_max_deg: the lower edge must lie below the upper one");
+    view_ = view;
+    spdlog::info("sensor view: space above {:.1f} deg and below {:.1f} deg is blocked within {:.1f} m of the vehicle", view.vertical_max_deg,
+                 view.vertical_min_deg, view.range);
+  }
   // On the component's executor: the arrays are checked there, not on a DDS thread.
   obstacles_sub_ = ctx.subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& a) {
     const auto error = checkObstacleArray(a, kWorldFrame);
@@ -105,6 +139,7 @@ void WorldSource::buildMap(const msg::OccupancyMap& m) {
   planner::OctoMapWorldOptions options;
   options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
   options.solid_below_surface = solid_below_surface_;
+  options.surface_margin_m = surface_margin_m_;
   auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, options);
   std::lock_guard lock(mutex_);
   if (!checked.error.empty()) {
@@ -149,7 +184,8 @@ std::size_t WorldSource::droppedMaps() const {
   return dropped_maps_;
 }
 
-std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Vec3& robot_position) const {
+std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Vec3& robot_position, const std::optional<planner::Vec3>& goal,
+                                                              double goal_radius) const {
   const auto& s = scenario_;
   std::shared_ptr<const planner::CollisionWorld> map_world;
   std::vector<planner::EllipsoidObstacle> ellipses;
@@ -162,12 +198,22 @@ std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Ve
   }
   // The map's world is shared and immutable: a Map snapshot is a view of it (its own validity-check
   // count and check resolution), a Fused one pairs it with this snapshot's obstacles.
-  if (kind_ == WorldKind::Map) return std::make_unique<SharedWorld>(std::move(map_world));
+  auto viewed = [&](std::unique_ptr<planner::CollisionWorld> world) -> std::unique_ptr<planner::CollisionWorld> {
+    if (!view_) return world;
+    planner::SensorView view = *view_;
+    view.origin = robot_position;
+    if (goal && goal->allFinite() && std::isfinite(goal_radius)) {
+      view.exempt_center = *goal;
+      view.exempt_radius = std::clamp(goal_radius, 0.0, 1e5) + s.robot_radius;
+    }
+    return planner::makeSensorViewWorld(std::move(world), view);
+  };
+  if (kind_ == WorldKind::Map) return viewed(std::make_unique<SharedWorld>(std::move(map_world)));
   if (const auto cleared = clearFootprint(ellipses, robot_position, s.robot_radius, s.dimensions))
     spdlog::debug("ignoring {} obstacle ellipse(s) that cover the robot", cleared);
   auto obstacles = planner::makeEllipsoidWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, std::move(ellipses));
   if (kind_ == WorldKind::Obstacles || !map_world) return obstacles;
-  return planner::makeFusedWorld(std::move(map_world), std::move(obstacles));
+  return viewed(planner::makeFusedWorld(std::move(map_world), std::move(obstacles)));
 }
 
 }  // namespace ddsnav::nodes

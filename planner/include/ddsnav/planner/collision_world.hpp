@@ -114,6 +114,12 @@ struct OctoMapWorldOptions {
   // obstacle's underside) counts as solid too, as in a 2.5-D elevation map. clearance() is then negative
   // below a column's top, by the depth below it.
   bool solid_below_surface = false;
+  // With solid_below_surface: a column counts as high as the highest observed surface within this horizontal
+  // distance (a square window), i.e. observed terrain is widened by it below its top. A lidar samples a steep
+  // flank only along its rings (2 deg apart: 0.7 m at 20 m), so the skin under a path that skims the flank is
+  // often unsampled until the vehicle is a few metres away; the margin makes the sampled skin uphill of the path
+  // block it from afar. 0: each column only by its own voxels.
+  double surface_margin_m = 0.0;
   double outside_bounds_margin_m = 5.0;
   std::size_t max_bricks = kOctoMapWorldMaxBricks;
 };
@@ -143,5 +149,27 @@ const char* toString(UnknownSpace policy);
 
 std::unique_ptr<CollisionWorld> makeFusedWorld(std::shared_ptr<const CollisionWorld> structure,
                                                std::unique_ptr<CollisionWorld> obstacles);
+
+// What a sensor with a limited vertical field of view (a 3-D lidar's fan) cannot see from where it is:
+// within `range` (horizontal distance) of `origin`, the points more than `slack` above the fan's upper edge
+// or below its lower one. docs/world-model.md, "Above and below the lidar's fan".
+struct SensorView {
+  Vec3 origin = Vec3::Zero();     // the sensor (the vehicle) now
+  double vertical_min_deg = -15;  // the fan's lower edge, degrees from the horizontal (> -90)
+  double vertical_max_deg = 15;   // its upper edge (> vertical_min_deg, < 90)
+  double range = 0;               // m; beyond it nothing is blocked (the map's reach: the optimistic policy)
+  double slack = 0;               // m; vertical allowance at the apex (the robot, its tracking error)
+  // A ball never counted unseen: the goal region, so that a goal below the fan of a vehicle flying high is
+  // still a goal (the final approach is the map's to judge). Radius 0: none.
+  Vec3 exempt_center = Vec3::Zero();
+  double exempt_radius = 0;
+  // True when p lies in the unseen space: 0 < horizontal distance <= range, above / below the fan by more
+  // than slack, and outside the exempt ball.
+  bool unseen(const Vec3& p) const;
+};
+// `world` with the unseen space of `view` blocked (isFree, isSegmentFree; clearance and obstaclesNear are the
+// world's: it is no obstacle, only space nothing vouches for). 3-D only: std::invalid_argument otherwise, or for
+// a view with non-finite or inconsistent numbers.
+std::unique_ptr<CollisionWorld> makeSensorViewWorld(std::unique_ptr<CollisionWorld> world, const SensorView& view);
 
 }  // namespace ddsnav::planner

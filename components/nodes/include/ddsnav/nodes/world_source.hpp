@@ -32,6 +32,11 @@ struct WorldParameters {
   planner::UnknownSpace unknown = planner::UnknownSpace::Optimistic;
   double first_map_wait_s = 5.0;  // `first_map_wait_s`: see fusedWorldReady
   bool solid_below_surface = true;  // `solid_below_surface`: planner::OctoMapWorldOptions (3-D maps)
+  double surface_margin_m = 1.0;    // `surface_margin_m`: planner::OctoMapWorldOptions (3-D maps)
+  // `sensor_view` (3-D map and fused worlds): the space above and below the lidar's fan is blocked near the
+  // vehicle (planner::SensorView); the fan's edges and reach default to the simulator's sensor for the scenario.
+  bool sensor_view = true;
+  std::optional<double> sensor_vertical_min_deg, sensor_vertical_max_deg, sensor_view_range_m;
   WorldParameters() = default;
   explicit WorldParameters(runtime::Parameters& params);
 };
@@ -59,7 +64,11 @@ class WorldSource {
   // cover the robot there are left out (see clearFootprint). nullptr when not available(). Inputs are
   // checked on arrival, so this throws only for a world the scenario itself cannot hold; callers still
   // catch, so nothing that reaches here can end the process.
-  std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position) const;
+  // `goal` (3-D sensor view only): the ball of goal_radius + the robot radius around it is never blocked as
+  // unseen (planner::SensorView::exempt_center).
+  std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position,
+                                                    const std::optional<planner::Vec3>& goal = std::nullopt,
+                                                    double goal_radius = 0.0) const;
   bool hasObstacles() const;  // perception/obstacles received (whatever the kind)
   // Messages dropped as malformed so far, per topic.
   std::size_t droppedObstacleArrays() const;
@@ -74,6 +83,8 @@ class WorldSource {
   planner::UnknownSpace unknown_;
   double first_map_wait_s_;
   bool solid_below_surface_;
+  double surface_margin_m_;
+  std::optional<planner::SensorView> view_;  // set when the sensor view applies (3-D, map or fused, enabled)
   const runtime::Clock& clock_;
   mutable std::mutex mutex_;
   // The newest map as a collision world, built once per map (not per snapshot: a 3-D map takes a while)
