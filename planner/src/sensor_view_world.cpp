@@ -14,7 +14,7 @@ bool SensorView::unseen(const Vec3& p) const {
   const double dz = p.z() - origin.z();
   const double up = std::tan(vertical_max_deg * std::numbers::pi / 180.0) * dh + slack;
   const double down = std::tan(vertical_min_deg * std::numbers::pi / 180.0) * dh - slack;
-  return dz > up || dz < down;
+  return dz > up || (below && dz < down);
 }
 
 namespace {

@@ -73,6 +73,10 @@ WorldParameters::WorldParameters(runtime::Parameters& params)
           "sensor_view", true,
           {.doc = "3-D map and fused worlds: space above and below the lidar's vertical field of view, within its range of the "
                   "vehicle, is blocked (it sees nothing there; docs/world-model.md)"})),
+      sensor_view_below(params.declare<bool>(
+          "sensor_view_below", false,
+          {.doc = "with sensor_view: below the fan's lower edge too (off: the ground ahead was seen from farther away, and a "
+                  "goal below the fan of a vehicle flying high must stay reachable)"})),
       sensor_vertical_min_deg(params.declareOptional<double>(
           "sensor_vertical_min_deg", {.above = -90, .below = 90, .unit = "deg", .doc = "the lidar fan's lower edge; default: the simulator's sensor for the scenario"})),
       sensor_vertical_max_deg(params.declareOptional<double>(
@@ -103,11 +107,15 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
     view.range = world.sensor_view_range_m.value_or(sensor.max_range);
     // The vehicle is a robot radius wide and follows its trajectory within a few decimetres vertically.
     view.slack = std::max(1.0, 2.0 * scenario.robot_radius);
+    view.below = world.sensor_view_below;
     if (!(view.vertical_min_deg < view.vertical_max_deg))
       throw runtime::ParameterError("parameters sensor_vertical_min_deg / sensor_vertical_max_deg: the lower edge must lie below the upper one");
     view_ = view;
-    spdlog::info("sensor view: space above {:.1f} deg and below {:.1f} deg is blocked within {:.1f} m of the vehicle", view.vertical_max_deg,
-                 view.vertical_min_deg, view.range);
+    if (view.below)
+      spdlog::info("sensor view: space above {:.1f} deg and below {:.1f} deg is blocked within {:.1f} m of the vehicle", view.vertical_max_deg,
+                   view.vertical_min_deg, view.range);
+    else
+      spdlog::info("sensor view: space above {:.1f} deg is blocked within {:.1f} m of the vehicle", view.vertical_max_deg, view.range);
   }
   // On the component's executor: the arrays are checked there, not on a DDS thread.
   obstacles_sub_ = ctx.subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& a) {

@@ -159,6 +159,7 @@ struct SensorView {
   double vertical_max_deg = 15;   // its upper edge (> vertical_min_deg, < 90)
   double range = 0;               // m; beyond it nothing is blocked (the map's reach: the optimistic policy)
   double slack = 0;               // m; vertical allowance at the apex (the robot, its tracking error)
+  bool below = true;              // false: only the space above the fan is unseen
   // A ball never counted unseen: the goal region, so that a goal below the fan of a vehicle flying high is
   // still a goal (the final approach is the map's to judge). Radius 0: none.
   Vec3 exempt_center = Vec3::Zero();

@@ -36,6 +36,7 @@ struct WorldParameters {
   // `sensor_view` (3-D map and fused worlds): the space above and below the lidar's fan is blocked near the
   // vehicle (planner::SensorView); the fan's edges and reach default to the simulator's sensor for the scenario.
   bool sensor_view = true;
+  bool sensor_view_below = false;  // `sensor_view_below`: also below the fan's lower edge
   std::optional<double> sensor_vertical_min_deg, sensor_vertical_max_deg, sensor_view_range_m;
   WorldParameters() = default;
   explicit WorldParameters(runtime::Parameters& params);
