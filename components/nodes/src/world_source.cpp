@@ -100,7 +100,13 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       surface_margin_m_(world.surface_margin_m),
       clock_(ctx.clock()) {
   if (world.sensor_view && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)) {
-    const auto sensor = sim::chooseSensor(scenario).config;
+    sim::RangeSensorConfig sensor = sim::RangeSensorConfig::lidar3d();
+    try {
+      sensor = sim::chooseSensor(scenario).config;
+    } catch (const std::exception& e) {  // the simulator would refuse this scenario; the planner still plans on it
+      spdlog::warn("sensor view: no default sensor for this scenario ({}); assuming a lidar of {:.0f}..{:.0f} deg and {:.0f} m", e.what(),
+                   sensor.vertical_min_deg, sensor.vertical_max_deg, sensor.max_range);
+    }
     planner::SensorView view;
     view.vertical_min_deg = world.sensor_vertical_min_deg.value_or(sensor.vertical_min_deg);
     view.vertical_max_deg = world.sensor_vertical_max_deg.value_or(sensor.vertical_max_deg);
