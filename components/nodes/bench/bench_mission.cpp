@@ -12,6 +12,7 @@
 #include "bench_common.hpp"
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/mission_latency.hpp"
+#include "ddsnav/nodes/world_source.hpp"
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/collision_world.hpp>
@@ -33,6 +34,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <string>
 #include <thread>
@@ -119,6 +121,63 @@ nodes::MissionRecording readRecording(const fs::path& file) {
       },
       [&](const record::DamagedChunk&) {});
   return r;
+}
+
+// Every trajectory of a run against the ground truth: its true clearance along the samples, and where it first
+// enters the true obstacles, with what the map it was planned on (the newest map/octomap received before it, as a
+// map world with the components' 3-D defaults: solid below the observed surface, 1 m surface margin; without
+// perception's ellipses or the sensor view) said about that point. A plan into terrain the map had seen is a
+// world-model bug; one the map had as free is a sensing or policy gap (docs/benchmarks/mission.md).
+nlohmann::json auditTrajectories(const fs::path& file, const planner::Scenario& scenario) {
+  const auto truth = planner::makeScenarioWorld(scenario);
+  planner::OctoMapWorldOptions options;
+  options.solid_below_surface = true;
+  options.surface_margin_m = nodes::WorldParameters{}.surface_margin_m;
+  std::optional<msg::OccupancyMap> map;  // the newest one so far (messages come in receive order)
+  nlohmann::json out = nlohmann::json::array();
+  record::McapReader reader(file.string());
+  reader.forEachMessage(
+      [&](const record::MessageView& v) {
+        if (v.channel->topic == "map/octomap") {
+          if (auto m = decode<msg::OccupancyMap>(v)) map = std::move(*m);
+          return true;
+        }
+        if (v.channel->topic != "control/trajectory") return true;
+        const auto trajectory = decode<msg::Trajectory>(v);
+        if (!trajectory || trajectory->samples().empty()) return true;
+        const auto& samples = trajectory->samples();
+        double least = std::numeric_limits<double>::infinity();
+        std::optional<std::size_t> entry;
+        for (std::size_t i = 0; i < samples.size(); ++i) {
+          const double c = truth->clearance(nodes::fromMsg(samples[i].position()));
+          least = std::min(least, c);
+          if (!entry && c < 0.0) entry = i;
+        }
+        nlohmann::json row = {{"request_id", trajectory->request_id()},
+                              {"start_true_clearance_m", truth->clearance(nodes::fromMsg(samples.front().position()))},
+                              {"min_true_clearance_m", least}};
+        if (entry) {
+          const Eigen::Vector3d p = nodes::fromMsg(samples[*entry].position());
+          nlohmann::json e = {{"t_s", static_cast<double>(samples[*entry].time_from_start_ns()) * 1e-9}, {"position", {p.x(), p.y(), p.z()}}};
+          if (map) {
+            try {
+              const std::vector<std::uint8_t> bytes(map->octree().begin(), map->octree().end());
+              const auto world = planner::makeOctoMapWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max,
+                                                           scenario.robot_radius, bytes, options);
+              e["map_free"] = world->isFree(p);
+              e["map_clearance_m"] = world->clearance(p);
+              e["map_age_s"] = static_cast<double>(trajectory->header().stamp_ns() - map->header().stamp_ns()) * 1e-9;
+            } catch (const std::exception& ex) {
+              e["map_error"] = ex.what();
+            }
+          }
+          row["enters_obstacles"] = e;
+        }
+        out.push_back(row);
+        return true;
+      },
+      [&](const record::DamagedChunk&) {});
+  return out;
 }
 
 // The oracle: one plan on the scenario's true geometry with the tracker's planner and budget, smoothed
@@ -263,6 +322,23 @@ int main(int argc, char** argv) {
                         {"obstacles_to_trajectory", statsJson(latencies.obstacles_to_trajectory)}};
     } catch (const std::exception& e) {
       row["latency_error"] = e.what();
+    }
+    try {
+      row["trajectories"] = auditTrajectories(recording, scenario);
+      int entering = 0, from_inside = 0, map_free = 0;
+      for (const auto& t : row["trajectories"]) {
+        if (t.at("start_true_clearance_m").get<double>() < 0.0) {
+          ++from_inside;
+        } else if (t.contains("enters_obstacles")) {
+          ++entering;
+          map_free += t.at("enters_obstacles").value("map_free", false);
+        }
+      }
+      // Only what the vehicle could have flown matters: a trajectory replaced before its entry never took it there.
+      spdlog::info("{}: {} trajectories; {} planned from outside into the true obstacles ({} of them through space the map had as "
+                   "free), {} started inside", scenario.name, row["trajectories"].size(), entering, map_free, from_inside);
+    } catch (const std::exception& e) {
+      row["trajectories_error"] = e.what();
     }
     if (!keep) fs::remove(recording);
     if (summary.is_object() && summary.contains("sim_time_to_goal_s") && oracle.solved)
