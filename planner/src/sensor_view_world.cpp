@@ -7,21 +7,31 @@
 
 namespace ddsnav::planner {
 
+namespace {
+
+double slope(double degrees) { return std::tan(degrees * std::numbers::pi / 180.0); }
+
+// SensorView::unseen with the fan's edges as slopes (dz per metre), computed once per world.
+bool unseenWithSlopes(const SensorView& v, double slope_up, double slope_down, const Vec3& p) {
+  const double dh = std::hypot(p.x() - v.origin.x(), p.y() - v.origin.y());
+  if (!(dh > 0.0) || dh > v.range) return false;
+  if (v.exempt_radius > 0.0 && (p - v.exempt_center).norm() <= v.exempt_radius) return false;
+  const double dz = p.z() - v.origin.z();
+  return dz > slope_up * dh + v.slack || (v.below && dz < slope_down * dh - v.slack);
+}
+
+}  // namespace
+
 bool SensorView::unseen(const Vec3& p) const {
-  const double dh = std::hypot(p.x() - origin.x(), p.y() - origin.y());
-  if (!(dh > 0.0) || dh > range) return false;
-  if (exempt_radius > 0.0 && (p - exempt_center).norm() <= exempt_radius) return false;
-  const double dz = p.z() - origin.z();
-  const double up = std::tan(vertical_max_deg * std::numbers::pi / 180.0) * dh + slack;
-  const double down = std::tan(vertical_min_deg * std::numbers::pi / 180.0) * dh - slack;
-  return dz > up || (below && dz < down);
+  return unseenWithSlopes(*this, slope(vertical_max_deg), slope(vertical_min_deg), p);
 }
 
 namespace {
 
 class SensorViewWorld final : public CollisionWorld {
  public:
-  SensorViewWorld(std::unique_ptr<CollisionWorld> world, const SensorView& view) : world_(std::move(world)), view_(view) {}
+  SensorViewWorld(std::unique_ptr<CollisionWorld> world, const SensorView& view)
+      : world_(std::move(world)), view_(view), slope_up_(slope(view.vertical_max_deg)), slope_down_(slope(view.vertical_min_deg)) {}
 
   int dimensions() const override { return world_->dimensions(); }
   Vec3 boundsMin() const override { return world_->boundsMin(); }
@@ -30,7 +40,7 @@ class SensorViewWorld final : public CollisionWorld {
 
   bool isFree(const Vec3& p) const override {
     countCheck();
-    return !view_.unseen(p) && world_->isFree(p);
+    return !unseen(p) && world_->isFree(p);
   }
 
   bool isSegmentFree(const Vec3& a, const Vec3& b) const override {
@@ -39,7 +49,7 @@ class SensorViewWorld final : public CollisionWorld {
     const int steps = std::max(1, static_cast<int>(std::ceil(length / checkResolution())));
     countCheck(static_cast<std::uint64_t>(steps) + 1);
     for (int i = 0; i <= steps; ++i)
-      if (view_.unseen(a + (b - a) * (static_cast<double>(i) / steps))) return false;
+      if (unseen(a + (b - a) * (static_cast<double>(i) / steps))) return false;
     world_->setCheckResolution(checkResolution());
     return world_->isSegmentFree(a, b);
   }
@@ -48,8 +58,12 @@ class SensorViewWorld final : public CollisionWorld {
   std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override { return world_->obstaclesNear(p, range); }
 
  private:
+  // Every validity check asks this: the fan's slopes are computed once, not two tangents per call.
+  bool unseen(const Vec3& p) const { return unseenWithSlopes(view_, slope_up_, slope_down_, p); }
+
   std::unique_ptr<CollisionWorld> world_;
   SensorView view_;
+  double slope_up_, slope_down_;
 };
 
 }  // namespace

@@ -134,12 +134,16 @@ nlohmann::json auditTrajectories(const fs::path& file, const planner::Scenario& 
   options.solid_below_surface = true;
   options.surface_margin_m = nodes::WorldParameters{}.surface_margin_m;
   std::optional<msg::OccupancyMap> map;  // the newest one so far (messages come in receive order)
+  std::unique_ptr<planner::CollisionWorld> map_world;  // built from `map` when first needed, once per map
   nlohmann::json out = nlohmann::json::array();
   record::McapReader reader(file.string());
   reader.forEachMessage(
       [&](const record::MessageView& v) {
         if (v.channel->topic == "map/octomap") {
-          if (auto m = decode<msg::OccupancyMap>(v)) map = std::move(*m);
+          if (auto m = decode<msg::OccupancyMap>(v)) {
+            map = std::move(*m);
+            map_world.reset();
+          }
           return true;
         }
         if (v.channel->topic != "control/trajectory") return true;
@@ -161,11 +165,13 @@ nlohmann::json auditTrajectories(const fs::path& file, const planner::Scenario& 
           nlohmann::json e = {{"t_s", static_cast<double>(samples[*entry].time_from_start_ns()) * 1e-9}, {"position", {p.x(), p.y(), p.z()}}};
           if (map) {
             try {
-              const std::vector<std::uint8_t> bytes(map->octree().begin(), map->octree().end());
-              const auto world = planner::makeOctoMapWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max,
-                                                           scenario.robot_radius, bytes, options);
-              e["map_free"] = world->isFree(p);
-              e["map_clearance_m"] = world->clearance(p);
+              if (!map_world) {
+                const std::vector<std::uint8_t> bytes(map->octree().begin(), map->octree().end());
+                map_world = planner::makeOctoMapWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max,
+                                                      scenario.robot_radius, bytes, options);
+              }
+              e["map_free"] = map_world->isFree(p);
+              e["map_clearance_m"] = map_world->clearance(p);
               e["map_age_s"] = static_cast<double>(trajectory->header().stamp_ns() - map->header().stamp_ns()) * 1e-9;
             } catch (const std::exception& ex) {
               e["map_error"] = ex.what();

@@ -113,9 +113,7 @@ class PlannerComponent : public runtime::Component {
     // A vehicle right next to a mapped surface is "in collision" with the map's voxels while it physically
     // is not (docs/world-model.md): plan from the nearest free state within the robot radius instead (in 3-D
     // plus the surface margin, by which a map widens observed terrain).
-    const bool widened = scenario_.dimensions == 3 && kind_ != nodes::WorldKind::Obstacles && kind_ != nodes::WorldKind::Scenario &&
-                         params_.world.solid_below_surface;
-    const double reach = scenario_.robot_radius + (widened ? params_.world.surface_margin_m : 0.0);
+    const double reach = scenario_.robot_radius + world_source_.surfaceMargin();
     if (reach > 0.0 && !world->isFree(problem.start.position)) {
       if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0)) {
         spdlog::info("request {}: the start ({:.2f}, {:.2f}, {:.2f}) is in collision in the planner's world; planning from the nearest "

@@ -97,7 +97,9 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       unknown_(world.unknown),
       first_map_wait_s_(world.first_map_wait_s),
       solid_below_surface_(world.solid_below_surface),
-      surface_margin_m_(world.surface_margin_m),
+      surface_margin_m_(world.solid_below_surface && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)
+                            ? world.surface_margin_m
+                            : 0.0),
       clock_(ctx.clock()) {
   if (world.sensor_view && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)) {
     sim::RangeSensorConfig sensor = sim::RangeSensorConfig::lidar3d();

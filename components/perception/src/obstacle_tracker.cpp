@@ -167,7 +167,7 @@ class CellGrid {
     return index;
   }
   // Blocks live in chunks that never move: growing the grid allocates a chunk instead of copying every
-  // block (tens of MB on a long drive) when a vector would reallocate.
+  // block (256 bytes each) when a vector would reallocate.
   static constexpr std::size_t kChunk = 1024;  // blocks per chunk (256 KB)
   Block& blockAt(std::uint32_t index) { return (*chunks_[index / kChunk])[index % kChunk]; }
   CellMap<std::uint32_t> index_;  // block key -> block index

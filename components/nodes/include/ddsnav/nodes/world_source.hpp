@@ -70,6 +70,10 @@ class WorldSource {
   std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position,
                                                     const std::optional<planner::Vec3>& goal = std::nullopt,
                                                     double goal_radius = 0.0) const;
+  // How far its maps widen observed terrain (OctoMapWorldOptions::surface_margin_m): surface_margin_m for a
+  // 3-D map or fused world with solid_below_surface, else 0. A start the map puts in collision is searched for
+  // a free state this much farther out.
+  double surfaceMargin() const { return surface_margin_m_; }
   bool hasObstacles() const;  // perception/obstacles received (whatever the kind)
   // Messages dropped as malformed so far, per topic.
   std::size_t droppedObstacleArrays() const;
