@@ -214,6 +214,9 @@ void plannerAndTrackerDropMalformedWorlds() {
   // 1. Only a malformed array so far: dropped on arrival, so the planner has no world and says so.
   obstacles.publish(malformedArray());
   ASSERT_TRUE(waitForLog(h, "planner", "perception/obstacles: dropping", 10s)) << h.log("planner");
+  // The writer can match a reader before that reader matches the writer; a transient-local sample published in
+  // between reaches the reader only while it is still the newest. So both readers must have it before the next.
+  ASSERT_TRUE(waitForLog(h, "tracker", "perception/obstacles: dropping", 10s)) << h.log("tracker");
   requests.publish(request(1001));
   auto answer = answerTo(paths, 1001);
   ASSERT_TRUE(answer) << h.log("planner");
