@@ -209,10 +209,18 @@ inline msg::Clock makeSample<msg::Clock>(int variant) {
   return c;
 }
 
+template <>
+inline msg::Progress makeSample<msg::Progress>(int variant) {
+  msg::Progress p;
+  p.name("component-" + std::to_string(variant));
+  p.stamp_ns(2'000'000'000LL * variant + 3);
+  return p;
+}
+
 // Every top-level message type (the ones with a topic).
 using AllMessages = std::tuple<msg::PointCloud, msg::VehicleState, msg::VelocityCommand, msg::ObstacleEllipsoid,
                                msg::ObstacleArray, msg::OccupancyMap, msg::PlanRequest, msg::Path, msg::Trajectory,
-                               msg::TrackingStatus, msg::ComponentStatus, msg::Clock>;
+                               msg::TrackingStatus, msg::ComponentStatus, msg::Clock, msg::Progress>;
 
 template <class F>
 void forEachMessageType(F&& f) {

@@ -1,11 +1,13 @@
 // ddsnav-sim: the scenario world. Simulates the range sensor at the vehicle's pose (sensors/points) and the
 // unicycle vehicle driven by control/cmd_vel (vehicle/state), on simulated time: every step advances the
 // simulated clock by 1/state_rate_hz, published on system/clock, and `speed` simulated seconds pass per
-// wall second (components on `clock: topic` follow it; docs/simulator.md).
+// wall second at most: a process on `clock: topic` that falls more than pace_max_lag_s behind (system/progress)
+// holds the clock until it catches up (docs/simulator.md, "Pacing").
 
 #include "ddsnav/nodes/convert.hpp"
 #include <ddsnav/runtime/component.hpp>
 
+#include <ddsnav/sim/clock_pacer.hpp>
 #include <ddsnav/sim/range_sensor.hpp>
 #include <ddsnav/sim/sensor_choice.hpp>
 #include <ddsnav/tracker/vehicle.hpp>
@@ -15,6 +17,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
+#include <string>
 #include <vector>
 
 using namespace ddsnav;
@@ -26,6 +30,8 @@ class SimComponent : public runtime::Component {
   struct Params {
     std::string scenario;
     double lidar_rate_hz, state_rate_hz, command_timeout_s, speed;
+    bool pace;
+    sim::PacerParams pacer;
     sim::SensorRequest sensor;
     double range_noise_sigma, invalid_fraction;
     bool walls, noise;
@@ -36,7 +42,12 @@ class SimComponent : public runtime::Component {
           state_rate_hz(p.declare<double>("state_rate_hz", 50.0, {.above = 0, .max = 1000, .unit = "Hz",
                                                                   .doc = "vehicle steps (and vehicle/state) per second; at least lidar_rate_hz"})),
           command_timeout_s(p.declare<double>("command_timeout_s", 0.5, {.above = 0, .unit = "s", .doc = "stop when no command came for this long (simulated time)"})),
-          speed(p.declare<double>("speed", 1.0, {.above = 0, .max = 1000, .doc = "simulated seconds per wall second (system/clock)"})),
+          speed(p.declare<double>("speed", 1.0, {.above = 0, .max = 1000, .doc = "simulated seconds per wall second (system/clock), at most"})),
+          pace(p.declare<bool>("pace", true, {.doc = "hold the clock while a process on `clock: topic` lags behind (system/progress)"})),
+          pacer{.max_lag_s = p.declare<double>("pace_max_lag_s", 0.3, {.above = 0, .max = 60, .unit = "s",
+                                                                       .doc = "simulated time a process may lag behind the clock before it holds it"}),
+                .max_hold_s = p.declare<double>("pace_max_hold_s", 10.0, {.above = 0, .max = 3600, .unit = "s",
+                                                                          .doc = "wall time one process may hold the clock in a row; then it is not waited for"})},
           sensor(sensorRequest(p)),
           range_noise_sigma(p.declare<double>("range_noise_sigma", 0.02, {.min = 0, .unit = "m", .doc = "range noise of a beam"})),
           invalid_fraction(p.declare<double>("invalid_fraction", 0.01, {.min = 0, .max = 1, .doc = "fraction of beams returned as invalid (NaN)"})),
@@ -91,6 +102,8 @@ class SimComponent : public runtime::Component {
       command_ = nodes::fromMsg(m);
       command_stamp_ = sim_now_;
     });
+    if (params_.pace)
+      progress_ = subscribe(runtime::topics::progress, [this](const msg::Progress& p) { pacer_.report(p.name(), p.stamp_ns(), std::chrono::steady_clock::now()); });
     steps_per_scan_ = std::max(1, static_cast<int>(std::lround(params_.state_rate_hz / params_.lidar_rate_hz)));
     step_ns_ = static_cast<std::int64_t>(std::llround(1e9 / params_.state_rate_hz));
     // Each step advances simulated time by 1/state_rate_hz; `speed` of them pass per wall period.
@@ -135,6 +148,7 @@ class SimComponent : public runtime::Component {
   }
 
   void step() {
+    if (params_.pace && !paced()) return;
     sim_now_ += step_ns_;
     const std::int64_t now = sim_now_;
     tracker::VehicleCommand current;
@@ -162,9 +176,44 @@ class SimComponent : public runtime::Component {
       const double scan_median = scan_ms_.empty() ? 0.0 : scan_ms_[scan_ms_.size() / 2];
       const double scan_max = scan_ms_.empty() ? 0.0 : scan_ms_.back();
       scan_ms_.clear();
-      spdlog::info("simulated {:.1f} s in {:.1f} s of wall time (speed {:.2f}, asked {:g}); scan median {:.1f} ms, max {:.1f} ms",
-                   simulated, wall, simulated / wall, params_.speed, scan_median, scan_max);
+      spdlog::info("simulated {:.1f} s in {:.1f} s of wall time (speed {:.2f}, asked {:g}); scan median {:.1f} ms, max {:.1f} ms{}",
+                   simulated, wall, simulated / wall, params_.speed, scan_median, scan_max, heldSummary());
     }
+  }
+
+  // False while a process lags too far behind the clock: the step is skipped and the timer tries again.
+  bool paced() {
+    const auto wall_now = std::chrono::steady_clock::now();
+    const bool advance = pacer_.mayAdvance(sim_now_ + step_ns_, wall_now);
+    for (const auto& e : pacer_.takeEvents()) {
+      switch (e.kind) {
+        case sim::ClockPacer::Event::LongHold:
+          spdlog::info("pacing: {} has held the clock for 1 s of wall time ({:.2f} s behind)", e.name, e.lag_s);
+          break;
+        case sim::ClockPacer::Event::GaveUp:
+          spdlog::warn("pacing: {} has held the clock for {:g} s of wall time ({:.2f} s behind); not waiting for it until it catches up",
+                       e.name, params_.pacer.max_hold_s, e.lag_s);
+          break;
+        case sim::ClockPacer::Event::CaughtUp:
+          spdlog::info("pacing: {} caught up; waiting for it again", e.name);
+          break;
+        case sim::ClockPacer::Event::Forgotten:
+          spdlog::info("pacing: {} stopped reporting its progress; no longer waiting for it", e.name);
+          break;
+      }
+    }
+    return advance;
+  }
+
+  // " ; held 1.2 s for mapper, 0.3 s for planner" since the last speed log, or empty.
+  std::string heldSummary() {
+    std::string out;
+    for (const auto& [name, total] : pacer_.heldSeconds()) {
+      const double since = total - held_logged_[name];
+      held_logged_[name] = total;
+      if (since >= 0.05) out += fmt::format("{}{:.1f} s for {}", out.empty() ? "; clock held " : ", ", since, name);
+    }
+    return out;
   }
 
   const Params params_;
@@ -185,6 +234,9 @@ class SimComponent : public runtime::Component {
   std::vector<double> scan_ms_;  // wall time of each scan since the last speed log
   std::uint64_t tick_ = 0;
   bus::Subscription commands_;
+  sim::ClockPacer pacer_{params_.pacer};
+  std::map<std::string, double> held_logged_;
+  bus::Subscription progress_;
   runtime::Timer step_;
 };
 

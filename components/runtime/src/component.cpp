@@ -112,7 +112,10 @@ class ContextImpl : public Context {
     }
   }
 
-  ~ContextImpl() override { stopHeartbeat(); }
+  ~ContextImpl() override {
+    stopProgress();
+    stopHeartbeat();
+  }
 
   void start(const bus::ParticipantOptions& options) {
     participant_ = std::make_unique<bus::Participant>(options);
@@ -157,6 +160,7 @@ class ContextImpl : public Context {
     }
     publishState(msg::LIFECYCLE_READY);
     logger_->info("ready on {} domain {}", bus::vendorName(participant_->vendor()), participant_->domainId());
+    if (runtime_params_.clock == "topic") startProgress();
   }
 
   void setDetail(const std::string& detail) override {
@@ -214,6 +218,7 @@ class ContextImpl : public Context {
   spdlog::logger& logger() { return *logger_; }
 
   void finish(msg::LifecycleState state, const std::string& detail) {
+    stopProgress();
     executor_.stop();
     if (!participant_) return;
     {
@@ -287,6 +292,60 @@ class ContextImpl : public Context {
     }
   }
 
+  // On `clock: topic`: how far this process has caught up with the clock, on system/progress every 20 ms of
+  // wall time, for the simulator's pacing (docs/simulator.md). The executor has caught up with clock tick T
+  // when a task posted at T has run (it runs after every sample that arrived before it); the workers when
+  // none of their pending jobs was submitted before T. A process that runs no executor counts as caught up
+  // there.
+  void startProgress() {
+    progress_pub_ = participant_->publisher<msg::Progress>(topics::progress.name, topics::progress.qos);
+    setWorkClock([clock = clock_.get()] { return clock->nowNs(); });
+    progress_ = std::thread([this] { progressLoop(); });
+  }
+
+  void progressLoop() {
+    std::unique_lock lock(progress_mutex_);
+    while (!progress_stop_) {
+      if (progress_cv_.wait_for(lock, std::chrono::milliseconds(20), [&] { return progress_stop_; })) break;
+      lock.unlock();
+      const std::int64_t now = clock_->nowNs();
+      std::int64_t reached = now;
+      if (executor_.running()) {
+        if (!echo_pending_.exchange(true))
+          executor_.post([this, now] {
+            executor_reached_ = now;
+            echo_pending_ = false;
+          });
+        reached = executor_reached_.load();
+      }
+      if (const auto work = oldestPendingWork()) reached = std::min(reached, *work);
+      if (reached > 0) {
+        msg::Progress p;
+        p.name(name_);
+        p.stamp_ns(reached);
+        try {
+          progress_pub_.publish(p);
+        } catch (const bus::BusError& e) {
+          logger_->warn("could not publish progress: {}", e.what());
+        }
+      }
+      lock.lock();
+    }
+  }
+
+  void stopProgress() {
+    {
+      std::lock_guard lock(progress_mutex_);
+      progress_stop_ = true;
+    }
+    progress_cv_.notify_all();
+    if (progress_.joinable()) {
+      progress_.join();
+      setWorkClock({});
+    }
+    progress_pub_ = {};
+  }
+
   void stopHeartbeat() {
     {
       std::lock_guard lock(heartbeat_mutex_);
@@ -324,6 +383,14 @@ class ContextImpl : public Context {
   std::mutex heartbeat_mutex_;
   std::condition_variable heartbeat_cv_;
   bool heartbeat_stop_ = false;
+
+  bus::Publisher<msg::Progress> progress_pub_;
+  std::thread progress_;
+  std::mutex progress_mutex_;
+  std::condition_variable progress_cv_;
+  bool progress_stop_ = false;
+  std::atomic<bool> echo_pending_{false};
+  std::atomic<std::int64_t> executor_reached_{0};
 };
 
 }  // namespace

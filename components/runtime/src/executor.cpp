@@ -141,11 +141,70 @@ void ExecutorCore::run() {
 
 }  // namespace detail
 
-Worker::Worker(std::string name) : name_(std::move(name)), thread_([this] { loop(); }) {}
+namespace {
 
-Worker::~Worker() { stop(); }
+// The process's Workers and the clock they stamp jobs with: read by the runtime's progress probe.
+struct WorkRegistry {
+  std::mutex mutex;
+  std::vector<const Worker*> workers;
+  std::function<std::int64_t()> clock;
+};
+
+WorkRegistry& workRegistry() {
+  static WorkRegistry registry;
+  return registry;
+}
+
+std::int64_t workClockNow() {
+  auto& r = workRegistry();
+  std::lock_guard lock(r.mutex);
+  return r.clock ? r.clock() : 0;
+}
+
+}  // namespace
+
+void setWorkClock(std::function<std::int64_t()> now) {
+  auto& r = workRegistry();
+  std::lock_guard lock(r.mutex);
+  r.clock = std::move(now);
+}
+
+std::optional<std::int64_t> oldestPendingWork() {
+  auto& r = workRegistry();
+  std::lock_guard lock(r.mutex);
+  if (!r.clock) return std::nullopt;
+  std::optional<std::int64_t> oldest;
+  for (const Worker* w : r.workers)
+    if (const auto since = w->pendingSince(); since && *since > 0 && (!oldest || *since < *oldest)) oldest = since;
+  return oldest;
+}
+
+Worker::Worker(std::string name) : name_(std::move(name)), thread_([this] { loop(); }) {
+  auto& r = workRegistry();
+  std::lock_guard lock(r.mutex);
+  r.workers.push_back(this);
+}
+
+Worker::~Worker() {
+  {
+    auto& r = workRegistry();
+    std::lock_guard lock(r.mutex);
+    std::erase(r.workers, this);
+  }
+  stop();
+}
+
+std::optional<std::int64_t> Worker::pendingSince() const {
+  std::lock_guard lock(mutex_);
+  std::optional<std::int64_t> since;
+  if (running_) since = running_->submitted_ns;
+  for (const auto& e : queue_)
+    if (!since || e->submitted_ns < *since) since = e->submitted_ns;
+  return since;
+}
 
 void Worker::submit(std::uint64_t key, Job job) {
+  const std::int64_t submitted_ns = workClockNow();
   {
     std::lock_guard lock(mutex_);
     if (finished_) throw std::logic_error(name_ + ": submit after stop");
@@ -155,6 +214,7 @@ void Worker::submit(std::uint64_t key, Job job) {
     auto entry = std::make_shared<Entry>();
     entry->key = key;
     entry->job = std::move(job);
+    entry->submitted_ns = submitted_ns;
     if (stopping_) entry->stop.request_stop();
     queue_.push_back(std::move(entry));
   }

@@ -49,6 +49,8 @@ const std::vector<TopicRow>& stockTopics() {
       row(topics::tracking, "sensorData", {"tracker"}, {"monitor"}),
       row(topics::status, "state", {"*"}, {"launch", "monitor"}, "also tests; keyed by `name`; never remapped or namespaced"),
       row(topics::clock, "sensorData", {"sim"}, {"*"}, "or a replay; read by processes run with `clock: topic`; not namespaced"),
+      row(topics::progress, "sensorData", {"*"}, {"sim"},
+          "every process on `clock: topic`: how far it has caught up; the sim paces its clock by it; keyed by `name`; not namespaced"),
   };
   return table;
 }

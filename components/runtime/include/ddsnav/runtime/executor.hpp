@@ -222,11 +222,21 @@ class Executor {
 // is given a stop token: submitting another job under the same key (the same requester) requests a stop
 // of the queued or running one, and so does stop(). A job checks the token (PlanProblem::stop) and returns
 // promptly; it still runs when stopped before it started, so that it can answer its requester.
+// Every Worker of the process stamps each job with the time of workClock() when it is submitted, so that
+// how far the process is behind its clock can be told (system/progress, docs/simulator.md "Pacing"). The
+// component's runtime sets the clock when it follows system/clock; without one, jobs carry no stamp.
+void setWorkClock(std::function<std::int64_t()> now);
+// The earliest stamp of a job queued or running on any Worker of the process; nullopt when every Worker is idle
+// (or no clock is set).
+std::optional<std::int64_t> oldestPendingWork();
+
 class Worker {
  public:
   using Job = std::function<void(std::stop_token)>;
   explicit Worker(std::string name = "worker");
   ~Worker();
+  // The earliest work-clock stamp among this worker's queued and running jobs (0: unstamped), nullopt when idle.
+  std::optional<std::int64_t> pendingSince() const;
   Worker(const Worker&) = delete;
   Worker& operator=(const Worker&) = delete;
 
@@ -242,11 +252,12 @@ class Worker {
     std::uint64_t key;
     std::stop_source stop;
     Job job;
+    std::int64_t submitted_ns = 0;  // workClock() at submit
   };
   void loop();
 
   std::string name_;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<std::shared_ptr<Entry>> queue_;
   std::shared_ptr<Entry> running_;

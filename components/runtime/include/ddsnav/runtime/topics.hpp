@@ -53,6 +53,7 @@ inline const Topic<msg::VelocityCommand> cmd_vel{"control/cmd_vel", bus::Qos::co
 inline const Topic<msg::TrackingStatus> tracking{"control/tracking", bus::Qos::sensorData()};
 inline const Topic<msg::ComponentStatus> status{"system/status", bus::Qos::state(1)};
 inline const Topic<msg::Clock> clock{"system/clock", bus::Qos::sensorData(1)};
+inline const Topic<msg::Progress> progress{"system/progress", bus::Qos::sensorData(1)};
 }  // namespace topics
 
 // Every stock topic, in the order of the docs' table.
