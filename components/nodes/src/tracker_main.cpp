@@ -315,10 +315,13 @@ class TrackerComponent : public runtime::Component {
     const std::int64_t step_ns = clock().nowNs();
     const double dt = std::clamp(static_cast<double>(step_ns - last_step_ns_) * 1e-9, 0.2 * nominal_dt, 5.0 * nominal_dt);
     last_step_ns_ = step_ns;
-    // Readiness first (so the launcher can start whoever waits for us), then wait up to 20 s for a planner.
+    // Readiness first (so the launcher can start whoever waits for us), then wait up to 20 s for a planner,
+    // matched both ways: a Cyclone planner may learn of this Fast DDS writer after the writer matched it, and
+    // the first request, sent in between, was lost (then answered only after the answer timeout: 48 s of
+    // simulated time at speed 4 on gart_cluttered_2d).
     if (!planner_seen_) {
-      if (requests_.matchedSubscribers() == 0 && std::chrono::steady_clock::now() - started_ < std::chrono::seconds(20)) return;
-      if (requests_.matchedSubscribers() == 0) spdlog::warn("no planner subscribed to planning/request yet");
+      if (requests_.settledSubscribers() == 0 && std::chrono::steady_clock::now() - started_ < std::chrono::seconds(20)) return;
+      if (requests_.settledSubscribers() == 0) spdlog::warn("no planner subscribed to planning/request yet");
       planner_seen_ = true;
     }
     const std::optional<tracker::VehicleState> state = vehicle_;

@@ -235,6 +235,8 @@ class Publisher {
   bool waitForSubscribers(std::size_t count, std::chrono::milliseconds timeout) const {
     return detail::waitMatched([this] { return detail::settledReaders(checked()); }, count, timeout);
   }
+  // The subscribers waitForSubscribers counts, now (no waiting): a loop that must not block polls this.
+  std::size_t settledSubscribers() const { return detail::settledReaders(checked()); }
   // Samples serialized and handed to DDS so far (intra-process deliveries not counted).
   std::uint64_t ddsWrites() const { return detail::ddsWrites(checked()); }
 
