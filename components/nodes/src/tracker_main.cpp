@@ -229,8 +229,23 @@ class TrackerComponent : public runtime::Component {
     // from rest once the block is close enough to stop for it).
     if (request_speed_ > 0.5 && trajectory.samples.front().speed < 0.1) {
       spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown", smoothed.request_id, request_speed_);
+      // Twice in a row: nothing ahead leaves room to go on at speed (inside a bug trap every plan turns back), and
+      // flying on toward the block between refusals only makes it worse (bugtrap_1.0: 23 refusals, 74 m short at
+      // the timeout). Stop, and plan from rest.
+      if (++rest_start_refusals_ >= 2 && follower_) {
+        stop();
+        follower_.reset();
+        switch_at_.reset();
+        next_trajectory_.reset();
+        mission_.hold();
+        stopping_for_ = fmt::format("rest_start: {} plans in a row could only start at rest while the vehicle flies on", rest_start_refusals_);
+        stopping_since_ns_ = clock().nowNs();
+        spdlog::warn("stopping: {}", *stopping_for_);
+        rest_start_refusals_ = 0;
+      }
       return false;
     }
+    rest_start_refusals_ = 0;
     const double latency = static_cast<double>(clock().nowNs() - requested_at_ns_) * 1e-9;
     spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s, ready {:.3f} s after its request",
                  smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
@@ -484,6 +499,7 @@ class TrackerComponent : public runtime::Component {
   std::optional<double> switch_at_;
   std::optional<tracker::Trajectory> next_trajectory_;
   std::future<Smoothed> smoothing_;
+  unsigned rest_start_refusals_ = 0;  // plans refused in a row for starting at rest while the vehicle is moving
   std::optional<std::string> stopping_for_;  // a stop-and-replan's reason, until the vehicle is at rest
   std::int64_t stopping_since_ns_ = 0;
   std::int64_t speed_window_clock_ns_ = 0;
