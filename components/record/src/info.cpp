@@ -113,8 +113,13 @@ std::string formatRecordingInfo(const nlohmann::json& info) {
                        t["message_count"].get<std::uint64_t>(), t["rate_hz"].get<double>(), count(t, "received"),
                        count(t, "lost"), count(t, "dropped"));
   }
-  out += "(received: delivered by DDS; lost: never delivered, per the DDS sample-lost/rejected status; dropped: received but\n"
-         " not written, because the recorder's queue was full or the file failed)\n";
+  out += "(received: delivered by DDS; lost: never delivered — the jumps in each writer's sequence numbers, or the DDS\n"
+         " sample-lost/rejected status; dropped: received but not written, because the recorder's queue was full or the\n"
+         " file failed)\n";
+  // A Cyclone DDS 0.10 reader exposes no sequence numbers, and its status misses what a reliable writer gave up on.
+  if (info.contains("recording") && info["recording"].value("vendor", std::string()).find("cyclone") != std::string::npos)
+    out += "(recorded with Cyclone DDS: lost is a lower bound — it cannot see samples a reliable writer overwrote before\n"
+           " they arrived; record with --dds fastdds for exact counts)\n";
   if (!info["topic_counts_recorded"].get<bool>())
     out += info["truncated"].get<bool>() ? "(no per-topic received/lost/dropped counts: the recorder did not close the file)\n"
                                          : "(no per-topic received/lost/dropped counts in this file)\n";

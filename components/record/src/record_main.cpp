@@ -192,6 +192,9 @@ void runRecording(runtime::Context& ctx, RecordOptions& o, sigset_t snapshot_sig
   };
   spdlog::info("recording {} to {} (domain {}, {})", options.topics.empty() ? std::string("every topic") : fmt::format("{}", fmt::join(options.topics, ",")),
                options.output, domain, options.vendor_name);
+  if (participant.vendor() == bus::Vendor::CycloneDDS)
+    spdlog::warn("record: with Cyclone DDS the lost counts are a lower bound (its readers expose no sequence numbers, and its "
+                 "status misses samples a reliable writer overwrote); --dds fastdds counts every loss");
 
   if (snapshot)
     spdlog::info("snapshot mode: keeping the last {}{}{} in memory; kill -USR1 {}{} writes them", snapshot_s > 0 ? fmt::format("{:g} s", snapshot_s) : "",
