@@ -17,6 +17,8 @@
 #include <spdlog/spdlog.h>
 
 #include <cmath>
+#include <cstdint>
+#include <map>
 
 using namespace ddsnav;
 
@@ -79,6 +81,14 @@ class PlannerComponent : public runtime::Component {
     // would otherwise walk a 1e300 m segment), a positive finite budget, capped below. An empty frame_id
     // is taken as the map frame.
     const std::string frame = request.header().frame_id().empty() ? "" : nodes::kWorldFrame;
+    // A requester repeats its request while it has heard no answer from any planner yet (the tracker does, since
+    // its first request can be lost in discovery): a copy of the request last taken from it is not solved again
+    // (a new job under its key would stop the one solving it).
+    if (auto [it, inserted] = last_request_.try_emplace(info.publication_handle, request.request_id()); !inserted) {
+      if (it->second == request.request_id()) return;
+      it->second = request.request_id();
+    }
+    if (last_request_.size() > 4096) last_request_.clear();  // bounded; a forgotten requester's repeat is solved again
     if (const auto error = nodes::checkPlanRequest(request, scenario_, frame); !error.empty()) return fail(request, "refused: " + error);
     std::shared_ptr<planner::Planner> algorithm;
     try {
@@ -151,6 +161,7 @@ class PlannerComponent : public runtime::Component {
   const std::map<std::string, std::vector<std::string>> planner_options_;
   nodes::WorldSource world_source_;
   bus::Publisher<msg::Path> paths_;
+  std::map<std::uint64_t, std::uint32_t> last_request_;  // requester (publication handle) -> its last request id
   runtime::Worker worker_{"planner"};  // after what its jobs use: stopped and joined before they go
   bus::Subscription requests_;
 };
