@@ -144,6 +144,7 @@ class OctoMapWorld final : public CollisionWorld {
         unknown_blocked_(options.unknown_is_occupied),
         solid_below_surface_(options.solid_below_surface && dimensions == 3),
         surface_margin_(options.surface_margin_m),
+        unknown_margin_(dimensions == 2 ? options.unknown_margin_m : 0.0),
         outside_margin_(options.outside_bounds_margin_m),
         max_bricks_(options.max_bricks) {
     if (dims_ == 2) bmin_.z() = bmax_.z() = 0.0;
@@ -339,7 +340,8 @@ class OctoMapWorld final : public CollisionWorld {
   // per brick, not per voxel, and the number of bricks is capped (max_bricks): a coarse leaf — one 63-byte
   // message can hold a leaf 2^14 voxels wide — is never expanded without bound.
   void load(const std::vector<std::uint8_t>& bytes) {
-    BinaryOcTreeReader reader(bytes, /*free_leaves=*/unknown_blocked_);
+    const bool free_leaves = unknown_blocked_ || unknown_margin_ > 0.0;
+    BinaryOcTreeReader reader(bytes, free_leaves);
     Cell occupied_lo{}, occupied_hi{}, free_lo{}, free_hi{};
     auto region = [&](double margin, Cell& lo, Cell& hi) {
       lo = {cellCoord(bmin_.x() - margin), cellCoord(bmin_.y() - margin), dims_ == 2 ? 0 : cellCoord(bmin_.z() - margin)};
@@ -352,7 +354,7 @@ class OctoMapWorld final : public CollisionWorld {
       region(radius_ + 2.0 * resolution_, free_lo, free_hi);
     };
     auto leaf = [&](const std::uint16_t* corner, unsigned depth, bool occupied) {
-      if (!occupied && !unknown_blocked_) return;
+      if (!occupied && !free_leaves) return;
       const std::int64_t size = std::int64_t(1) << (16 - depth);
       Cell lo = {std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit, std::int64_t(corner[2]) - kCellLimit};
       Cell hi = {lo.x + size - 1, lo.y + size - 1, lo.z + size - 1};
@@ -369,6 +371,7 @@ class OctoMapWorld final : public CollisionWorld {
       fillBox(lo, hi, occupied);
     };
     reader.read(header, leaf);
+    if (unknown_margin_ > 0.0 && !unknown_blocked_) blockUnknownNearOccupied(occupied_lo, occupied_hi);
     for (std::uint32_t i = 0; i < bricks_.size(); ++i) {
       const auto& occ = bricks_[i].occupied;
       if (std::none_of(occ.begin(), occ.end(), [](std::uint64_t w) { return w != 0; })) continue;
@@ -399,6 +402,51 @@ class OctoMapWorld final : public CollisionWorld {
       occ_hi_ = {std::max(occ_hi_.x, hi.x), std::max(occ_hi_.y, hi.y), std::max(occ_hi_.z, hi.z)};
     }
     if (solid_below_surface_) loadColumnTops();
+  }
+
+  // 2-D: every never-observed cell within unknown_margin_m of an observed occupied cell becomes occupied (its
+  // known bit stays clear). Only occupied cells with a neighbour that is not occupied can reach beyond the others,
+  // so only those are dilated: a wall's faces, not its inside.
+  void blockUnknownNearOccupied(const Cell& clip_lo, const Cell& clip_hi) {
+    const std::int64_t m = static_cast<std::int64_t>(std::floor(unknown_margin_ * factor_ + 1e-9));
+    if (m < 1) return;
+    std::vector<std::pair<std::int64_t, std::int64_t>> disk;
+    for (std::int64_t dy = -m; dy <= m; ++dy)
+      for (std::int64_t dx = -m; dx <= m; ++dx)
+        if ((dx * dx + dy * dy) <= m * m && (dx != 0 || dy != 0)) disk.emplace_back(dx, dy);
+    auto state = [&](std::int64_t x, std::int64_t y, bool& occupied, bool& known) {
+      const Brick* b = findBrick(x >> 3, y >> 3, 0);
+      const std::uint32_t bit = bitOf({x, y, 0});
+      occupied = b && ((b->occupied[bit >> 6] >> (bit & 63)) & 1u);
+      known = b && ((b->known[bit >> 6] >> (bit & 63)) & 1u);
+    };
+    // Marked after the scan (new bricks would move the ones being read), one mask per brick however many faces
+    // reach a cell.
+    std::unordered_map<std::uint64_t, std::array<std::uint64_t, 8>> marks;
+    for (std::size_t i = 0; i < bricks_.size(); ++i) {
+      forEachBit(bricks_[i].occupied, [&](unsigned bit) {
+        const Cell c = cellOfBit(bricks_[i], bit);
+        bool occ = false, known = false, face = false;
+        for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+          state(c.x + dx, c.y + dy, occ, known);
+          face |= !occ;
+        }
+        if (!face) return;
+        for (const auto& [dx, dy] : disk) {
+          const Cell n{c.x + dx, c.y + dy, 0};
+          if (!inRange(n, clip_lo, clip_hi)) continue;
+          state(n.x, n.y, occ, known);
+          if (occ || known) continue;
+          const std::uint32_t nbit = bitOf(n);
+          marks[pack(n.x >> 3, n.y >> 3, 0)][nbit >> 6] |= std::uint64_t(1) << (nbit & 63);
+        }
+      });
+    }
+    for (const auto& [key, mask] : marks) {
+      constexpr std::int64_t kb = kCellLimit / 8;
+      Brick& b = brickFor(std::int64_t(key & 0x1fffu) - kb, std::int64_t((key >> 13) & 0x1fffu) - kb, 0);
+      for (int w = 0; w < 8; ++w) b.occupied[w] |= mask[w];
+    }
   }
 
   // The highest occupied voxel of every (x, y) column, on a grid over the occupied voxels' box. Columns are
@@ -616,6 +664,7 @@ class OctoMapWorld final : public CollisionWorld {
   bool unknown_blocked_;
   bool solid_below_surface_;
   double surface_margin_;  // m; solid_below_surface: a column is as high as the highest one this close
+  double unknown_margin_;  // m; 2-D: never-observed cells this close to an occupied one are blocked
   static constexpr std::int32_t kNoColumnTop = std::numeric_limits<std::int32_t>::min();
   std::vector<std::int32_t> column_top_;  // solid_below_surface: highest occupied cell z per column cell
   std::int64_t column_nx_ = 0;
@@ -651,6 +700,8 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
     throw std::invalid_argument("makeOctoMapWorld: outside_bounds_margin_m must be finite and >= 0");
   if (!(options.surface_margin_m >= 0.0 && options.surface_margin_m <= 1000.0))
     throw std::invalid_argument("makeOctoMapWorld: surface_margin_m must be in [0, 1000] m");
+  if (!(options.unknown_margin_m >= 0.0 && options.unknown_margin_m <= 100.0))
+    throw std::invalid_argument("makeOctoMapWorld: unknown_margin_m must be in [0, 100] m");
   if (options.max_bricks < 1) throw std::invalid_argument("makeOctoMapWorld: max_bricks must be at least 1");
   return std::make_unique<OctoMapWorld>(dimensions, bounds_min, bounds_max, robot_radius, octree_binary, options);
 }

@@ -412,5 +412,66 @@ TEST(OctoMapWorld, SolidBelowSurfaceIsThreeDimensionalOnly) {
   EXPECT_NEAR(flat->clearance(Vec3(1.55, 0.55, 0.0)), 0.95, 1e-9);  // to the voxel [0.5, 0.6): no depth rule
 }
 
+
+TEST(OctoMapWorld, UnknownMarginBlocksUnseenCellsNearSeenSurfacesAsABruteForceScanSays) {
+  // A planar scan from the origin of a few walls and a disc: free cells along the rays, occupied cells where they
+  // end, the far sides unknown. With unknown_margin_m, exactly the unknown cells within the margin (a disc of
+  // whole cells) of an occupied cell that borders a non-occupied one are blocked; known cells answer for themselves.
+  octomap::OcTree tree(0.1);
+  octomap::Pointcloud cloud;
+  for (int i = 0; i < 720; ++i) {
+    const double a = i * 2.0 * M_PI / 720.0;
+    const Eigen::Vector2d d(std::cos(a), std::sin(a));
+    double range = 5.5;
+    if (d.x() > 0.3) range = std::min(range, 2.0 / d.x());                      // a wall at x = 2
+    const Eigen::Vector2d c(-1.5, 1.0);                                        // a disc of radius 0.8
+    const double b = d.dot(c), disc = b * b - (c.squaredNorm() - 0.64);
+    if (disc >= 0 && b - std::sqrt(disc) > 0) range = std::min(range, b - std::sqrt(disc));
+    cloud.push_back(static_cast<float>(range * d.x()), static_cast<float>(range * d.y()), 0.05f);
+  }
+  tree.insertPointCloud(cloud, octomap::point3d(0.0f, 0.0f, 0.05f), 5.0);  // rays longer than 5 m end unknown
+  OctoMapWorldOptions options;
+  options.unknown_margin_m = 0.45;  // 4 cells (rounded down)
+  const auto world = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), options);
+  const auto plain = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), OctoMapWorldOptions{});
+  constexpr int kN = 120, kOff = 60;  // cells [-60, 60) of 0.1 m per axis
+  enum State { Unknown, Free, Occupied };
+  std::vector<State> state(kN * kN, Unknown);
+  auto at = [&](int x, int y) -> State {
+    return x < 0 || y < 0 || x >= kN || y >= kN ? Unknown : state[static_cast<std::size_t>(y * kN + x)];
+  };
+  for (int y = 0; y < kN; ++y)
+    for (int x = 0; x < kN; ++x)
+      if (const auto* n = tree.search((x - kOff + 0.5) * 0.1, (y - kOff + 0.5) * 0.1, 0.05))
+        state[static_cast<std::size_t>(y * kN + x)] = tree.isNodeOccupied(n) ? Occupied : Free;
+  std::vector<std::pair<int, int>> faces;
+  for (int y = 0; y < kN; ++y)
+    for (int x = 0; x < kN; ++x)
+      if (at(x, y) == Occupied && (at(x + 1, y) != Occupied || at(x - 1, y) != Occupied || at(x, y + 1) != Occupied || at(x, y - 1) != Occupied))
+        faces.emplace_back(x, y);
+  int newly_blocked = 0, unknown_free = 0;
+  for (int y = 2; y < kN - 2; ++y)
+    for (int x = 2; x < kN - 2; ++x) {
+      const Vec3 p((x - kOff + 0.5) * 0.1, (y - kOff + 0.5) * 0.1, 0.0);
+      bool expected = at(x, y) == Occupied;
+      if (at(x, y) == Unknown)
+        for (const auto& [fx, fy] : faces)
+          if ((fx - x) * (fx - x) + (fy - y) * (fy - y) <= 16) expected = true;
+      ASSERT_EQ(world->isFree(p), !expected) << p.transpose();
+      newly_blocked += expected && plain->isFree(p);
+      unknown_free += at(x, y) == Unknown && !expected;
+    }
+  EXPECT_GT(newly_blocked, 300);  // both answers were exercised among the unknown cells
+  EXPECT_GT(unknown_free, 300);
+  // Known free space next to a surface stays free: the cell in front of the wall, on the ray from the origin.
+  EXPECT_TRUE(world->isFree(Vec3(1.85, 0.05, 0.0)));
+  // 3-D worlds ignore it; bad values are refused.
+  OctoMapWorldOptions bad = options;
+  bad.unknown_margin_m = -0.1;
+  EXPECT_THROW(makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), bad), std::invalid_argument);
+  bad.unknown_margin_m = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), bad), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace ddsnav::planner

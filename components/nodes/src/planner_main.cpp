@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <optional>
 
 using namespace ddsnav;
 
@@ -31,6 +32,7 @@ class PlannerComponent : public runtime::Component {
     nodes::WorldParameters world;  // world, unknown_space
     std::optional<bool> kinodynamic;
     double max_time_budget_s;
+    double unknown_margin_m;
     std::vector<std::string> planner_options;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: bounds, robot radius, vehicle limits"})),
@@ -38,6 +40,11 @@ class PlannerComponent : public runtime::Component {
           kinodynamic(p.declareOptional<bool>("kinodynamic", {.doc = "plan unicycle edges; default: whether the scenario has a vehicle block"})),
           max_time_budget_s(p.declare<double>("max_time_budget_s", 30.0,
                                               {.above = 0, .unit = "s", .doc = "cap on a request's time_budget_s"})),
+          unknown_margin_m(p.declare<double>(
+              "unknown_margin_m", 1.0,
+              {.min = 0, .max = 100, .unit = "m",
+               .doc = "2-D map and fused worlds, optimistic: plan first keeping never-observed space this close to a seen surface blocked "
+                      "(its unseen part continues), then, with no path in a tenth of the budget, on the plain map (docs/world-model.md); 0: off"})),
           planner_options(p.declare<std::vector<std::string>>("planner_options", {},
                                                               {.doc = "planner.option=value entries (docs/planners.md, \"Options\")"})) {}
   };
@@ -50,7 +57,7 @@ class PlannerComponent : public runtime::Component {
         kinodynamic_(params_.kinodynamic.value_or(scenario_.vehicle.has_value())),
         // "planner.option=value" entries, checked once here against each planner.
         planner_options_(planner::parsePlannerOptions(params_.planner_options)),
-        world_source_(ctx, params_.world, scenario_),
+        world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m),
         paths_(publisher(runtime::topics::path)) {
     if (kinodynamic_ && !scenario_.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
     for (const auto& [name, assignments] : planner_options_) {
@@ -107,16 +114,55 @@ class PlannerComponent : public runtime::Component {
       fail(request, worker_.stopping() ? "the planner is shutting down" : "superseded by a newer request from the same requester");
     };
     if (stop.stop_requested()) return stopped();
+    const double budget = std::min(request.time_budget_s(), params_.max_time_budget_s);
+    try {
+      // First on the map that keeps unseen space next to seen surfaces blocked (2-D, unknown_margin_m), in a
+      // tenth of the budget (2-D solves that succeed take milliseconds to a few hundred); with no path there (an
+      // unseen passage it closes), on the plain map in the rest.
+      const double preferred_budget = budget / 10;
+      std::optional<planner::PlanResult> result;
+      if (world_source_.hasPreferredWorld()) {
+        result = attempt(request, algorithm, stop, /*preferred=*/true, preferred_budget);
+        if (!result) return;  // answered (failed)
+        if (result->stopped) return stopped();
+        if (!result->solved)
+          spdlog::info("request {}: no path keeping {:.1f} m from unseen surfaces in {:.2f} s; planning on the plain map", request.request_id(),
+                       params_.unknown_margin_m, preferred_budget);
+      }
+      if (!result || !result->solved) {
+        const double left = result ? budget - result->stats.time_s : budget;
+        result = attempt(request, algorithm, stop, /*preferred=*/false, std::max(left, budget - preferred_budget));
+        if (!result) return;
+        if (result->stopped) return stopped();
+      }
+      spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result->planner,
+                   result->solved ? "solved" : "failed", result->stats.time_s, result->stats.iterations, result->cost);
+      msg::Path path = nodes::toMsg(*result, request.request_id(), clock().nowNs());
+      if (!result->solved)
+        path.failure(fmt::format("no path within the time budget ({:.2f} s, {} iterations)", budget, result->stats.iterations));
+      paths_.publish(path);
+    } catch (const std::exception& e) {
+      fail(request, e.what());
+    }
+  }
+
+  // One solve on a snapshot of the world; nullopt when the request was answered as failed already (no world).
+  std::optional<planner::PlanResult> attempt(const msg::PlanRequest& request, planner::Planner& algorithm, std::stop_token stop,
+                                             bool preferred, double time_limit_s) {
     std::unique_ptr<planner::CollisionWorld> world;
     try {
-      world = world_source_.snapshot(nodes::fromMsg(request.start()).position, nodes::fromMsg(request.goal()).position, request.goal_radius());
+      world = world_source_.snapshot(nodes::fromMsg(request.start()).position, nodes::fromMsg(request.goal()).position, request.goal_radius(),
+                                     preferred);
     } catch (const std::exception& e) {
-      return fail(request, std::string("cannot build the world: ") + e.what());
+      fail(request, std::string("cannot build the world: ") + e.what());
+      return std::nullopt;
     }
-    if (!world)
-      return fail(request, kind_ == nodes::WorldKind::Map     ? "no map/octomap received yet"
-                           : kind_ == nodes::WorldKind::Fused ? "no perception/obstacles received yet, or still waiting for the first map/octomap (first_map_wait_s)"
-                                                              : "no perception/obstacles received yet");
+    if (!world) {
+      fail(request, kind_ == nodes::WorldKind::Map     ? "no map/octomap received yet"
+                    : kind_ == nodes::WorldKind::Fused ? "no perception/obstacles received yet, or still waiting for the first map/octomap (first_map_wait_s)"
+                                                       : "no perception/obstacles received yet");
+      return std::nullopt;
+    }
     planner::PlanProblem problem;
     problem.world = world.get();
     problem.start = nodes::fromMsg(request.start());
@@ -137,21 +183,9 @@ class PlannerComponent : public runtime::Component {
     problem.vehicle = scenario_.vehicle;
     problem.kinodynamic = kinodynamic_;
     problem.seed = request.seed();
-    problem.time_limit_s = std::min(request.time_budget_s(), params_.max_time_budget_s);
+    problem.time_limit_s = time_limit_s;
     problem.stop = stop;
-    try {
-      const auto result = algorithm.solve(problem);
-      if (result.stopped) return stopped();
-      spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result.planner,
-                   result.solved ? "solved" : "failed", result.stats.time_s, result.stats.iterations, result.cost);
-      msg::Path path = nodes::toMsg(result, request.request_id(), clock().nowNs());
-      if (!result.solved) {
-        path.failure(fmt::format("no path within the time budget ({:.2f} s, {} iterations)", problem.time_limit_s, result.stats.iterations));
-      }
-      paths_.publish(path);
-    } catch (const std::exception& e) {
-      fail(request, e.what());
-    }
+    return algorithm.solve(problem);
   }
 
   const Params params_;

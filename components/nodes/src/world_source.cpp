@@ -91,7 +91,8 @@ bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unk
   return unknown == planner::UnknownSpace::Optimistic && since_first_obstacles_s >= first_map_wait_s;
 }
 
-WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario)
+WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario,
+                         double preferred_unknown_margin_m)
     : kind_(world.kind),
       scenario_(scenario),
       unknown_(world.unknown),
@@ -101,6 +102,9 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
                             ? world.surface_margin_m
                             : 0.0),
       clock_(ctx.clock()) {
+  if (preferred_unknown_margin_m > 0.0 && scenario.dimensions == 2 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) &&
+      unknown_ == planner::UnknownSpace::Optimistic)
+    preferred_unknown_margin_m_ = preferred_unknown_margin_m;
   if (world.sensor_view && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)) {
     sim::RangeSensorConfig sensor = sim::RangeSensorConfig::lidar3d();
     try {
@@ -157,6 +161,12 @@ void WorldSource::buildMap(const msg::OccupancyMap& m) {
   options.solid_below_surface = solid_below_surface_;
   options.surface_margin_m = surface_margin_m_;
   auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, options);
+  std::shared_ptr<const planner::CollisionWorld> preferred;
+  if (checked.error.empty() && preferred_unknown_margin_m_ > 0.0) {
+    options.unknown_margin_m = preferred_unknown_margin_m_;
+    auto with_margin = buildOccupancyMap(m, kWorldFrame, scenario_, options);
+    if (with_margin.error.empty()) preferred = std::move(with_margin.world);
+  }
   std::lock_guard lock(mutex_);
   if (!checked.error.empty()) {
     ++dropped_maps_;
@@ -165,6 +175,12 @@ void WorldSource::buildMap(const msg::OccupancyMap& m) {
     return;
   }
   map_world_ = std::move(checked.world);
+  preferred_map_world_ = std::move(preferred);
+}
+
+bool WorldSource::hasPreferredWorld() const {
+  std::lock_guard lock(mutex_);
+  return preferred_map_world_ != nullptr;
 }
 
 bool WorldSource::available() const {
@@ -201,7 +217,7 @@ std::size_t WorldSource::droppedMaps() const {
 }
 
 std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Vec3& robot_position, const std::optional<planner::Vec3>& goal,
-                                                              double goal_radius) const {
+                                                              double goal_radius, bool preferred) const {
   const auto& s = scenario_;
   std::shared_ptr<const planner::CollisionWorld> map_world;
   std::vector<planner::EllipsoidObstacle> ellipses;
@@ -209,7 +225,7 @@ std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Ve
     std::lock_guard lock(mutex_);
     if (kind_ == WorldKind::Scenario) return planner::makeScenarioWorld(s);
     if (!availableLocked()) return nullptr;
-    map_world = map_world_;
+    map_world = preferred && preferred_map_world_ ? preferred_map_world_ : map_world_;
     if (kind_ != WorldKind::Map) ellipses = toEllipsoidObstacles(*obstacles_);
   }
   // The map's world is shared and immutable: a Map snapshot is a view of it (its own validity-check

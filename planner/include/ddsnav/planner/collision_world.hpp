@@ -120,6 +120,13 @@ struct OctoMapWorldOptions {
   // often unsampled until the vehicle is a few metres away; the margin makes the sampled skin uphill of the path
   // block it from afar. 0: each column only by its own voxels.
   double surface_margin_m = 0.0;
+  // 2-D only: a never-observed cell within this distance of an observed occupied cell is blocked. A scanner sees a
+  // surface's near side only; the part it has not seen yet continues from the part it has (a circle's far side
+  // bulges out beyond its seen arc, a wall goes on past its seen end), and a path hugging the seen part into that
+  // unknown space was found blocked only once the vehicle was too close (docs/world-model.md). It also closes
+  // unseen passages narrower than twice the margin plus the robot, so the planner uses it as a preference: it
+  // plans on the plain map when it finds no path with it. 0: off.
+  double unknown_margin_m = 0.0;
   double outside_bounds_margin_m = 5.0;
   std::size_t max_bricks = kOctoMapWorldMaxBricks;
 };

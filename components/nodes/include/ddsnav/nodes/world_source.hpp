@@ -54,7 +54,10 @@ class WorldSource {
  public:
   // Subscribes through ctx (its executor, its topic names). `world.unknown`: how the map's never-observed
   // space counts (map and fused worlds).
-  WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario);
+  // `preferred_unknown_margin_m` (the planner's `unknown_margin_m`; 2-D map and fused worlds): each map is also
+  // built with that OctoMapWorldOptions::unknown_margin_m, for snapshot(..., preferred = true).
+  WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario,
+              double preferred_unknown_margin_m = 0.0);
   WorldKind kind() const { return kind_; }
 
   // False until the world's input has arrived (always true for the scenario world; for the fused one see
@@ -67,9 +70,12 @@ class WorldSource {
   // catch, so nothing that reaches here can end the process.
   // `goal` (3-D sensor view only): the ball of goal_radius + the robot radius around it is never blocked as
   // unseen (planner::SensorView::exempt_center).
+  // `preferred`: on the map built with the preferred unknown margin, when there is one (hasPreferredWorld).
   std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position,
                                                     const std::optional<planner::Vec3>& goal = std::nullopt,
-                                                    double goal_radius = 0.0) const;
+                                                    double goal_radius = 0.0, bool preferred = false) const;
+  // Whether maps are also built with the preferred unknown margin (and one has been).
+  bool hasPreferredWorld() const;
   // How far its maps widen observed terrain (OctoMapWorldOptions::surface_margin_m): surface_margin_m for a
   // 3-D map or fused world with solid_below_surface, else 0. A start the map puts in collision is searched for
   // a free state this much farther out.
@@ -95,6 +101,8 @@ class WorldSource {
   // The newest map as a collision world, built once per map (not per snapshot: a 3-D map takes a while)
   // on map_worker_, so neither the executor nor a snapshot waits for it; snapshots share it.
   std::shared_ptr<const planner::CollisionWorld> map_world_;
+  double preferred_unknown_margin_m_ = 0.0;  // > 0 only for 2-D map and fused worlds
+  std::shared_ptr<const planner::CollisionWorld> preferred_map_world_;  // the same map with that margin
   std::optional<msg::ObstacleArray> obstacles_;
   std::optional<std::int64_t> first_obstacles_ns_;  // component clock
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;
