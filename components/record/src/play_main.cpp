@@ -87,7 +87,7 @@ struct PlayCommandLine {
   void add(CLI::App& app) {
     app.add_option("file", path, "recording (.mcap)")->required();
     app.add_option("--rate", options.rate, "playback speed factor")->check(CLI::PositiveNumber);
-    app.add_option("--topics", options.topics, "topics to replay (comma separated; default: all but system/status)")->delimiter(',');
+    app.add_option("--topics", options.topics, "topics to replay (comma separated; default: all but system/status and system/progress)")->delimiter(',');
     app.add_flag("--loop", options.loop, "start over at the end");
     app.add_flag("--clock", options.clock, "publish system/clock following the recorded time");
     app.add_option("--clock-hz", options.clock_hz, "system/clock publish rate")->check(CLI::PositiveNumber);

@@ -23,8 +23,9 @@ struct Output {
 
 bool chosen(const PlayerOptions& options, const std::string& topic) {
   if (!options.topics.empty()) return std::find(options.topics.begin(), options.topics.end(), topic) != options.topics.end();
-  // Replayed heartbeats would make dead processes look alive; a recorded clock would fight --clock.
-  if (topic == "system/status") return false;
+  // Replayed heartbeats would make dead processes look alive, replayed progress reports would make a live
+  // simulator wait for processes of the recording (its pacing); a recorded clock would fight --clock.
+  if (topic == "system/status" || topic == "system/progress") return false;
   if (options.clock && topic == "system/clock") return false;
   return true;
 }
