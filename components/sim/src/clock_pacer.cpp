@@ -6,6 +6,7 @@
 namespace ddsnav::sim {
 namespace {
 constexpr double kLongHoldS = 1.0;  // wall seconds of holding in a row worth a log line
+constexpr std::size_t kMaxProcesses = 1024;
 }  // namespace
 
 void PacerParams::validate() const {
@@ -20,6 +21,10 @@ void PacerParams::validate() const {
 ClockPacer::ClockPacer(const PacerParams& params) : params_(params) { params_.validate(); }
 
 void ClockPacer::report(const std::string& name, std::int64_t stamp_ns, WallTime now) {
+  // A clock time is positive (ns since the epoch); anything else is no report (and would overflow the lag).
+  if (stamp_ns <= 0) return;
+  // Bounded: a flood of names (no system has this many processes) cannot grow it; silent ones are forgotten.
+  if (processes_.size() >= kMaxProcesses && processes_.find(name) == processes_.end()) return;
   Process& p = processes_[name];
   // Reports may arrive reordered (best effort); progress never goes back.
   if (stamp_ns > p.stamp_ns) p.stamp_ns = stamp_ns;

@@ -81,6 +81,15 @@ TEST_F(PacerTest, StopsWaitingForAProcessThatHoldsTooLongAndWaitsAgainOnceItCaug
   EXPECT_EQ(pacer.holder(), "stuck");
 }
 
+TEST_F(PacerTest, IgnoresReportsThatAreNoClockTime) {
+  ClockPacer pacer({.max_lag_s = 0.3});
+  pacer.report("hostile", std::numeric_limits<std::int64_t>::min(), wall);
+  pacer.report("hostile", 0, wall);
+  pacer.report("hostile", -5, wall);
+  EXPECT_TRUE(pacer.mayAdvance(sim, wall));
+  EXPECT_TRUE(pacer.mayAdvance(std::numeric_limits<std::int64_t>::max(), wall));
+}
+
 TEST(PacerParams, RefuseNonPositiveAndNonFiniteValues) {
   EXPECT_THROW(ClockPacer({.max_lag_s = 0}), std::invalid_argument);
   EXPECT_THROW(ClockPacer({.max_hold_s = -1}), std::invalid_argument);
