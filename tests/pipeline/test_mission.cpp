@@ -22,7 +22,10 @@
 // terrain 2 of 2. The terrain test is enabled (7 of 7 runs at speed 4 since, clearance +0.18 to +0.81 m); the
 // wall-time bound allows for the slower clock (and a sanitizer's time factor). The cluttered field stays disabled:
 // of 8 paced runs 2 grazed the circle at (75, 88) (-0.05, -0.17 m) on its side the scanner had not yet seen — a
-// plan hugging the seen arc where the unseen part bulges out (docs/benchmarks/mission.md); load no longer matters.
+// plan hugging the seen arc where the unseen part bulges out (docs/benchmarks/mission.md). With the 1.0 m room and
+// the planner's unknown margin it passed 8 of 8 alone but 6 of 8 beside a busy-loop core (22:41-22:48): load still
+// matters somewhat — the tracker's replan checks and smoothing run on std::async, which the progress reports
+// (executor and runtime::Worker only) do not cover. Still disabled.
 
 #include <ddsnav/testing/harness.hpp>
 
