@@ -24,8 +24,9 @@
 // of 8 paced runs 2 grazed the circle at (75, 88) (-0.05, -0.17 m) on its side the scanner had not yet seen — a
 // plan hugging the seen arc where the unseen part bulges out (docs/benchmarks/mission.md). With the 1.0 m room and
 // the planner's unknown margin it passed 8 of 8 alone but 6 of 8 beside a busy-loop core (22:41-22:48): load still
-// matters somewhat — the tracker's replan checks and smoothing run on std::async, which the progress reports
-// (executor and runtime::Worker only) do not cover. Still disabled.
+// matters somewhat — the tracker's replan checks and smoothing ran on std::async, which the progress reports
+// (executor and runtime::Worker only) did not cover. With them holding a runtime::PendingWork: 8 of 8 beside the
+// busy core (22:50-22:54). Still disabled until more runs say it is reliable under ctest -j2.
 
 #include <ddsnav/testing/harness.hpp>
 

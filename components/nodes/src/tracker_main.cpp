@@ -12,6 +12,7 @@
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
+#include <ddsnav/runtime/pending_work.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
 #include <ddsnav/sim/sensor_choice.hpp>
@@ -210,8 +211,9 @@ class TrackerComponent : public runtime::Component {
   void startSmoothing(const msg::Path& path, const tracker::VehicleState& state) {
     smoother_config_.initial_heading = request_heading_;
     smoother_config_.initial_speed = request_speed_;
-    smoothing_ = std::async(std::launch::async, [this, states = nodes::statesOf(path), id = path.request_id(),
-                                                 position = state.position, config = smoother_config_] {
+    // The progress report (pacing) waits for it like for a Worker's job.
+    smoothing_ = std::async(std::launch::async, [this, states = nodes::statesOf(path), id = path.request_id(), position = state.position,
+                                                 config = smoother_config_, token = std::make_shared<runtime::PendingWork>()]() mutable {
       Smoothed out{id, std::nullopt};
       try {
         auto world = currentWorld(position);
@@ -220,6 +222,7 @@ class TrackerComponent : public runtime::Component {
       } catch (const std::exception& e) {
         spdlog::warn("cannot smooth plan {}: {}", id, e.what());
       }
+      token.reset();
       return out;
     });
   }
@@ -320,11 +323,13 @@ class TrackerComponent : public runtime::Component {
     // sensor (the AUV: 2 m/s, a 200 m sonar; a plan of 600 m took 49 simulated seconds at speed 10) must
     // see the block while there is time to plan around it ahead.
     const double horizon = 2 * replan_gate_.expectedPlanningTime() + params_.replan.stop_margin_s;
-    checking_ = std::async(std::launch::async, [this, follower = *follower_, serial = trajectory_serial_, position = state.position, horizon] {
+    checking_ = std::async(std::launch::async, [this, follower = *follower_, serial = trajectory_serial_, position = state.position, horizon,
+                                                token = std::make_shared<runtime::PendingWork>()]() mutable {
       const auto started = std::chrono::steady_clock::now();
       Checked out{serial, follower.status().reference_time, {}, 0.0};
       if (const auto world = currentWorld(position)) out.decision = follower.checkReplan(*world, horizon);
       out.took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      token.reset();
       return out;
     });
   }

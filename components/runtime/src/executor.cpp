@@ -1,8 +1,10 @@
 #include <ddsnav/runtime/executor.hpp>
+#include <ddsnav/runtime/pending_work.hpp>
 
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <map>
 
 namespace ddsnav::runtime {
 namespace detail {
@@ -147,6 +149,8 @@ namespace {
 struct WorkRegistry {
   std::mutex mutex;
   std::vector<const Worker*> workers;
+  std::map<std::uint64_t, std::int64_t> pending;  // PendingWork id -> its stamp
+  std::uint64_t next_pending = 1;
   std::function<std::int64_t()> clock;
 };
 
@@ -176,7 +180,24 @@ std::optional<std::int64_t> oldestPendingWork() {
   std::optional<std::int64_t> oldest;
   for (const Worker* w : r.workers)
     if (const auto since = w->pendingSince(); since && *since > 0 && (!oldest || *since < *oldest)) oldest = since;
+  for (const auto& [id, stamp] : r.pending)
+    if (stamp > 0 && (!oldest || stamp < *oldest)) oldest = stamp;
   return oldest;
+}
+
+PendingWork::PendingWork() {
+  auto& r = workRegistry();
+  std::lock_guard lock(r.mutex);
+  if (!r.clock) return;
+  id_ = r.next_pending++;
+  r.pending.emplace(id_, r.clock());
+}
+
+PendingWork::~PendingWork() {
+  if (id_ == 0) return;
+  auto& r = workRegistry();
+  std::lock_guard lock(r.mutex);
+  r.pending.erase(id_);
 }
 
 Worker::Worker(std::string name) : name_(std::move(name)), thread_([this] { loop(); }) {

@@ -1,6 +1,7 @@
 // The executor and the worker without DDS: queue overflow (keep-last drops the oldest and counts it),
 // timers, posted tasks, exceptions, and the worker's supersede/cancel contract with a real planner solve.
 #include <ddsnav/runtime/executor.hpp>
+#include <ddsnav/runtime/pending_work.hpp>
 
 #include <ddsnav/planner/planner.hpp>
 #include <ddsnav/planner/planners.hpp>
@@ -11,6 +12,9 @@
 #include <atomic>
 #include <cstdlib>
 #include <future>
+#include <memory>
+#include <optional>
+#include <thread>
 
 namespace ddsnav::runtime {
 namespace {
@@ -195,6 +199,43 @@ TEST(Worker, OtherKeysWaitTheirTurnAndStopEndsEverything) {
   EXPECT_EQ(ran[3], std::make_pair(4, false));
   EXPECT_TRUE(worker.stopping());
   EXPECT_THROW(worker.submit(5, job(5, false)), std::logic_error);
+}
+
+// What system/progress reports as the oldest pending work (docs/simulator.md, "Pacing"): jobs queued or running on
+// any Worker and PendingWork tokens, each stamped with the work clock when made; nothing without a clock.
+TEST(ProgressWork, WorkersJobsAndPendingWorkAreStampedWithTheWorkClockUntilTheyAreDone) {
+  EXPECT_FALSE(oldestPendingWork());
+  std::atomic<std::int64_t> now{100};
+  setWorkClock([&] { return now.load(); });
+  EXPECT_FALSE(oldestPendingWork());  // idle
+  {
+    auto token = std::make_unique<PendingWork>();
+    now = 200;
+    PendingWork later;
+    EXPECT_EQ(oldestPendingWork(), std::optional<std::int64_t>(100));
+    token.reset();
+    EXPECT_EQ(oldestPendingWork(), std::optional<std::int64_t>(200));
+  }
+  EXPECT_FALSE(oldestPendingWork());
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  std::atomic<bool> started{false};
+  {
+    Worker worker("progress-test");
+    now = 300;
+    worker.submit(1, [&](std::stop_token) {
+      started = true;
+      released.wait();
+    });
+    while (!started) std::this_thread::yield();
+    EXPECT_EQ(oldestPendingWork(), std::optional<std::int64_t>(300));
+    release.set_value();
+    for (int i = 0; i < 1000 && oldestPendingWork(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    EXPECT_FALSE(oldestPendingWork());
+  }
+  setWorkClock({});
+  PendingWork unstamped;
+  EXPECT_FALSE(oldestPendingWork());
 }
 
 }  // namespace
