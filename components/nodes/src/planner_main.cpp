@@ -130,8 +130,7 @@ class PlannerComponent : public runtime::Component {
                        params_.unknown_margin_m, preferred_budget);
       }
       if (!result || !result->solved) {
-        const double left = result ? budget - result->stats.time_s : budget;
-        result = attempt(request, algorithm, stop, /*preferred=*/false, std::max(left, budget - preferred_budget));
+        result = attempt(request, algorithm, stop, /*preferred=*/false, result ? budget - preferred_budget : budget);
         if (!result) return;
         if (result->stopped) return stopped();
       }
