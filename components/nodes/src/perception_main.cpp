@@ -32,6 +32,7 @@ class PerceptionComponent : public runtime::Component {
     std::string frame;
     std::int64_t max_obstacles;
     double forget_radius;
+    double track_voxel_3d;
     explicit Params(runtime::Parameters& p) {
       const perception::DetectorParams d;
       detector.voxel_size = p.declare<double>("voxel_size", d.voxel_size, {.above = 0, .unit = "m", .doc = "voxel grid leaf size"});
@@ -56,6 +57,11 @@ class PerceptionComponent : public runtime::Component {
           "forget_radius_m", perception::TrackerParams::matching(detector).forget_radius,
           {.above = 0, .max = 1e6, .unit = "m",
            .doc = "tracks entirely farther from the cloud's sensor origin are forgotten (default max_range + 4 cluster_tolerance)"});
+      // Derived from voxel_size (as declared above): see TrackerParams::voxel_size_3d and docs/perception.md.
+      track_voxel_3d = p.declare<double>(
+          "track_voxel_3d_m", perception::TrackerParams::matching(detector).voxel_size_3d,
+          {.above = 0, .max = 100, .unit = "m",
+           .doc = "grid of a 3-D track's evidence (default twice voxel_size, at most cluster_tolerance)"});
       // Only tracks are published, and the tracker refits them from the detections' voxels.
       detector.fit_detections = false;
       max_obstacles = p.declare<std::int64_t>("max_obstacles", 1500, {.min = 1, .max = 1000000, .doc = "most obstacles published per array"});
@@ -67,7 +73,7 @@ class PerceptionComponent : public runtime::Component {
       : Component(ctx),
         params_(ctx.params()),
         // The tracker groups evidence by the same voxel size, tolerance and piece size as the detector.
-        tracker_params_(validated(params_.detector, params_.forget_radius)),
+        tracker_params_(validated(params_.detector, params_.forget_radius, params_.track_voxel_3d)),
         detector_(params_.detector),
         obstacle_tracker_(tracker_params_),
         obstacles_(publisher(runtime::topics::obstacles)),
@@ -94,9 +100,15 @@ class PerceptionComponent : public runtime::Component {
     return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
   }
 
-  static perception::TrackerParams validated(const perception::DetectorParams& detector, double forget_radius) {
+  static perception::TrackerParams validated(const perception::DetectorParams& detector, double forget_radius,
+                                             double track_voxel_3d) {
     auto tracker = perception::TrackerParams::matching(detector);
     tracker.forget_radius = forget_radius;
+    tracker.voxel_size_3d = track_voxel_3d;
+    if (track_voxel_3d > detector.cluster_tolerance)
+      throw runtime::ParameterError(fmt::format(
+          "parameter 'track_voxel_3d_m': expected at most cluster_tolerance ({} m), got {} m (a track's evidence cells "
+          "must be finer than the distance that associates them)", detector.cluster_tolerance, track_voxel_3d));
     try {
       detector.validate();  // both name the other parameters as the user spells them
       tracker.validate();

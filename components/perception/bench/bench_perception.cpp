@@ -37,7 +37,9 @@
 #include <cstdio>
 #include <fstream>
 #include <numbers>
+#include <span>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace {
@@ -150,6 +152,7 @@ struct ModelRun {
   double pcl_cpu_median = 0, track_cpu_median = 0, total_cpu_median = 0, total_cpu_p90 = 0;
   double ratio = 0, p90_over_median = 0, wall_ratio = 0;
   int scans = 0, same_clusters = 0, same_evidence = 0, enclosed = 0;
+  std::size_t detection_voxels = 0, uncovered_voxels = 0;  // checked, and inside no track ellipse
 };
 
 // The detections without the fit carry the same voxels (positions and bearings, in order) as the fitted ones.
@@ -173,7 +176,7 @@ bool everyVoxelEnclosed(const perception::ObstacleTracker& tracker) {
   const auto& tracks = tracker.obstacles();
   for (std::size_t i = 0; i < tracks.size(); ++i) {
     const auto& t = tracks[i];
-    const double margin = 3.0 * p.range_noise_sigma + 0.5 * p.voxel_size * std::sqrt(double(t.dimensions));
+    const double margin = 3.0 * p.range_noise_sigma + 0.5 * p.voxelSize(t.dimensions) * std::sqrt(double(t.dimensions));
     Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
     if (t.dimensions == 2) {
       inverse.topLeftCorner<2, 2>() = t.covariance.topLeftCorner<2, 2>().inverse();
@@ -193,8 +196,38 @@ bool everyVoxelEnclosed(const perception::ObstacleTracker& tracker) {
   return true;
 }
 
+// No missed obstacle: how many of the scan's detection voxels (the detector's grid, finer than the 3-D
+// tracks' evidence grid) lie inside no reported track ellipse. Tracks are binned by their bounding boxes on
+// a 1 m grid, so each voxel is tested against the few tracks around it.
+std::size_t uncoveredDetectionVoxels(std::span<const perception::ObstacleEllipsoid> detections,
+                                     const std::vector<perception::ObstacleEllipsoid>& tracks) {
+  auto cellOf = [](const Eigen::Vector3d& p) { return Eigen::Vector3i(p.array().floor().cast<int>()); };
+  auto keyOf = [](const Eigen::Vector3i& c) {
+    return (std::uint64_t(std::uint32_t(c.x()) & 0x1FFFFF) << 42) | (std::uint64_t(std::uint32_t(c.y()) & 0x1FFFFF) << 21) |
+           std::uint64_t(std::uint32_t(c.z()) & 0x1FFFFF);
+  };
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> bins;
+  for (std::uint32_t i = 0; i < tracks.size(); ++i) {
+    const double r = tracks[i].semi_axes[0];
+    const Eigen::Vector3i lo = cellOf(tracks[i].center.array() - r), hi = cellOf(tracks[i].center.array() + r);
+    for (int x = lo.x(); x <= hi.x(); ++x)
+      for (int y = lo.y(); y <= hi.y(); ++y)
+        for (int z = lo.z(); z <= hi.z(); ++z) bins[keyOf({x, y, z})].push_back(i);
+  }
+  std::size_t uncovered = 0;
+  for (const auto& d : detections)
+    for (const auto& v : d.support) {
+      const Eigen::Vector3d p = v.position.cast<double>();
+      const auto bin = bins.find(keyOf(cellOf(p)));
+      const bool covered = bin != bins.end() && std::any_of(bin->second.begin(), bin->second.end(),
+                                                             [&](std::uint32_t i) { return tracks[i].contains(p); });
+      uncovered += !covered;
+    }
+  return uncovered;
+}
+
 ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::uint64_t seed, int scans,
-                  double sigma, double invalid, nlohmann::json& out) {
+                  double sigma, double invalid, int replays, nlohmann::json& out) {
   ModelRun run;
   run.lidar = model.name;
   run.seed = seed;
@@ -228,8 +261,10 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
   perception::ObstacleTracker exact_tracker(exact_params);
   perception::reference::ReferenceObstacleTracker reference_tracker(tracker_params);
   std::vector<double> unfitted_cpu, pcl_cpu, ours_cpu, sim_cpu, track_cpu, exact_track_cpu, ref_track_cpu, total_cpu, total_ms;
-  std::vector<std::pair<std::vector<perception::ObstacleEllipsoid>, Eigen::Vector3d>> tmp_replay;
-  std::size_t track_mismatches = 0, exact_mismatches = 0, not_enclosed = 0, unfitted_mismatches = 0;
+  // Each scan's detections and sensor origin, kept for --replay (copied outside the timed regions).
+  std::vector<std::pair<std::vector<perception::ObstacleEllipsoid>, Eigen::Vector3d>> stored_scans;
+  std::size_t track_mismatches = 0, exact_mismatches = 0, not_enclosed = 0, unfitted_mismatches = 0, uncovered_voxels = 0,
+              detection_voxels = 0;
   std::size_t forgotten = 0, most_tracks = 0;
   std::size_t refreshed = 0, added = 0, created = 0, refitted = 0, refitted_late = 0, deferred = 0;
   std::vector<double> sim_ms, pcl_ms, ours_ms, voxel_ms, cluster_ms, split_ms, fit_ms;
@@ -259,9 +294,9 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
     const double t_unfitted = msSince(start), c_unfitted = threadCpuMs() - cpu;
     const bool same_pieces = samePieces(found, pieces);
     if (k >= 0) unfitted_mismatches += !same_pieces;
+    if (replays > 0) stored_scans.push_back({pieces, cloud.origin});
     start = Clock::now();
     cpu = threadCpuMs();
-    tmp_replay.push_back({pieces, cloud.origin});
     tracker.update(pieces, cloud.origin);
     const double c_track = threadCpuMs() - cpu, t_track = msSince(start);
     cpu = threadCpuMs();
@@ -291,6 +326,8 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
       if (k >= 0) {
         exact_mismatches += !same_tracks;
         track_mismatches += !same_evidence;
+        uncovered_voxels += uncoveredDetectionVoxels(pieces, tracker.obstacles());
+        for (const auto& piece : pieces) detection_voxels += piece.support.size();
         not_enclosed += !everyVoxelEnclosed(tracker);
       }
     }
@@ -351,9 +388,10 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
               trk.median, trk.p90, refreshed / scans, added / scans, created / scans, tracker.obstacles().size(),
               most_tracks, forgotten, tracker_params.forget_radius);
   std::printf("         tracker refits per scan: %zu (%zu of them deferred ones), %zu refresh-only tracks showing an"
-              " older enclosing ellipse; every voxel inside its ellipse %zu/%d, same evidence as the reference %zu/%d\n",
+              " older enclosing ellipse; every voxel inside its ellipse %zu/%d, same evidence as the reference %zu/%d;"
+              " detection voxels inside no track ellipse: %zu of %zu\n",
               refitted / scans, refitted_late / scans, deferred / scans, scans - not_enclosed, scans,
-              scans - track_mismatches, scans);
+              scans - track_mismatches, scans, uncovered_voxels, detection_voxels);
   const Summary ref_trk = summarize(ref_track_cpu), tot_c = summarize(total_cpu), tot = summarize(total_ms);
   const Summary exact_trk = summarize(exact_track_cpu);
   std::printf("         reference tracker (before optimisation, cpu ms): median %.2f, p90 %.2f -> %.1fx faster;"
@@ -385,6 +423,8 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
                  {"reference_tracker_cpu_ms", {{"median", ref_trk.median}, {"p90", ref_trk.p90}}},
                  {"same_evidence_scans", scans - track_mismatches},
                  {"every_voxel_enclosed_scans", scans - not_enclosed},
+                 {"detection_voxels", detection_voxels},
+                 {"uncovered_detection_voxels", uncovered_voxels},
                  {"exact_tracker_cpu_ms", {{"median", exact_trk.median}, {"p90", exact_trk.p90}}},
                  {"exact_same_tracks_scans", scans - exact_mismatches},
                  {"seed", seed},
@@ -393,20 +433,23 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
                  {"ratio_detect_track_cpu_median", tot_c.median / pcl_c.median},
                  {"ratio_detect_track_median", tot.median / pcl.median},
                  {"tracks", tracker.obstacles().size()}});
-  if (const char* env = std::getenv("TRK_REPLAY")) {
+  if (replays > 0) {
+    // The same detections through a fresh default tracker, `replays` times: the tracker's time without the
+    // other trackers and detectors of this loop between its updates (their cache traffic).
     std::vector<double> totals;
-    for (int r = 0; r < std::atoi(env); ++r) {
+    for (int r = 0; r < replays; ++r) {
       perception::ObstacleTracker t(tracker_params);
       double sum = 0;
-      for (std::size_t i = 0; i < tmp_replay.size(); ++i) {
+      for (std::size_t i = 0; i < stored_scans.size(); ++i) {
         const double c0 = threadCpuMs();
-        t.update(tmp_replay[i].first, tmp_replay[i].second);
+        t.update(stored_scans[i].first, stored_scans[i].second);
         if (i >= 2) sum += threadCpuMs() - c0;
       }
-      totals.push_back(sum / (tmp_replay.size() - 2));
+      totals.push_back(sum / (stored_scans.size() - 2));
     }
     std::sort(totals.begin(), totals.end());
-    std::printf("REPLAY %s: tracker ms/scan min %.2f median %.2f\n", model.name.c_str(), totals.front(), totals[totals.size() / 2]);
+    std::printf("         replayed %d times through a fresh tracker: cpu ms per scan, mean of the drive: min %.2f, median %.2f\n",
+                replays, totals.front(), totals[totals.size() / 2]);
   }
   if (mismatches) spdlog::error("{}: {} of {} scans differ from the PCL pipeline", model.name, mismatches, scans);
   if (track_mismatches)
@@ -427,6 +470,8 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
   run.same_clusters = scans - static_cast<int>(mismatches);
   run.same_evidence = scans - static_cast<int>(track_mismatches + exact_mismatches);
   run.enclosed = scans - static_cast<int>(not_enclosed);
+  run.detection_voxels = detection_voxels;
+  run.uncovered_voxels = uncovered_voxels;
   return run;
 }
 
@@ -434,7 +479,7 @@ ModelRun runModel(const LidarModel& model, const planner::Scenario& world, std::
 
 int main(int argc, char** argv) {
   CLI::App app{"Perception benchmark: stock PCL pipeline vs ddsnav perception on simulated city-block scans"};
-  int scans = 30, seeds = 1;
+  int scans = 30, seeds = 1, replays = 0;
   std::uint64_t seed = 1;
   std::string json_path;
   double sigma = 0.02, invalid = 0.005;
@@ -444,6 +489,8 @@ int main(int argc, char** argv) {
   app.add_option("--sigma", sigma, "lidar range noise, m")->check(CLI::Range(0.0, 1.0));
   app.add_option("--invalid", invalid, "fraction of NaN/inf returns")->check(CLI::Range(0.0, 1.0));
   app.add_option("--json", json_path, "also write the results as JSON here");
+  app.add_option("--replay", replays, "also replay each drive's detections through a fresh tracker this many times")
+      ->check(CLI::Range(0, 1000));
   std::string svg_path, scenario_path = std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml";
   app.add_option("--svg", svg_path, "draw the demo drive's final tracked ellipses here");
   app.add_option("--drive-scenario", scenario_path, "2-D scenario for the drive (default: demo_2d.yaml)");
@@ -463,7 +510,7 @@ int main(int argc, char** argv) {
     std::printf("%-8s %8s %8s | %9s %9s | %9s %9s | %7s %7s | %9s | %s\n", "lidar", "points", "voxels", "pcl med",
                 "pcl p90", "ours med", "ours p90", "ratio", "p90/med", "sim med", "same clusters");
     for (const auto& model : models) {
-      runs.push_back(runModel(model, world, this_seed, scans, sigma, invalid, out));
+      runs.push_back(runModel(model, world, this_seed, scans, sigma, invalid, replays, out));
       const ModelRun& r = runs.back();
       failed = failed || r.same_clusters != scans || r.same_evidence != scans || r.enclosed != scans;
     }
@@ -473,7 +520,7 @@ int main(int argc, char** argv) {
   std::printf("\nDETECT+TRACK / PCL over %d seed(s) (%llu..%llu), thread CPU, per-seed medians of %d scans:\n", seeds,
               static_cast<unsigned long long>(seed), static_cast<unsigned long long>(seed + seeds - 1), scans);
   std::printf("%-8s | %7s %7s %7s %6s | %7s %7s %6s | %9s %9s | %s\n", "lidar", "median", "p90", "worst", "seed",
-              "p90/med", "worst", "seed", "track med", "trk worst", "clusters/evidence/enclosed ok");
+              "p90/med", "worst", "seed", "track med", "trk worst", "clusters/evidence/enclosed ok | detection voxels outside every track");
   std::printf("%-8s | %30s | %22s | %19s |\n", "", "ratio over seeds", "p90/med: median, worst", "tracker cpu ms");
   nlohmann::json spread = nlohmann::json::array();
   for (const auto& model : models) {
@@ -481,6 +528,7 @@ int main(int argc, char** argv) {
     const ModelRun* worst = nullptr;
     const ModelRun* worst_tail = nullptr;
     int ok_clusters = 0, ok_evidence = 0, ok_enclosed = 0, total = 0;
+    std::size_t detection_voxels = 0, uncovered_voxels = 0;
     for (const ModelRun& r : runs) {
       if (r.lidar != model.name) continue;
       ratios.push_back(r.ratio);
@@ -492,13 +540,16 @@ int main(int argc, char** argv) {
       ok_evidence += r.same_evidence;
       ok_enclosed += r.enclosed;
       total += r.scans;
+      detection_voxels += r.detection_voxels;
+      uncovered_voxels += r.uncovered_voxels;
     }
     const Summary ratio = summarize(ratios), track = summarize(track_ms), tail = summarize(tails);
-    std::printf("%-8s | %7.3f %7.3f %7.3f %6llu | %7.2f %7.2f %6llu | %9.2f %9.2f | %d/%d/%d of %d\n",
+    std::printf("%-8s | %7.3f %7.3f %7.3f %6llu | %7.2f %7.2f %6llu | %9.2f %9.2f | %d/%d/%d of %d | %zu of %zu\n",
                 model.name.c_str(), ratio.median, ratio.p90, worst->ratio,
                 static_cast<unsigned long long>(worst->seed), tail.median, worst_tail->p90_over_median,
                 static_cast<unsigned long long>(worst_tail->seed), track.median,
-                *std::max_element(track_ms.begin(), track_ms.end()), ok_clusters, ok_evidence, ok_enclosed, total);
+                *std::max_element(track_ms.begin(), track_ms.end()), ok_clusters, ok_evidence, ok_enclosed, total,
+                uncovered_voxels, detection_voxels);
     spread.push_back({{"lidar", model.name},
                       {"seeds", seeds},
                       {"ratio_detect_track_cpu", {{"median", ratio.median}, {"p90", ratio.p90}, {"worst", worst->ratio}}},

@@ -125,7 +125,7 @@ void ReferenceObstacleTracker::forget(const Eigen::Vector3d& sensor_origin) {
     for (std::uint32_t i = 0; i < ev.tracks[t].voxels.size(); ++i) {
       const Eigen::Vector3f& at = ev.tracks[t].voxels[i].added_at;
       CellKey key;
-      if (cellOf(at, params_.voxel_size, dims, key)) ev.owner.emplace(key, Evidence::VoxelRef{t, i});
+      if (cellOf(at, params_.voxelSize(dims), dims, key)) ev.owner.emplace(key, Evidence::VoxelRef{t, i});
       if (cellOf(at, params_.association_distance, dims, key)) ev.nearby[key].push_back({t, i});
       if (cellOf(at, Evidence::kCoarseCell, dims, key)) ev.coarse.insert(key);
     }
@@ -149,7 +149,7 @@ void ReferenceObstacleTracker::refitChanged() {
     std::vector<SupportPoint> support;
     support.reserve(track.voxels.size());
     for (const auto& v : track.voxels) support.push_back({v.mean, v.bearing});
-    const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxel_size,
+    const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxelSize(track.dims),
                                  params_.enclose_points};
     ObstacleEllipsoid estimate = fitEllipsoid(support, track.dims, fit);
     estimate.id = tracks_[t].id;
@@ -314,7 +314,7 @@ void ReferenceObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       const std::uint32_t i = it->second;
       if (assigned[i]) continue;
       CellKey key;
-      if (!cellOf(ev.pending[i].position, params_.voxel_size, dims, key)) {
+      if (!cellOf(ev.pending[i].position, params_.voxelSize(dims), dims, key)) {
         assigned[i] = true;  // too far out to store; dropped
         continue;
       }
@@ -373,7 +373,7 @@ void ReferenceObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       for (int i : piece) {
         const SupportPoint& s = ev.leftovers[static_cast<std::size_t>(i)];
         CellKey key;
-        if (!cellOf(s.position, params_.voxel_size, dims, key)) continue;
+        if (!cellOf(s.position, params_.voxelSize(dims), dims, key)) continue;
         if (!refresh(s, key)) addVoxel(t, s, key);
       }
       if (ev.tracks[t].voxels.empty()) {  // every voxel refreshed another new track: nothing to keep

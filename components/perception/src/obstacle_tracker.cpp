@@ -260,6 +260,7 @@ TrackerParams TrackerParams::matching(const DetectorParams& detector) {
   TrackerParams p;
   p.voxel_size = detector.voxel_size;
   p.association_distance = detector.cluster_tolerance;
+  p.voxel_size_3d = std::max(p.voxel_size, std::min(2.0 * p.voxel_size, p.association_distance));
   p.max_segment_length = detector.max_segment_length > 0.0 ? detector.max_segment_length : p.max_segment_length;
   p.max_segment_width = detector.max_segment_width > 0.0 ? detector.max_segment_width : p.max_segment_length;
   p.range_noise_sigma = detector.range_noise_sigma;
@@ -274,8 +275,11 @@ void TrackerParams::validate() const {
     if (!ok) throw std::invalid_argument(std::string("tracker parameter '") + name + "' must be " + expected);
   };
   require(std::isfinite(voxel_size) && voxel_size >= 0.001 && voxel_size <= 100.0, "voxel_size", "in [0.001, 100] m");
-  require(std::isfinite(association_distance) && association_distance >= voxel_size && association_distance <= 100.0,
-          "association_distance", "in [voxel_size, 100] m");
+  require(std::isfinite(voxel_size_3d) && voxel_size_3d >= 0.001 && voxel_size_3d <= 100.0, "voxel_size_3d",
+          "in [0.001, 100] m");
+  require(std::isfinite(association_distance) && association_distance >= std::max(voxel_size, voxel_size_3d) &&
+              association_distance <= 100.0,
+          "association_distance", "in [max(voxel_size, voxel_size_3d), 100] m");
   require(std::isfinite(max_segment_length) && max_segment_length >= association_distance,
           "max_segment_length", "finite and >= association_distance");
   require(std::isfinite(max_segment_width) && max_segment_width > 0.0 && max_segment_width <= max_segment_length,
@@ -380,7 +384,7 @@ void ObstacleTracker::forget(const Eigen::Vector3d& sensor_origin) {
     const int dims = ev.tracks[node.track].dims;
     node.next_nearby = kNone;
     CellKey key;
-    if (cellOf(at, params_.voxel_size, dims, key)) owner.emplace(key, index);
+    if (cellOf(at, params_.voxelSize(dims), dims, key)) owner.emplace(key, index);
     if (cellOf(at, tol, dims, key)) {
       std::uint32_t& head = nearby.emplace(key, index);
       if (head != index) {
@@ -496,7 +500,7 @@ void ObstacleTracker::refit(std::size_t t) {
   track.stale_since = Evidence::Track::kNever;
   std::vector<SupportPoint> support = std::move(tracks_[t].support);  // reuse its capacity
   support.assign(track.voxels.begin(), track.voxels.end());
-  const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxel_size,
+  const EllipsoidFitParams fit{track.probability, params_.range_noise_sigma, params_.voxelSize(track.dims),
                                params_.enclose_points};
   ObstacleEllipsoid estimate = fitEllipsoid(track.voxels, track.dims, fit);
   estimate.id = tracks_[t].id;
@@ -548,9 +552,10 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   // How far a voxel's mean may lie outside the association cell it is listed in: rounding only when
   // association cells are whole multiples of voxel cells (the defaults: 0.4 = 4 x 0.1), else up to a
   // voxel (a voxel cell then straddles association cells).
-  const double cells_per_cell = tol / params_.voxel_size;
+  const double voxel = params_.voxelSize(dims);
+  const double cells_per_cell = tol / voxel;
   const double cell_drift =
-      std::abs(cells_per_cell - std::round(cells_per_cell)) < 1e-9 ? 1e-4 : 1.0001 * params_.voxel_size;
+      std::abs(cells_per_cell - std::round(cells_per_cell)) < 1e-9 ? 1e-4 : 1.0001 * voxel;
 
   auto mustRefit = [&](std::uint32_t t) {
     auto& track = ev.tracks[t];
@@ -562,7 +567,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   // of its last refit for up to max_refit_delay updates as long as the voxel, pushed outward by its
   // position uncertainty (the fit's margin), is inside it; otherwise it is refitted in this update.
   const bool may_defer = params_.max_refit_delay > 0 && params_.enclose_points;
-  const double margin = 3.0 * params_.range_noise_sigma + 0.5 * params_.voxel_size * std::sqrt(double(dims));
+  const double margin = 3.0 * params_.range_noise_sigma + 0.5 * voxel * std::sqrt(double(dims));
   auto changedVoxel = [&](std::uint32_t t, const Eigen::Vector3f& position) {
     auto& track = ev.tracks[t];
     if (track.must_refit) return;
@@ -752,7 +757,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       const std::uint32_t i = it->second;
       if (assigned[i] || (second && failed_at[i] == events)) continue;
       CellKey key;
-      if (!cellOf(ev.pending[i].position, params_.voxel_size, dims, key)) {
+      if (!cellOf(ev.pending[i].position, params_.voxelSize(dims), dims, key)) {
         assigned[i] = 1;  // too far out to store; dropped
         continue;
       }
@@ -818,7 +823,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
       for (int i : piece) {
         const SupportPoint& s = ev.leftovers[static_cast<std::size_t>(i)];
         CellKey key;
-        if (!cellOf(s.position, params_.voxel_size, dims, key)) continue;
+        if (!cellOf(s.position, params_.voxelSize(dims), dims, key)) continue;
         if (!refresh(s, key)) addVoxel(t, s, key);
       }
       if (ev.tracks[t].voxels.empty()) {  // every voxel refreshed another new track: nothing to keep

@@ -192,8 +192,21 @@ TEST(Drive, GartTerrain3dEllipsoidsStayOnTheHills) {
   std::size_t step = 0, voxels = 0;
   for (const auto& pose : poses) {
     const auto cloud = sensor.scan(pose);
-    const auto& tracked = tracker.update(detector.detect(cloud.points, cloud.origin), cloud.origin);
+    const auto detections = detector.detect(cloud.points, cloud.origin);
+    const auto& tracked = tracker.update(detections, cloud.origin);
     const std::string where = " at scan " + std::to_string(step);
+    // No missed obstacle: every voxel the detector saw in this scan lies inside a tracked ellipsoid, though
+    // the tracks keep their evidence on a coarser grid (TrackerParams::voxel_size_3d).
+    std::size_t seen = 0, uncovered = 0;
+    for (const auto& d : detections)
+      for (const auto& s : d.support) {
+        const Eigen::Vector3d p = s.position.cast<double>();
+        ++seen;
+        uncovered += std::none_of(tracked.begin(), tracked.end(), [&](const ObstacleEllipsoid& t) {
+          return (p - t.center).norm() <= t.semi_axes[0] && t.contains(p);
+        });
+      }
+    EXPECT_EQ(uncovered, 0u) << "of " << seen << " detection voxels" << where;
     voxels = 0;
     for (const auto& t : tracked) {
       ASSERT_EQ(t.dimensions, 3);

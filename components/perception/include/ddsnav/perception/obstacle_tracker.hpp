@@ -1,6 +1,6 @@
 #pragma once
 // Keeps obstacles across scans, on evidence: every track owns a bounded set of voxel centroids
-// (world frame, one per voxel cell) and its ellipse/ellipsoid is refitted from them with the same
+// (world frame, one per evidence cell: voxel_size in 2-D, voxel_size_3d in 3-D) and its ellipse/ellipsoid is refitted from them with the same
 // Gaussian + sensor noise + chi-square model as a detection. Ids are stable; the set grows as the
 // vehicle discovers the world, and shrinks as it leaves tracks behind beyond forget_radius.
 //
@@ -51,7 +51,13 @@ namespace ddsnav::perception {
 struct DetectorParams;
 
 struct TrackerParams {
-  double voxel_size = 0.1;            // m; evidence is de-duplicated on this grid (detector's voxel_size)
+  double voxel_size = 0.1;            // m; 2-D evidence is de-duplicated on this grid (detector's voxel_size)
+  // m; the grid of 3-D evidence. matching() gives twice the detector's voxel (at most association_distance):
+  // a 3-D lidar sees surfaces, where a cell of twice the edge holds about four of the detector's voxels, so
+  // a track keeps a quarter of the centroids to store, look up and refit, and every scan's new cells cost
+  // a quarter as much (issue 16; docs/perception.md "3-D evidence grid"). The fit widens its quantisation
+  // term and enclosing margin to this cell, so every detection voxel still lies inside its track's ellipse.
+  double voxel_size_3d = 0.1;
   double association_distance = 0.4;  // m; a voxel this close to a track's voxel is the same surface
   double max_segment_length = 1.5;    // m; a track's voxels stay inside a box of this side (> 0)...
   double max_segment_width = 0.4;     // m; ...and of this width along its thinnest axis (as the detector)
@@ -68,6 +74,8 @@ struct TrackerParams {
   // m; update(detections, sensor_origin) forgets tracks with every voxel farther than this from the
   // sensor (infinity: keep everything; matching() gives max_range + 4 association distances).
   double forget_radius = std::numeric_limits<double>::infinity();
+
+  double voxelSize(int dims) const { return dims == 3 ? voxel_size_3d : voxel_size; }
 
   // The tracker parameters that match a detector's (voxel size, tolerance, segment length, noise).
   static TrackerParams matching(const DetectorParams& detector);
