@@ -167,6 +167,7 @@ MissionDecision Mission::request(std::int64_t now_ns, const VehicleState& from, 
   ++request_id_;
   ++attempts_;
   pending_since_ns_ = now_ns;
+  retry_at_ns_.reset();  // this request supersedes a retry still waiting (a replan asked meanwhile)
   MissionDecision d = just(MissionAction::RequestPlan);
   d.request_id = request_id_;
   d.from = from;

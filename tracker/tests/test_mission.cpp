@@ -194,6 +194,22 @@ TEST(Mission, DrivableTrajectoryResetsTheAttempts) {
   EXPECT_EQ(m.update(100 * kSecond, at(0), true, std::nullopt).action, MissionAction::Drive);
 }
 
+// A replan asked while a failed attempt waits for its retry supersedes the retry: once its trajectory is
+// adopted, the stale retry must not ask again (gart_cluttered_2d, 2026-12-03: a stop-and-replan's trajectory was
+// dropped for a "retrying" request 50 ms after it was ready, three times in one mission).
+TEST(Mission, ANewRequestSupersedesAPendingRetry) {
+  Mission m = started();
+  ASSERT_EQ(m.update(0, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(0, at(0), false).action, MissionAction::Wait);  // retry due at 1 s
+  const auto replan = m.replan(kSecond / 2, at(0), "rest_start");
+  ASSERT_EQ(replan.action, MissionAction::RequestPlan);
+  ASSERT_EQ(replan.request_id, 2u);
+  ASSERT_EQ(m.update(2 * kSecond, at(0), true, answer(2, true)).action, MissionAction::SmoothPath);
+  EXPECT_EQ(m.pathSmoothed(2 * kSecond, at(0), true).action, MissionAction::Drive);
+  EXPECT_FALSE(m.awaitingPlan());
+  EXPECT_EQ(m.update(3 * kSecond, at(0), true, std::nullopt).action, MissionAction::Drive);
+}
+
 TEST(Mission, GoalRegionEndsTheMission) {
   Mission m = started();
   m.update(0, at(0), true, answer(1, true));

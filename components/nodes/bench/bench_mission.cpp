@@ -111,7 +111,10 @@ nodes::MissionRecording readRecording(const fs::path& file) {
         } else if (topic == "map/octomap") {
           if (auto m = decode<msg::OccupancyMap>(v)) add(r.maps, m->header().stamp_ns());
         } else if (topic == "planning/request") {
-          if (auto m = decode<msg::PlanRequest>(v)) add(r.requests, m->request_id());
+          if (auto m = decode<msg::PlanRequest>(v)) {
+            add(r.requests, m->request_id());
+            r.request_reasons.emplace(m->request_id(), m->reason());
+          }
         } else if (topic == "planning/path") {
           if (auto m = decode<msg::Path>(v)) add(r.paths, m->request_id());
         } else if (topic == "control/trajectory") {
@@ -325,7 +328,17 @@ int main(int argc, char** argv) {
       row["latency"] = {{"cloud_to_obstacles", statsJson(latencies.cloud_to_obstacles)},
                         {"cloud_to_map", statsJson(latencies.cloud_to_map)},
                         {"request_to_path", statsJson(latencies.request_to_path)},
-                        {"obstacles_to_trajectory", statsJson(latencies.obstacles_to_trajectory)}};
+                        {"obstacles_to_trajectory", statsJson(latencies.obstacles_to_trajectory)},
+                        {"replan_obstacles_to_request", statsJson(latencies.replan_obstacles_to_request)},
+                        {"replan_request_to_path", statsJson(latencies.replan_request_to_path)},
+                        {"replan_path_to_trajectory", statsJson(latencies.replan_path_to_trajectory)}};
+      spdlog::info("{}: {} replans for a blocked trajectory: obstacles -> trajectory median {:.0f} ms, p99 {:.0f} ms; of it "
+                   "obstacles -> request {:.0f} / {:.0f}, request -> path {:.0f} / {:.0f}, path -> trajectory {:.0f} / {:.0f}",
+                   scenario.name, latencies.obstacles_to_trajectory.count, latencies.obstacles_to_trajectory.median_ms,
+                   latencies.obstacles_to_trajectory.p99_ms, latencies.replan_obstacles_to_request.median_ms,
+                   latencies.replan_obstacles_to_request.p99_ms, latencies.replan_request_to_path.median_ms,
+                   latencies.replan_request_to_path.p99_ms, latencies.replan_path_to_trajectory.median_ms,
+                   latencies.replan_path_to_trajectory.p99_ms);
     } catch (const std::exception& e) {
       row["latency_error"] = e.what();
     }

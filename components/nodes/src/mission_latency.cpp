@@ -56,17 +56,33 @@ MissionLatencies missionLatencies(const MissionRecording& r) {
   std::sort(obstacle_times.begin(), obstacle_times.end());
   const auto trajectory = firstByKey(r.trajectories);
   const auto request = firstByKey(r.requests);
-  std::vector<double> replans;
+  const auto path = firstByKey(r.paths);
+  auto forAChange = [&](std::int64_t id) {
+    if (r.request_reasons.empty()) return true;
+    const auto reason = r.request_reasons.find(id);
+    return reason != r.request_reasons.end() && reason->second.rfind("trajectory_blocked", 0) == 0;
+  };
+  std::vector<double> replans, to_request, to_path, to_trajectory;
   for (auto it = request.begin(); it != request.end(); ++it) {
-    if (it == request.begin()) continue;  // the first plan answers no change
+    if (it == request.begin() || !forAChange(it->first)) continue;  // the first plan answers no change
     const auto answer = trajectory.find(it->first);
     if (answer == trajectory.end()) continue;
     const auto newest = std::upper_bound(obstacle_times.begin(), obstacle_times.end(), it->second);
     if (newest == obstacle_times.begin()) continue;
     const std::uint64_t perceived = *std::prev(newest);
-    if (answer->second >= perceived) replans.push_back(ms(perceived, answer->second));
+    if (answer->second < perceived) continue;
+    replans.push_back(ms(perceived, answer->second));
+    to_request.push_back(ms(perceived, it->second));
+    const auto answered = path.find(it->first);
+    if (answered != path.end() && answered->second >= it->second && answer->second >= answered->second) {
+      to_path.push_back(ms(it->second, answered->second));
+      to_trajectory.push_back(ms(answered->second, answer->second));
+    }
   }
   out.obstacles_to_trajectory = latencyStats(std::move(replans));
+  out.replan_obstacles_to_request = latencyStats(std::move(to_request));
+  out.replan_request_to_path = latencyStats(std::move(to_path));
+  out.replan_path_to_trajectory = latencyStats(std::move(to_trajectory));
   return out;
 }
 

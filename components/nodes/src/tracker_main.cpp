@@ -260,6 +260,11 @@ class TrackerComponent : public runtime::Component {
                  trajectory.report.min_clearance, trajectory.samples.front().speed, latency);
     replan_gate_.planReady(latency);
     if (follower_ && switch_at_ && follower_->status().reference_time < *switch_at_) {
+      // Published now, stamped with when its first sample is due (the reference reaches the switch point in
+      // about that many seconds): the new trajectory is known from the moment it is ready, which is what the
+      // latency from a scan to a new trajectory measures, not the wait for its start.
+      const double due_in_s = *switch_at_ - follower_->status().reference_time;
+      trajectories_.publish(nodes::toMsg(trajectory, smoothed.request_id, clock().nowNs() + static_cast<std::int64_t>(due_in_s * 1e9)));
       next_trajectory_ = std::move(trajectory);
       next_since_ns_ = clock().nowNs();
       // The reference reaches the switch point in about that many seconds; a wait well beyond it (the
@@ -334,8 +339,10 @@ class TrackerComponent : public runtime::Component {
     });
   }
 
-  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id, const tracker::VehicleState& state) {
-    trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
+  // `announced`: published when it was ready (a trajectory that waited for its switch point).
+  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id, const tracker::VehicleState& state,
+                        bool announced = false) {
+    if (!announced) trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
     follower_.emplace(std::move(trajectory), limits_, tracker_config_);
     ++trajectory_serial_;  // a check still running on the previous one is stale
     replan_gate_.reset();
@@ -419,7 +426,7 @@ class TrackerComponent : public runtime::Component {
     const std::optional<tracker::VehicleState> state = current;
     if (next_trajectory_ && (follower_->status().reference_time >= *switch_at_ ||
                              static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > next_wait_limit_s_)) {
-      switchTrajectory(std::move(*next_trajectory_), mission_.requestId(), *state);
+      switchTrajectory(std::move(*next_trajectory_), mission_.requestId(), *state, /*announced=*/true);
       next_trajectory_.reset();
       switch_at_.reset();
     }

@@ -43,6 +43,23 @@ TEST(MissionLatency, EffectsAreTiedToTheirCausesByKey) {
   // The replan of request 2: newest obstacles before 100 ms arrived at 95 ms; its trajectory at 150 ms.
   ASSERT_EQ(l.obstacles_to_trajectory.count, 1u);
   EXPECT_DOUBLE_EQ(l.obstacles_to_trajectory.median_ms, 55.0);
+  // ... split: 5 ms to the request, 20 ms to its path, 30 ms of smoothing.
+  EXPECT_DOUBLE_EQ(l.replan_obstacles_to_request.median_ms, 5.0);
+  EXPECT_DOUBLE_EQ(l.replan_request_to_path.median_ms, 20.0);
+  EXPECT_DOUBLE_EQ(l.replan_path_to_trajectory.median_ms, 30.0);
+}
+
+TEST(MissionLatency, OnlyReplansForABlockedTrajectoryAnswerAChange) {
+  nodes::MissionRecording r;
+  r.obstacles = {{90 * kMs, 1}, {190 * kMs, 2}};
+  r.requests = {{5 * kMs, 1}, {100 * kMs, 2}, {200 * kMs, 3}};
+  r.paths = {{50 * kMs, 1}, {120 * kMs, 2}, {230 * kMs, 3}};
+  r.trajectories = {{60 * kMs, 1}, {150 * kMs, 2}, {260 * kMs, 3}};
+  // Request 2 retried a failed plan; request 3 answered a blocked trajectory.
+  r.request_reasons = {{1, "first plan"}, {2, "retrying"}, {3, "trajectory_blocked: sample at t=3 s ..."}};
+  const auto l = nodes::missionLatencies(r);
+  ASSERT_EQ(l.obstacles_to_trajectory.count, 1u);
+  EXPECT_DOUBLE_EQ(l.obstacles_to_trajectory.median_ms, 70.0);
 }
 
 }  // namespace

@@ -6,9 +6,14 @@
 //   cloud -> map         map/octomap's stamp is the newest cloud inserted (so this includes its publish period)
 //   request -> path      planning/path echoes planning/request's request_id
 //   obstacles -> trajectory
-//                        for every replan (every request after the first): from the newest obstacle array
+//                        for every replan for a blocked trajectory (a request after the first whose reason
+//                        starts with "trajectory_blocked"; every request after the first when no reasons were
+//                        recorded — a retry after a failed plan answers no change): from the newest obstacle array
 //                        received before the request to the first control/trajectory answering it, i.e.
-//                        perceiving the change, deciding to replan, planning and smoothing
+//                        perceiving the change, deciding to replan, planning and smoothing (a replan ahead's
+//                        trajectory is published when ready, stamped with its later start: docs/tracking.md);
+//                        split into obstacles -> request (the replan checks and their hysteresis), request ->
+//                        path and path -> trajectory (smoothing) for the same replans
 //
 // An effect whose cause was not recorded (dropped, or before the recording started) is skipped.
 
@@ -16,6 +21,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <map>
+#include <string>
 #include <vector>
 
 namespace ddsnav::nodes {
@@ -27,6 +34,7 @@ struct RecordedEvent {
 
 struct MissionRecording {
   std::vector<RecordedEvent> clouds, obstacles, maps, requests, paths, trajectories;
+  std::map<std::int64_t, std::string> request_reasons;  // request id -> PlanRequest.reason
 };
 
 struct LatencyStats {
@@ -38,6 +46,8 @@ struct LatencyStats {
 
 struct MissionLatencies {
   LatencyStats cloud_to_obstacles, cloud_to_map, request_to_path, obstacles_to_trajectory;
+  // The parts of obstacles_to_trajectory, over the same replans.
+  LatencyStats replan_obstacles_to_request, replan_request_to_path, replan_path_to_trajectory;
 };
 
 LatencyStats latencyStats(std::vector<double> ms);
