@@ -9,6 +9,11 @@ namespace {
 constexpr double kFinestResolution = 0.1;   // m
 constexpr double kVoxelsPerRadius = 5.0;
 constexpr double kMaxVoxelsPerBeam = 300.0;
+// 2-D: a scanner casts hundreds of beams, not a 3-D lidar's tens of thousands, so 1 000 voxels per beam costs
+// less than 300 do in 3-D. A 30 m map of a 66 m scanner left walls 30-66 m away out of the map while perception
+// leaves walls longer than structure_extent_m to the map: nothing blocked them (bugtrap_1.0, 2026-12-03: plans
+// through the trap's far walls, the vehicle driving into the trap's far corner).
+constexpr double kMaxVoxelsPerBeam2d = 1000.0;
 constexpr double kCoarsestVoxelsPerRadius = 2.0;  // 3-D: a voxel diagonal (0.87 of a voxel) stays under half the radius
 }  // namespace
 
@@ -21,7 +26,7 @@ MapScale mapScaleFor(const planner::Scenario& scenario, double sensor_range) {
   // flank seen only at the end of a 30 m map was seen too late (docs/world-model.md, "The map's scale").
   if (scenario.dimensions == 3)
     out.resolution = std::max(out.resolution, std::min(range / kMaxVoxelsPerBeam, radius / kCoarsestVoxelsPerRadius));
-  out.max_range = std::min(range, kMaxVoxelsPerBeam * out.resolution);
+  out.max_range = std::min(range, (scenario.dimensions == 3 ? kMaxVoxelsPerBeam : kMaxVoxelsPerBeam2d) * out.resolution);
   return out;
 }
 

@@ -216,9 +216,14 @@ class TrackerComponent : public runtime::Component {
                                                  config = smoother_config_, token = std::make_shared<runtime::PendingWork>()]() mutable {
       Smoothed out{id, std::nullopt};
       try {
+        const auto t0 = std::chrono::steady_clock::now();
         auto world = currentWorld(position);
         if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
+        const auto t1 = std::chrono::steady_clock::now();
         out.trajectory = tracker::smoothPath(states, *world, limits_, config);
+        const auto t2 = std::chrono::steady_clock::now();
+        spdlog::debug("plan {}: world snapshot {:.1f} ms, smoothing {:.1f} ms (wall)", id,
+                      std::chrono::duration<double, std::milli>(t1 - t0).count(), std::chrono::duration<double, std::milli>(t2 - t1).count());
       } catch (const std::exception& e) {
         spdlog::warn("cannot smooth plan {}: {}", id, e.what());
       }

@@ -1,4 +1,4 @@
-// The mapper's default resolution and range: unchanged on the yard-scale worlds, coarser and longer at sea
+// The mapper's default resolution and range: 0.1 m on the yard-scale worlds, coarser and longer at sea
 // scale, and always bounded in voxels per beam.
 #include "ddsnav/nodes/map_scale.hpp"
 
@@ -31,21 +31,22 @@ TEST(MapScale, ThreeDimensionalWorldsMapTheWholeLidarRange) {
   EXPECT_DOUBLE_EQ(mapScaleFor(small, 200.0).max_range, 45.0);
 }
 
-TEST(MapScale, YardScaleWorldsKeepTheFormerDefaults) {
-  for (const char* file : {"demo_2d.yaml", "gart_cluttered_2d.yaml", "stunnel_1.0.yaml"}) {
+TEST(MapScale, YardScale2dWorldsMapTheWholeScannerRange) {
+  for (const char* file : {"demo_2d.yaml", "gart_cluttered_2d.yaml", "stunnel_1.0.yaml", "bugtrap_1.0.yaml"}) {
     const auto scenario = planner::loadScenario(kScenarios + file);
     const auto scale = shipped(file);
     EXPECT_DOUBLE_EQ(scale.resolution, 0.1) << file;
-    // 30 m, or the sensor's range where it is shorter (demo_2d: 26.4 m): the same map either way.
-    EXPECT_DOUBLE_EQ(scale.max_range, std::min(30.0, sim::defaultMaxRange(scenario))) << file;
+    // Up to 1 000 voxels per beam in 2-D: the scanner's whole range (bugtrap_1.0: 65.9 m, no longer 30 m).
+    EXPECT_DOUBLE_EQ(scale.max_range, std::min(100.0, sim::defaultMaxRange(scenario))) << file;
   }
+  EXPECT_GT(shipped("bugtrap_1.0.yaml").max_range, 60.0);
 }
 
 TEST(MapScale, SeaScaleFollowsTheRobotAndTheSonar) {
-  // auv_coastal: robot radius 2 m, 200 m sonar -> 0.4 m voxels, 300 of them per beam.
+  // auv_coastal: robot radius 2 m, 200 m sonar -> 0.4 m voxels, 500 of them per beam.
   const auto coast = shipped("auv_coastal.yaml");
   EXPECT_DOUBLE_EQ(coast.resolution, 0.4);
-  EXPECT_DOUBLE_EQ(coast.max_range, 120.0);
+  EXPECT_DOUBLE_EQ(coast.max_range, 200.0);
   // variant_sea_800: the same robot, an 80 m sonar: the whole sonar range is mapped.
   const auto bay = shipped("variants/sea_800.yaml");
   EXPECT_DOUBLE_EQ(bay.resolution, 0.4);
@@ -60,7 +61,7 @@ TEST(MapScale, BoundedForAnyInput) {
   s.robot_radius = 50.0;
   const auto huge = mapScaleFor(s, 1e4);
   EXPECT_DOUBLE_EQ(huge.resolution, 10.0);
-  EXPECT_DOUBLE_EQ(huge.max_range, 3000.0);
+  EXPECT_DOUBLE_EQ(huge.max_range, s.dimensions == 3 ? 3000.0 : 1e4);
   EXPECT_DOUBLE_EQ(mapScaleFor(s, 0.0).max_range, 30.0);  // no sensor range: the former default
 }
 

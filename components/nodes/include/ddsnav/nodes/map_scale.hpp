@@ -8,12 +8,13 @@
 //                                               against the robot, never finer than the 0.1 m of the yard
 //                in 3-D at least min(sensor range / 300, robot_radius / 2): voxels coarse enough to map
 //                the whole range, never coarser than half the robot radius
-//   max_range  = min(sensor range, 300 voxels)  the whole sensor range, with the ray casting per beam
-//                                               bounded to 300 voxels (the cost of 30 m at 0.1 m)
+//   max_range  = min(sensor range, N voxels)    the whole sensor range, with the ray casting per beam
+//                                               bounded to N voxels: 300 in 3-D (the cost of 30 m at 0.1 m),
+//                                               1 000 in 2-D (a scanner has a few hundred beams)
 //
-// On every 2-D world with robot_radius <= 0.5 m this is 0.1 m and 30 m (or the shorter sensor range: the
-// same map); gart_terrain_3d (65.9 m lidar) maps at 0.22 m out to 65.9 m; at sea scale (auv_coastal:
-// robot radius 2 m, a 200 m sonar) 0.4 m and 120 m instead of a 30 m map of a 200 m sonar.
+// On every 2-D world with robot_radius <= 0.5 m this is 0.1 m and the scanner's whole range up to 100 m
+// (bugtrap_1.0, stunnel_1.0: 65.9 m); gart_terrain_3d (65.9 m lidar) maps at 0.22 m out to 65.9 m; at sea scale
+// (auv_coastal: robot radius 2 m, a 200 m sonar) 0.4 m and the sonar's 200 m.
 
 #include <ddsnav/planner/scenario.hpp>
 
