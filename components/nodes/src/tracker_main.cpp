@@ -105,9 +105,15 @@ class TrackerComponent : public runtime::Component {
       if (const auto error = nodes::checkVehicleState(s, nodes::kWorldFrame); !error.empty()) return dropped_states_.drop(error);
       vehicle_ = nodes::fromMsg(s);
     });
+    // A new obstacle array is checked against the trajectory at once (an obstacle that appears is seen
+    // within one check, not up to a replan period later); the periodic check covers the map's changes.
+    world_source_.onObstacles([this] { checkOnNewObstacles(); });
     path_sub_ = subscribe(runtime::topics::path, [this](const msg::Path& p) {
       new_path_ = p;
       planner_answered_ = true;
+      // Taken up now rather than at the next control step (up to 1 / control_rate_hz later): a posted task, so
+      // that a mission failure it finds ends the component as one from the control timer does.
+      this->ctx().executor().post([this] { takeUpNow(/*from_a_task=*/false); });
     });
     started_ = std::chrono::steady_clock::now();
     last_step_ns_ = clock().nowNs();
@@ -228,6 +234,7 @@ class TrackerComponent : public runtime::Component {
         spdlog::warn("cannot smooth plan {}: {}", id, e.what());
       }
       token.reset();
+      ctx().executor().post([this] { takeUpNow(/*from_a_task=*/true); });
       return out;
     });
   }
@@ -328,7 +335,13 @@ class TrackerComponent : public runtime::Component {
     tracker::ReplanDecision decision;
     double took_s = 0.0;
   };
+  void checkOnNewObstacles() {
+    if (!follower_ || !vehicle_ || stopping_for_ || next_trajectory_ || checking_.valid() || !mission_.driving()) return;
+    startCheck(*vehicle_);
+  }
+
   void startCheck(const tracker::VehicleState& state) {
+    last_check_ns_ = clock().nowNs();
     // At least as far ahead as a plan takes, twice, plus the stop margin: a slow vehicle with a long-range
     // sensor (the AUV: 2 m/s, a 200 m sonar; a plan of 600 m took 49 simulated seconds at speed 10) must
     // see the block while there is time to plan around it ahead.
@@ -340,6 +353,7 @@ class TrackerComponent : public runtime::Component {
       if (const auto world = currentWorld(position)) out.decision = follower.checkReplan(*world, horizon);
       out.took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       token.reset();
+      ctx().executor().post([this] { takeUpNow(/*from_a_task=*/true); });
       return out;
     });
   }
@@ -392,13 +406,48 @@ class TrackerComponent : public runtime::Component {
     std::optional<tracker::MissionDecision> decision;
     // A smoothing finished on the worker: the mission hears whether it gave a trajectory (a result for an
     // older request than the current one is stale and dropped).
-    if (ready(smoothing_) && state) {
-      Smoothed smoothed = smoothing_.get();
-      if (smoothed.request_id == mission_.requestId()) decision = mission_.pathSmoothed(clock().nowNs(), *state, adoptSmoothed(std::move(smoothed), *state));
-    }
+    if (state) decision = takeSmoothed(*state);
     if (!decision) decision = missionUpdate(state);
     if (!act(*decision)) return;
     drive(*state, dt);
+  }
+
+  // A finished smoothing: the mission hears whether it gave a trajectory (a result for an older request than
+  // the current one is stale and dropped). Nothing when no smoothing has finished.
+  std::optional<tracker::MissionDecision> takeSmoothed(const tracker::VehicleState& state) {
+    if (!ready(smoothing_)) return std::nullopt;
+    Smoothed smoothed = smoothing_.get();
+    if (smoothed.request_id != mission_.requestId()) return std::nullopt;
+    return mission_.pathSmoothed(clock().nowNs(), state, adoptSmoothed(std::move(smoothed), state));
+  }
+
+  // Between control steps, when a path, a smoothed trajectory or a replan check has just come in: what the
+  // next control step would do with it first, so that none of them waits for that step. Driving stays with
+  // the control step; so does everything while the vehicle stops for a replan or no planner was seen yet.
+  // `from_a_task`: posted by a smoothing or a check as its last step, so its result is ready within
+  // microseconds (the task posts, then returns it): waited for, briefly.
+  void takeUpNow(bool from_a_task) {
+    if (!planner_seen_ || stopping_for_ || !vehicle_) return;
+    if (from_a_task) {
+      if (smoothing_.valid()) smoothing_.wait_for(std::chrono::milliseconds(2));
+      if (checking_.valid()) checking_.wait_for(std::chrono::milliseconds(2));
+    }
+    const tracker::VehicleState state = *vehicle_;
+    if (auto decision = takeSmoothed(state)) {
+      act(*decision);
+    } else if (new_path_ && !smoothing_.valid()) {
+      act(missionUpdate(state));
+    }
+    takeChecked(state);
+  }
+
+  void takeChecked(const tracker::VehicleState& state) {
+    if (!ready(checking_)) return;
+    Checked checked = checking_.get();
+    if (checked.took_s > 1.0) spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check)", checked.took_s);
+    // Only a check of the trajectory still flown counts, and only while no new one waits for its switch;
+    // while one is smoothed only a stop counts (react).
+    if (follower_ && checked.trajectory_serial == trajectory_serial_ && !next_trajectory_) react(checked, state);
   }
 
   tracker::MissionDecision missionUpdate(const std::optional<tracker::VehicleState>& state) {
@@ -468,16 +517,11 @@ class TrackerComponent : public runtime::Component {
       stop();
       follower_.reset();
       act(next);
-    } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory_ && !checking_.valid()) {
-      startCheck(*state);
+    } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory_ && !checking_.valid() &&
+               static_cast<double>(clock().nowNs() - last_check_ns_) * 1e-9 >= 0.5 * params_.replan_check_period_s) {
+      startCheck(*state);  // unless a new obstacle array was just checked
     }
-    if (ready(checking_)) {
-      Checked checked = checking_.get();
-      if (checked.took_s > 1.0) spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check)", checked.took_s);
-      // Only a check of the trajectory still flown counts, and only while no new one waits for its switch;
-      // while one is smoothed only a stop counts (react).
-      if (follower_ && checked.trajectory_serial == trajectory_serial_ && !next_trajectory_) react(checked, *state);
-    }
+    takeChecked(*state);
   }
 
   void react(Checked checked, const tracker::VehicleState& current) {
@@ -543,6 +587,7 @@ class TrackerComponent : public runtime::Component {
   std::int64_t speed_window_clock_ns_ = 0;
   std::chrono::steady_clock::time_point speed_window_wall_;
   std::future<Checked> checking_;
+  std::int64_t last_check_ns_ = 0;  // clock time the last replan check started
   std::uint64_t trajectory_serial_ = 0;
   std::int64_t next_since_ns_ = 0;
   double next_wait_limit_s_ = 2.0;

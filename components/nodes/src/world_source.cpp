@@ -132,16 +132,19 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
   // On the component's executor: the arrays are checked there, not on a DDS thread.
   obstacles_sub_ = ctx.subscribe(runtime::topics::obstacles, [this](const msg::ObstacleArray& a) {
     const auto error = checkObstacleArray(a, kWorldFrame);
-    std::lock_guard lock(mutex_);
-    if (!error.empty()) {
-      ++dropped_obstacles_;
-      spdlog::warn("perception/obstacles: dropping an array of {} obstacle(s) (stamp {} ns): {}; keeping the {} ({} dropped so far)",
-                   a.obstacles().size(), a.header().stamp_ns(), error, obstacles_ ? "last good array" : "world empty",
-                   dropped_obstacles_);
-      return;
+    {
+      std::lock_guard lock(mutex_);
+      if (!error.empty()) {
+        ++dropped_obstacles_;
+        spdlog::warn("perception/obstacles: dropping an array of {} obstacle(s) (stamp {} ns): {}; keeping the {} ({} dropped so far)",
+                     a.obstacles().size(), a.header().stamp_ns(), error, obstacles_ ? "last good array" : "world empty",
+                     dropped_obstacles_);
+        return;
+      }
+      obstacles_ = a;
+      if (!first_obstacles_ns_) first_obstacles_ns_ = clock_.nowNs();
     }
-    obstacles_ = a;
-    if (!first_obstacles_ns_) first_obstacles_ns_ = clock_.nowNs();
+    if (on_obstacles_) on_obstacles_();
   });
   if (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) {
     // A map is parsed into its world on the map worker: a 3-D octree takes long enough (tens to hundreds of

@@ -12,6 +12,7 @@
 #include <ddsnav/planner/collision_world.hpp>
 #include <ddsnav/runtime/component.hpp>
 
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -81,6 +82,9 @@ class WorldSource {
   // a free state this much farther out.
   double surfaceMargin() const { return surface_margin_m_; }
   bool hasObstacles() const;  // perception/obstacles received (whatever the kind)
+  // Called on the component's executor after each good perception/obstacles array is taken in (not for maps,
+  // which are built on a worker): the tracker checks its trajectory at once instead of at its next period.
+  void onObstacles(std::function<void()> callback) { on_obstacles_ = std::move(callback); }
   // Messages dropped as malformed so far, per topic.
   std::size_t droppedObstacleArrays() const;
   std::size_t droppedMaps() const;
@@ -107,6 +111,7 @@ class WorldSource {
   std::optional<std::int64_t> first_obstacles_ns_;  // component clock
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;
   runtime::Worker map_worker_{"map"};  // after what its jobs use, before the subscriptions that feed it
+  std::function<void()> on_obstacles_;
   bus::Subscription obstacles_sub_, map_sub_;
 };
 
