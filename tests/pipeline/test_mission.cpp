@@ -27,6 +27,10 @@
 // matters somewhat — the tracker's replan checks and smoothing ran on std::async, which the progress reports
 // (executor and runtime::Worker only) did not cover. With them holding a runtime::PendingWork: 8 of 8 beside the
 // busy core (22:50-22:54). Still disabled until more runs say it is reliable under ctest -j2.
+// 2026-12-03: enabled. At speed 4 the cluttered field reached its goal with a positive true clearance in 8 of 8
+// mission-benchmark runs of the session (0.17-0.94 m; 2-D maps now reach the scanner's whole range, a stale
+// retry no longer drops a fresh trajectory) and this test passed 3 of 3 beside a busy-loop core. (At speed 1,
+// 1 of 2 benchmark runs grazed a circle, -0.53 m, after a deviation: docs/benchmarks/mission.md.)
 
 #include <ddsnav/testing/harness.hpp>
 
@@ -96,7 +100,7 @@ TEST(Mission, Terrain3dReachesTheGoalOnSimulatedTime) {
   EXPECT_LE(summary.value("tracked_obstacles_max", 1 << 30), 2000) << summary.dump(2);
 }
 
-TEST(Mission, DISABLED_ClutteredField2dReachesTheGoalOnSimulatedTime) {
+TEST(Mission, ClutteredField2dReachesTheGoalOnSimulatedTime) {
   std::string log;
   expectReached(runMission(141, "gart_cluttered_2d.yaml", 200, log), log);
 }
