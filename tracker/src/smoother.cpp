@@ -583,8 +583,15 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   points = keepAwayFromObstacles(points, world, config.clearance_target, 0.5, config.end_tolerance);
   points = dropCollinear(points);
   const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
-  if (config.initial_speed > 0 && config.initial_heading)
-    points = leadIn(points, *config.initial_heading, std::max(2 * radius, 1.0), radius, world, config.shortcut_clearance);
+  if (config.initial_speed > 0 && config.initial_heading) {
+    // The lead-in's corner needs the turn radius of the speed the vehicle has there, not of v_max: a replan
+    // ahead near an obstacle starts slower, and at the full-speed radius (v_max / omega_max: 8 m for the
+    // GART UAV) no lead-in fitted before the obstacle, so the plan started at rest and was refused
+    // (gart_cluttered_2d: 7 refusals in one mission at 0.7-3.6 m/s).
+    const double lead_radius =
+        std::min(radius, std::max(config.initial_speed, 0.1 * limits.v_max) / (config.limit_fraction * limits.omega_max));
+    points = leadIn(points, *config.initial_heading, std::max(2 * radius, 1.0), lead_radius, world, config.shortcut_clearance);
+  }
   traj.report.shortcut_waypoints = points.size();
 
   Corners corners = makeCorners(points, radius, world, config.clearance_target);

@@ -305,6 +305,27 @@ TEST(Smoother, AMovingStartKeepsItsSpeedAndHeading) {
   EXPECT_LT(moving.duration(), at_rest.duration());
 }
 
+// A slow moving start with an obstacle 4.5 m ahead: no lead-in fits the full-speed turn radius (8 m), but the
+// vehicle turns tighter at its own speed, so the trajectory still starts moving instead of at rest.
+TEST(Smoother, ASlowMovingStartTurnsAtItsOwnSpeedsRadius) {
+  const auto sc = scenario2d(60, 0.3, "  - {type: box, min: [9.5, 0], max: [11, 9]}\n");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = limits(5.0, 0.2 * std::numbers::pi);
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;  // toward the obstacle
+  cfg.initial_speed = 0.6;
+  const Trajectory t = smoothPath(pathOf({{5, 5, 0}, {8, 12, 0}, {20, 12, 0}}), *world, l, cfg);
+  for (const auto& s : t.samples) {  // expectDrivable, but for the start at rest
+    EXPECT_TRUE(world->isFree(s.position)) << "t=" << s.time;
+    EXPECT_LE(s.speed, l.v_max + 1e-9) << "t=" << s.time;
+    EXPECT_LE(std::abs(s.yaw_rate), l.omega_max + 1e-9) << "t=" << s.time;
+  }
+  EXPECT_EQ(t.report.samples_in_collision, 0u);
+  EXPECT_NEAR(t.samples.front().speed, 0.6, 1e-6);
+  EXPECT_NEAR(t.initial_turn, 0.0, 1e-6);
+  EXPECT_NEAR(t.samples.front().heading, 0.0, 1e-6);
+}
+
 // No room for a lead-in (a wall right ahead of the heading): the trajectory starts at rest and turns.
 TEST(Smoother, AMovingStartWithoutRoomStartsAtRest) {
   const auto sc = scenario2d(60, 0.3, "  - {type: box, min: [5.6, 0], max: [7, 60]}\n");  // 0.3 m of room ahead
