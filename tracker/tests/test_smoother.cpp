@@ -276,6 +276,21 @@ TEST(Smoother, GrazingPlannerEdgeGetsADetour) {
   EXPECT_GE(t.report.min_clearance, 0.0);
 }
 
+// expectDrivable for a trajectory that starts moving: every sample free and within the limits, the first one
+// at `speed` along `heading`, without a turn in place.
+static void expectMovingStart(const Trajectory& t, const ddsnav::planner::CollisionWorld& world,
+                       const ddsnav::planner::VehicleLimits& l, double speed, double heading) {
+  for (const auto& s : t.samples) {
+    EXPECT_TRUE(world.isFree(s.position)) << "t=" << s.time;
+    EXPECT_LE(s.speed, l.v_max + 1e-9) << "t=" << s.time;
+    EXPECT_LE(std::abs(s.yaw_rate), l.omega_max + 1e-9) << "t=" << s.time;
+  }
+  EXPECT_EQ(t.report.samples_in_collision, 0u);
+  EXPECT_NEAR(t.samples.front().speed, speed, 1e-6);
+  EXPECT_NEAR(t.initial_turn, 0.0, 1e-6);
+  EXPECT_NEAR(t.samples.front().heading, heading, 1e-6);
+}
+
 // A replan ahead starts moving: with initial_speed the trajectory begins at that speed, tangent to the
 // vehicle's heading through a lead-in (no turn in place), where the start at rest would stop the vehicle.
 TEST(Smoother, AMovingStartKeepsItsSpeedAndHeading) {
@@ -291,15 +306,7 @@ TEST(Smoother, AMovingStartKeepsItsSpeedAndHeading) {
 
   cfg.initial_speed = 1.5;
   const Trajectory moving = smoothPath(path, *world, l, cfg);
-  for (const auto& s : moving.samples) {  // expectDrivable, but for the start at rest
-    EXPECT_TRUE(world->isFree(s.position)) << "t=" << s.time;
-    EXPECT_LE(s.speed, l.v_max + 1e-9) << "t=" << s.time;
-    EXPECT_LE(std::abs(s.yaw_rate), l.omega_max + 1e-9) << "t=" << s.time;
-  }
-  EXPECT_EQ(moving.report.samples_in_collision, 0u);
-  EXPECT_NEAR(moving.samples.front().speed, 1.5, 1e-6);
-  EXPECT_NEAR(moving.initial_turn, 0.0, 1e-6);
-  EXPECT_NEAR(moving.samples.front().heading, 0.0, 1e-6);
+  expectMovingStart(moving, *world, l, 1.5, 0.0);
   for (const auto& s : moving.samples)
     if (s.time > 0 && s.time < moving.duration() - 3.0) EXPECT_GT(s.speed, 0.5) << "stopped at t=" << s.time;
   EXPECT_LT(moving.duration(), at_rest.duration());
@@ -315,15 +322,7 @@ TEST(Smoother, ASlowMovingStartTurnsAtItsOwnSpeedsRadius) {
   cfg.initial_heading = 0.0;  // toward the obstacle
   cfg.initial_speed = 0.6;
   const Trajectory t = smoothPath(pathOf({{5, 5, 0}, {8, 12, 0}, {20, 12, 0}}), *world, l, cfg);
-  for (const auto& s : t.samples) {  // expectDrivable, but for the start at rest
-    EXPECT_TRUE(world->isFree(s.position)) << "t=" << s.time;
-    EXPECT_LE(s.speed, l.v_max + 1e-9) << "t=" << s.time;
-    EXPECT_LE(std::abs(s.yaw_rate), l.omega_max + 1e-9) << "t=" << s.time;
-  }
-  EXPECT_EQ(t.report.samples_in_collision, 0u);
-  EXPECT_NEAR(t.samples.front().speed, 0.6, 1e-6);
-  EXPECT_NEAR(t.initial_turn, 0.0, 1e-6);
-  EXPECT_NEAR(t.samples.front().heading, 0.0, 1e-6);
+  expectMovingStart(t, *world, l, 0.6, 0.0);
 }
 
 // No room for a lead-in (a wall right ahead of the heading): the trajectory starts at rest and turns.
