@@ -264,6 +264,41 @@ void plannerAndTrackerDropMalformedWorlds() {
   EXPECT_EQ(h.log("planner").find("threw"), std::string::npos) << h.log("planner");
 }
 
+// A request that comes before the planner's world (a tracker whose own world is ready first) waits for it and is
+// solved once the world comes, within its budget; before, it was refused at once and the tracker lost a retry
+// delay. Without a world within the budget it is answered as failed, naming why.
+void plannerWaitsForItsWorldWithinTheBudget() {
+  harness::Harness h;
+  h.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}}});
+  auto obstacles = h.bus().publisher<msg::ObstacleArray>("perception/obstacles", bus::Qos::state());
+  auto requests = h.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
+  auto paths = h.bus().inbox<msg::Path>("planning/path", bus::Qos::state());
+  ASSERT_TRUE(obstacles.waitForSubscribers(1, 20s));
+  ASSERT_TRUE(requests.waitForSubscribers(1, 20s));
+  auto early = request(3001);
+  early.time_budget_s(5.0);
+  requests.publish(early);
+  std::this_thread::sleep_for(500ms);
+  obstacles.publish(goodArray());
+  auto answer = answerTo(paths, 3001);
+  ASSERT_TRUE(answer) << h.log("planner");
+  EXPECT_TRUE(answer->solved()) << h.log("planner");
+
+  // A second planner that never gets a world: the request is answered as failed after its 1 s budget.
+  harness::Harness lonely;  // a domain of its own
+  lonely.startReady({.name = "planner", .command = "ddsnav-planner", .params = {{"scenario", kScenario}}});
+  auto lonely_requests = lonely.bus().publisher<msg::PlanRequest>("planning/request", bus::Qos::commands());
+  auto lonely_paths = lonely.bus().inbox<msg::Path>("planning/path", bus::Qos::state());
+  ASSERT_TRUE(lonely_requests.waitForSubscribers(1, 20s));
+  const auto asked = std::chrono::steady_clock::now();
+  lonely_requests.publish(request(3002));
+  answer = answerTo(lonely_paths, 3002);
+  ASSERT_TRUE(answer) << lonely.log("planner");
+  EXPECT_FALSE(answer->solved());
+  EXPECT_NE(answer->failure().find("no perception/obstacles received yet"), std::string::npos) << answer->failure();
+  EXPECT_GE(std::chrono::steady_clock::now() - asked, 900ms);
+}
+
 // A map/octomap whose bytes are no octree is dropped by a planner on world=map; it keeps answering.
 void plannerDropsAMapThatIsNoOctree() {
   harness::Harness h;
@@ -640,5 +675,9 @@ TEST(BadInput, NonFiniteStatesOutOfBoundsRequestsCoarseMapsAndShortPaths) {
   {
     SCOPED_TRACE("short paths");
     shortPathsAreNoSuccess();
+  }
+  {
+    SCOPED_TRACE("a request before the planner's world");
+    plannerWaitsForItsWorldWithinTheBudget();
   }
 }

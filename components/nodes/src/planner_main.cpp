@@ -4,7 +4,7 @@
 // from the scenario file.
 //
 // Requests are checked on the executor; the solve runs on the worker, so world updates keep arriving
-// meanwhile. A newer request from the same requester (the same DDS writer) supersedes the one queued or
+// meanwhile. A request that comes before the planner's world is ready waits for it (at most its time budget). A newer request from the same requester (the same DDS writer) supersedes the one queued or
 // solving: that one stops at its next iteration and is answered as superseded.
 
 #include "ddsnav/nodes/convert.hpp"
@@ -104,7 +104,44 @@ class PlannerComponent : public runtime::Component {
     } catch (const std::exception& e) {
       return fail(request, e.what());
     }
+    deferred_.erase(info.publication_handle);  // a newer request from the same requester supersedes a waiting one
+    if (!world_source_.available()) {
+      // The first map and obstacle array reach each process at its own time: a tracker whose world is ready can
+      // ask a planner whose world is not yet (gart_cluttered_2d: three requests refused in 0.6 s, the start of the
+      // mission delayed by 3.5 simulated seconds of retries). Such a request waits here, on the executor — a worker
+      // job waiting would hold the simulator's pacing while the clock must advance for the world to come —
+      // until the world is ready, for at most its time budget of clock time.
+      deferred_[info.publication_handle] = {request, algorithm, clock().nowNs()};
+      if (!deferred_timer_) deferred_timer_.emplace(every(std::chrono::milliseconds(20), [this] { serveDeferred(); }));
+      return;
+    }
     worker_.submit(info.publication_handle, [this, request, algorithm](std::stop_token stop) { solve(request, *algorithm, stop); });
+  }
+
+  // Requests waiting for the world: solved once it is ready, answered as failed (why, as before) after their budget.
+  void serveDeferred() {
+    const bool ready = world_source_.available();
+    for (auto it = deferred_.begin(); it != deferred_.end();) {
+      const auto& [handle, waiting] = *it;
+      const double waited_s = static_cast<double>(clock().nowNs() - waiting.since_ns) * 1e-9;
+      if (ready) {
+        worker_.submit(handle, [this, request = waiting.request, algorithm = waiting.algorithm](std::stop_token stop) {
+          solve(request, *algorithm, stop);
+        });
+      } else if (waited_s > std::min(waiting.request.time_budget_s(), params_.max_time_budget_s)) {
+        fail(waiting.request, worldMissing());
+      } else {
+        ++it;
+        continue;
+      }
+      it = deferred_.erase(it);
+    }
+  }
+
+  const char* worldMissing() const {
+    return kind_ == nodes::WorldKind::Map     ? "no map/octomap received yet"
+           : kind_ == nodes::WorldKind::Fused ? "no perception/obstacles received yet, or still waiting for the first map/octomap (first_map_wait_s)"
+                                              : "no perception/obstacles received yet";
   }
 
   // On the worker. Every failure is answered with an unsolved Path (the reason goes to the log): the
@@ -157,9 +194,7 @@ class PlannerComponent : public runtime::Component {
       return std::nullopt;
     }
     if (!world) {
-      fail(request, kind_ == nodes::WorldKind::Map     ? "no map/octomap received yet"
-                    : kind_ == nodes::WorldKind::Fused ? "no perception/obstacles received yet, or still waiting for the first map/octomap (first_map_wait_s)"
-                                                       : "no perception/obstacles received yet");
+      fail(request, worldMissing());
       return std::nullopt;
     }
     planner::PlanProblem problem;
@@ -195,6 +230,13 @@ class PlannerComponent : public runtime::Component {
   nodes::WorldSource world_source_;
   bus::Publisher<msg::Path> paths_;
   std::map<std::uint64_t, std::uint32_t> last_request_;  // requester (publication handle) -> its last request id
+  struct Deferred {
+    msg::PlanRequest request;
+    std::shared_ptr<planner::Planner> algorithm;
+    std::int64_t since_ns = 0;  // clock time it came
+  };
+  std::map<std::uint64_t, Deferred> deferred_;  // requests waiting for the world, by requester (serveDeferred)
+  std::optional<runtime::Timer> deferred_timer_;  // started when the first request has to wait
   runtime::Worker worker_{"planner"};  // after what its jobs use: stopped and joined before they go
   bus::Subscription requests_;
 };
