@@ -404,8 +404,6 @@ class TrackerComponent : public runtime::Component {
       return;
     }
     std::optional<tracker::MissionDecision> decision;
-    // A smoothing finished on the worker: the mission hears whether it gave a trajectory (a result for an
-    // older request than the current one is stale and dropped).
     if (state) decision = takeSmoothed(*state);
     if (!decision) decision = missionUpdate(state);
     if (!act(*decision)) return;
