@@ -4,8 +4,9 @@
 // from the scenario file.
 //
 // Requests are checked on the executor; the solve runs on the worker, so world updates keep arriving
-// meanwhile. A request that comes before the planner's world is ready waits for it (at most its time budget). A newer request from the same requester (the same DDS writer) supersedes the one queued or
-// solving: that one stops at its next iteration and is answered as superseded.
+// meanwhile. A request that comes before the planner's world is ready waits for it (at most its time
+// budget). A newer request from the same requester (the same DDS writer) supersedes the one queued or
+// solving, which stops at its next iteration and is answered as superseded, and replaces one still waiting.
 
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
@@ -136,6 +137,7 @@ class PlannerComponent : public runtime::Component {
       }
       it = deferred_.erase(it);
     }
+    if (deferred_.empty()) deferred_timer_.reset();  // stops polling (a timer may end itself from its callback)
   }
 
   const char* worldMissing() const {
@@ -236,7 +238,7 @@ class PlannerComponent : public runtime::Component {
     std::int64_t since_ns = 0;  // clock time it came
   };
   std::map<std::uint64_t, Deferred> deferred_;  // requests waiting for the world, by requester (serveDeferred)
-  std::optional<runtime::Timer> deferred_timer_;  // started when the first request has to wait
+  std::optional<runtime::Timer> deferred_timer_;  // polls while a request waits
   runtime::Worker worker_{"planner"};  // after what its jobs use: stopped and joined before they go
   bus::Subscription requests_;
 };

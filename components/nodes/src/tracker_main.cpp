@@ -113,7 +113,7 @@ class TrackerComponent : public runtime::Component {
       planner_answered_ = true;
       // Taken up now rather than at the next control step (up to 1 / control_rate_hz later): a posted task, so
       // that a mission failure it finds ends the component as one from the control timer does.
-      this->ctx().executor().post([this] { takeUpNow(/*from_a_task=*/false); });
+      this->ctx().executor().post([this] { takeUpNow(Arrived::Path); });
     });
     started_ = std::chrono::steady_clock::now();
     last_step_ns_ = clock().nowNs();
@@ -234,7 +234,7 @@ class TrackerComponent : public runtime::Component {
         spdlog::warn("cannot smooth plan {}: {}", id, e.what());
       }
       token.reset();
-      ctx().executor().post([this] { takeUpNow(/*from_a_task=*/true); });
+      ctx().executor().post([this] { takeUpNow(Arrived::Smoothing); });
       return out;
     });
   }
@@ -353,7 +353,7 @@ class TrackerComponent : public runtime::Component {
       if (const auto world = currentWorld(position)) out.decision = follower.checkReplan(*world, horizon);
       out.took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       token.reset();
-      ctx().executor().post([this] { takeUpNow(/*from_a_task=*/true); });
+      ctx().executor().post([this] { takeUpNow(Arrived::Check); });
       return out;
     });
   }
@@ -422,14 +422,13 @@ class TrackerComponent : public runtime::Component {
   // Between control steps, when a path, a smoothed trajectory or a replan check has just come in: what the
   // next control step would do with it first, so that none of them waits for that step. Driving stays with
   // the control step; so does everything while the vehicle stops for a replan or no planner was seen yet.
-  // `from_a_task`: posted by a smoothing or a check as its last step, so its result is ready within
-  // microseconds (the task posts, then returns it): waited for, briefly.
-  void takeUpNow(bool from_a_task) {
+  // A smoothing or a check posts this as its last step, so its result is ready within microseconds (the task
+  // posts, then returns it): that one is waited for, briefly.
+  enum class Arrived { Path, Smoothing, Check };
+  void takeUpNow(Arrived what) {
     if (!planner_seen_ || stopping_for_ || !vehicle_) return;
-    if (from_a_task) {
-      if (smoothing_.valid()) smoothing_.wait_for(std::chrono::milliseconds(2));
-      if (checking_.valid()) checking_.wait_for(std::chrono::milliseconds(2));
-    }
+    if (what == Arrived::Smoothing && smoothing_.valid()) smoothing_.wait_for(std::chrono::milliseconds(2));
+    if (what == Arrived::Check && checking_.valid()) checking_.wait_for(std::chrono::milliseconds(2));
     const tracker::VehicleState state = *vehicle_;
     if (auto decision = takeSmoothed(state)) {
       act(*decision);

@@ -176,7 +176,7 @@ bool everyVoxelEnclosed(const perception::ObstacleTracker& tracker) {
   const auto& tracks = tracker.obstacles();
   for (std::size_t i = 0; i < tracks.size(); ++i) {
     const auto& t = tracks[i];
-    const double margin = 3.0 * p.range_noise_sigma + 0.5 * p.voxelSize(t.dimensions) * std::sqrt(double(t.dimensions));
+    const double margin = perception::enclosingMargin(p.range_noise_sigma, p.voxelSize(t.dimensions), t.dimensions);
     Eigen::Matrix3d inverse = Eigen::Matrix3d::Zero();
     if (t.dimensions == 2) {
       inverse.topLeftCorner<2, 2>() = t.covariance.topLeftCorner<2, 2>().inverse();

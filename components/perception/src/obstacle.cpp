@@ -137,7 +137,7 @@ ObstacleEllipsoid fitCore(std::size_t n, PointAt point, BearingAt bearing, int d
     // Each point is pushed away from the centre by its own position uncertainty (3 sigma of range
     // noise plus half a voxel diagonal), so the true surface point behind it is enclosed too.
     const double q = chiSquareQuantile(params.probability, dimensions);
-    const double margin = 3.0 * params.range_noise_sigma + 0.5 * params.voxel_size * std::sqrt(double(dimensions));
+    const double margin = enclosingMargin(params.range_noise_sigma, params.voxel_size, dimensions);
     thread_local std::vector<Eigen::Vector3d> offsets;  // kept between fits: no allocation per fit
     offsets.resize(n);
     for (std::size_t k = 0; k < n; ++k) {
@@ -319,6 +319,10 @@ void splitByExtent(std::span<const Eigen::Vector3f> points, std::span<const int>
   thread_local std::vector<int> piece;
   piece.assign(indices.begin(), indices.end());
   splitRecursive(points, piece, dimensions, static_cast<float>(max_length), static_cast<float>(width), 0, out, scratch);
+}
+
+double enclosingMargin(double range_noise_sigma, double voxel_size, int dimensions) {
+  return 3.0 * range_noise_sigma + 0.5 * voxel_size * std::sqrt(double(dimensions));
 }
 
 }  // namespace ddsnav::perception

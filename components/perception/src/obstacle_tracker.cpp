@@ -567,7 +567,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   // of its last refit for up to max_refit_delay updates as long as the voxel, pushed outward by its
   // position uncertainty (the fit's margin), is inside it; otherwise it is refitted in this update.
   const bool may_defer = params_.max_refit_delay > 0 && params_.enclose_points;
-  const double margin = 3.0 * params_.range_noise_sigma + 0.5 * voxel * std::sqrt(double(dims));
+  const double margin = enclosingMargin(params_.range_noise_sigma, voxel, dims);
   auto changedVoxel = [&](std::uint32_t t, const Eigen::Vector3f& position) {
     auto& track = ev.tracks[t];
     if (track.must_refit) return;

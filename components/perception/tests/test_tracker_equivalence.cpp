@@ -76,7 +76,7 @@ void expectEveryVoxelEnclosed(const ObstacleTracker& tracker, int scan) {
   const auto& p = tracker.params();
   for (std::size_t i = 0; i < tracker.obstacles().size(); ++i) {
     const ObstacleEllipsoid& t = tracker.obstacles()[i];
-    const double margin = 3.0 * p.range_noise_sigma + 0.5 * p.voxelSize(t.dimensions) * std::sqrt(double(t.dimensions));
+    const double margin = enclosingMargin(p.range_noise_sigma, p.voxelSize(t.dimensions), t.dimensions);
     const double q = chiSquareQuantile(t.probability, t.dimensions);
     for (const SupportPoint& v : tracker.evidence(i)) {
       Eigen::Vector3d d = v.position.cast<double>() - t.center;

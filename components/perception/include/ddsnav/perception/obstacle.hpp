@@ -67,6 +67,11 @@ ObstacleEllipsoid fitEllipsoid(std::span<const Eigen::Vector3f> points, std::spa
                                const Eigen::Vector3d& sensor_origin, int dimensions,
                                const EllipsoidFitParams& params);
 
+// How far the enclosing step pushes each point outward: its position uncertainty, 3 sigma of range noise plus
+// half a voxel diagonal. Who checks that a point is enclosed (the tracker's deferred refits, the tests and the
+// bench) pushes it by the same amount.
+double enclosingMargin(double range_noise_sigma, double voxel_size, int dimensions);
+
 // The same fit on support points whose bearings are already known (the tracker's refit).
 ObstacleEllipsoid fitEllipsoid(std::span<const SupportPoint> support, int dimensions,
                                const EllipsoidFitParams& params);

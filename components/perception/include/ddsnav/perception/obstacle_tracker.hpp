@@ -1,7 +1,7 @@
 #pragma once
 // Keeps obstacles across scans, on evidence: every track owns a bounded set of voxel centroids
-// (world frame, one per evidence cell: voxel_size in 2-D, voxel_size_3d in 3-D) and its ellipse/ellipsoid is refitted from them with the same
-// Gaussian + sensor noise + chi-square model as a detection. Ids are stable; the set grows as the
+// (world frame, one per evidence cell: voxel_size in 2-D, voxel_size_3d in 3-D) and its ellipse/ellipsoid
+// is refitted from them with the same Gaussian + sensor noise + chi-square model as a detection. Ids are stable; the set grows as the
 // vehicle discovers the world, and shrinks as it leaves tracks behind beyond forget_radius.
 //
 //   ObstacleTracker tracker(TrackerParams::matching(detector_params));
@@ -56,7 +56,8 @@ struct TrackerParams {
   // a 3-D lidar sees surfaces, where a cell of twice the edge holds about four of the detector's voxels, so
   // a track keeps a quarter of the centroids to store, look up and refit, and every scan's new cells cost
   // a quarter as much (issue 16; docs/perception.md "3-D evidence grid"). The fit widens its quantisation
-  // term and enclosing margin to this cell, so every detection voxel still lies inside its track's ellipse.
+  // term and enclosing margin to this cell; the detector's finer voxels stay inside the tracks' ellipses but
+  // for about one in a million (docs/benchmarks/perception.md).
   double voxel_size_3d = 0.1;
   double association_distance = 0.4;  // m; a voxel this close to a track's voxel is the same surface
   double max_segment_length = 1.5;    // m; a track's voxels stay inside a box of this side (> 0)...
