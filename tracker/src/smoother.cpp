@@ -526,15 +526,17 @@ void fillReport(Trajectory& traj, const CollisionWorld& world, bool clearance) {
 
 }  // namespace
 
-std::vector<Vec3> shortcutPolyline(const std::vector<Vec3>& points, const CollisionWorld& world, double min_clearance) {
+std::vector<Vec3> shortcutPolyline(const std::vector<Vec3>& points, const CollisionWorld& world, double min_clearance,
+                                   double tolerance) {
   const int n = static_cast<int>(points.size());
   if (n <= 2) return points;
   std::vector<double> point_clearance(n, std::numeric_limits<double>::infinity());
   if (min_clearance > 0)
     for (int i = 0; i < n; ++i) point_clearance[i] = world.clearance(points[i]);
-  // A shortcut may come as close to obstacles as its own ends do, but no closer than min_clearance.
+  // A shortcut may come as close to obstacles as its own ends do, but no closer than min_clearance (either
+  // less the tolerance).
   auto ok = [&](int i, int j) {
-    const double need = std::min({min_clearance, point_clearance[i], point_clearance[j]});
+    const double need = std::min({min_clearance, point_clearance[i], point_clearance[j]}) - tolerance;
     return world.isSegmentFree(points[i], points[j]) && clearanceAtLeast(world, points[i], points[j], need);
   };
   std::vector<Vec3> out{points.front()};
@@ -581,6 +583,20 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   traj.report.input_waypoints = points.size();
   if (config.shortcut) points = shortcutPolyline(points, world, config.shortcut_clearance);
   points = keepAwayFromObstacles(points, world, config.clearance_target, 0.5, config.end_tolerance);
+  // The push moves each 0.5 m piece on its own, to where its own clearance reaches the target; along a
+  // mapped wall (voxel steps, scan noise) the pieces end up to 0.1 m apart sideways. A corner is rounded over
+  // at most 45 % of its edges, so each such kink was a turn of ~0.2 m radius the vehicle crawled through
+  // (bugtrap_1.0: 0.1 m/s along the neck and a wall, 4.4 1/m). Straighten what the push left wherever a
+  // straight edge between two pushed points keeps the clearance they got, less a tenth of the target. The
+  // path's own ends stay out of it: they may not have been pushed (a start 5 cm from a wall), and an edge
+  // from there would be allowed their small clearance all along.
+  if (config.clearance_target > 0 && config.shortcut && points.size() > 4) {
+    std::vector<Vec3> inner(points.begin() + 1, points.end() - 1);
+    inner = shortcutPolyline(inner, world, config.clearance_target, 0.1 * config.clearance_target);
+    inner.insert(inner.begin(), points.front());
+    inner.push_back(points.back());
+    points = std::move(inner);
+  }
   points = dropCollinear(points);
   const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
   if (config.initial_speed > 0 && config.initial_heading) {

@@ -239,6 +239,32 @@ TEST(Smoother, PathHuggingAWallIsMovedAway) {
   expectDrivable(moved, *world, limits(), cfg);
 }
 
+TEST(Smoother, APathMovedOffARoughWallIsStraightenedNotKinked) {
+  // A mapped wall is not flat: its face steps by a voxel here and there. Each piece of the path pushed off
+  // it stops where its own clearance reaches the target, so the pieces end up staggered sideways; rounded
+  // over 0.5 m edges, every stagger was a tight turn the vehicle had to crawl through.
+  std::string floor;
+  for (int k = 0; k < 20; ++k)
+    floor += "  - {type: box, min: [" + std::to_string(k) + ", 0], max: [" + std::to_string(k + 1) + ", " +
+             std::to_string(4.5 + 0.05 * (k % 2)) + "]}\n";
+  auto sc = scenario2d(20, 0.2, floor);
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto path = pathOf({{1, 4.8, 0}, {7, 4.8, 0}, {13, 4.8, 0}, {19, 4.8, 0}});
+  SmootherConfig cfg;
+  cfg.clearance_target = 0.6;
+  const auto t = smoothPath(path, *world, limits(), cfg);
+  // Off its ends (which turn away from the wall they start next to), straight, and as far off the wall as asked.
+  double max_curvature = 0.0, min_inside = 1e9;
+  for (const auto& s : t.samples) {
+    if (s.position.x() < 3.0 || s.position.x() > 17.0) continue;
+    max_curvature = std::max(max_curvature, std::abs(s.curvature));
+    min_inside = std::min(min_inside, world->clearance(s.position));
+  }
+  EXPECT_LT(max_curvature, 0.05);
+  EXPECT_GT(min_inside, 0.9 * cfg.clearance_target);
+  expectDrivable(t, *world, limits(), cfg);
+}
+
 namespace {
 // A world whose edge check only samples states every checkResolution() (the base class's check, as an
 // OctoMap world does), around an exact scenario world.

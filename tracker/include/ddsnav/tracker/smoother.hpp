@@ -60,8 +60,9 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const planner::Co
                       const planner::VehicleLimits& limits, const SmootherConfig& config = {});
 
 // The collision-checked shortcutting step on its own: the returned polyline keeps the first and last
-// point, and each of its edges is either an edge of the input or free with `min_clearance`.
+// point, and each of its edges is either an edge of the input or free with a clearance of at least the
+// smallest of `min_clearance` and its two ends' clearances, less `tolerance`.
 std::vector<Vec3> shortcutPolyline(const std::vector<Vec3>& points, const planner::CollisionWorld& world,
-                                   double min_clearance);
+                                   double min_clearance, double tolerance = 0.0);
 
 }  // namespace ddsnav::tracker
