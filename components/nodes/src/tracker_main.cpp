@@ -37,6 +37,7 @@ class TrackerComponent : public runtime::Component {
   struct Params {
     std::string scenario, planner;
     nodes::WorldParameters world;  // world, unknown_space: the planner's, to smooth and check against
+    double unknown_margin_m;       // the planner's preference, smoothed on first
     double control_rate_hz, time_budget_s;
     std::int64_t seed, max_plan_attempts;
     double plan_retry_delay_s;
@@ -50,6 +51,11 @@ class TrackerComponent : public runtime::Component {
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
           planner(p.declare<std::string>("planner", "gart-lazy", {.doc = "planner asked for in each request (docs/planners.md)"})),
           world(p),
+          unknown_margin_m(p.declare<double>(
+              "unknown_margin_m", 1.0,
+              {.min = 0, .max = 100, .unit = "m",
+               .doc = "2-D map and fused worlds, optimistic: smooth first keeping never-observed space this close to a seen surface blocked, "
+                      "as the planner plans (its unknown_margin_m), then on the plain map (docs/tracking.md); 0: off"})),
           control_rate_hz(p.declare<double>("control_rate_hz", 20.0, {.above = 0, .max = 1000, .unit = "Hz", .doc = "controller rate"})),
           time_budget_s(p.declare<double>("time_budget_s", 5.0, {.above = 0, .unit = "s", .doc = "time budget of each plan request"})),
           seed(p.declare<std::int64_t>("seed", 1, {.doc = "seed of the first request (the n-th asks seed + n - 1)"})),
@@ -93,7 +99,7 @@ class TrackerComponent : public runtime::Component {
         commands_(publisher(runtime::topics::cmd_vel)),
         statuses_(publisher(runtime::topics::tracking)),
         // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
-        world_source_(ctx, params_.world, scenario_),
+        world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m),
         mission_(missionConfig()),
         replan_gate_(params_.replan),
         tracker_config_(trackerConfig()) {
@@ -150,9 +156,9 @@ class TrackerComponent : public runtime::Component {
   void stop() { commands_.publish(nodes::toMsg(tracker::VehicleCommand{}, clock().nowNs())); }
 
   // nullptr (logged) when there is none yet or it cannot be built: the tracker keeps running either way.
-  std::unique_ptr<planner::CollisionWorld> currentWorld(const Eigen::Vector3d& position) {
+  std::unique_ptr<planner::CollisionWorld> currentWorld(const Eigen::Vector3d& position, bool preferred = false) {
     try {
-      return world_source_.snapshot(position, scenario_.goal, scenario_.goal_radius);
+      return world_source_.snapshot(position, scenario_.goal, scenario_.goal_radius, preferred);
     } catch (const std::exception& e) {
       spdlog::warn("cannot build the planner's world: {}", e.what());
       return nullptr;
@@ -226,7 +232,18 @@ class TrackerComponent : public runtime::Component {
         auto world = currentWorld(position);
         if (!world) throw tracker::SmoothingError("the tracker has no usable world of the planner yet");
         const auto t1 = std::chrono::steady_clock::now();
-        out.trajectory = tracker::smoothPath(states, *world, limits_, config);
+        // First on the world the planner prefers, where unseen space next to seen surfaces is blocked: shortcuts
+        // and corners on the plain map cut into exactly the space the planner kept out of (stunnel_1.0: a
+        // shortcut back across the unseen part of a wall made a hairpin, and the check blocked it 10 s later).
+        // A path the planner could only find on the plain map is in collision there: smoothed on the plain map.
+        if (world_source_.hasPreferredWorld()) {
+          try {
+            if (auto preferred = currentWorld(position, /*preferred=*/true)) out.trajectory = tracker::smoothPath(states, *preferred, limits_, config);
+          } catch (const tracker::SmoothingError& e) {
+            spdlog::debug("plan {}: not smoothed keeping clear of unseen surfaces ({}); on the plain map", id, e.what());
+          }
+        }
+        if (!out.trajectory) out.trajectory = tracker::smoothPath(states, *world, limits_, config);
         const auto t2 = std::chrono::steady_clock::now();
         spdlog::debug("plan {}: world snapshot {:.1f} ms, smoothing {:.1f} ms (wall)", id,
                       std::chrono::duration<double, std::milli>(t1 - t0).count(), std::chrono::duration<double, std::milli>(t2 - t1).count());
