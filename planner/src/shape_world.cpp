@@ -167,10 +167,14 @@ ShapeWorld::ShapeWorld(int dimensions, const Vec3& bounds_min, const Vec3& bound
     inflated_hi_.push_back(s.hi + grow);
     extent_sum += std::max(s.hi.x() - s.lo.x(), s.hi.y() - s.lo.y()) + 2.0 * radius_;
   }
-  // Cells about the size of a typical obstacle keep each cell's list short; cap the grid at 2^18 cells.
+  // Cells about the size of a typical obstacle keep each cell's list short; at most 16 cells per shape (at
+  // least 1024) and 2^18 in all. The grid is built for every world snapshot: small perceived ellipses in
+  // wide bounds asked for the full 2^18 cells, three 1 MB arrays filled per snapshot, and that was most of
+  // the tracker's CPU (gart_cluttered_2d: 70 % in building this grid, a snapshot 10-90 ms).
   const double wx = bmax_.x() - bmin_.x(), wy = bmax_.y() - bmin_.y();
   cell_size_ = shapes_.empty() ? std::max(wx, wy) : std::max(extent_sum / shapes_.size(), 1e-3);
-  cell_size_ = std::max(cell_size_, std::sqrt(wx * wy / double(1 << 18)));
+  const double max_cells = std::clamp(16.0 * static_cast<double>(shapes_.size()), 1024.0, double(1 << 18));
+  cell_size_ = std::max(cell_size_, std::sqrt(wx * wy / max_cells));
   // And at most 2^18 cells along either side: bounds of 110 x 1e33 m passed the area cap with 1.7e18 cells
   // along y, which overflowed the int cell count (UBSan, scenario fuzz target).
   cell_size_ = std::max(cell_size_, std::max(wx, wy) / double(1 << 18));

@@ -164,11 +164,20 @@ std::size_t clearFootprint(std::vector<planner::EllipsoidObstacle>& obstacles, c
       e.axes = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     }
   }
-  const auto before = obstacles.size();
-  std::erase_if(obstacles, [&](const planner::EllipsoidObstacle& e) {
-    return !planner::makeEllipsoidWorld(dimensions, -far, far, radius, {e})->isFree(position);
-  });
-  return before - obstacles.size();
+  // One world of them all, numbered by position (not a world per obstacle: each was a grid over the far
+  // bounds, and with hundreds of ellipses that was most of the tracker's CPU): those within the robot's
+  // radius of the position are the ones that cover it.
+  std::vector<planner::EllipsoidObstacle> numbered = obstacles;
+  for (std::size_t i = 0; i < numbered.size(); ++i) numbered[i].id = static_cast<int>(i);
+  const auto covering = planner::makeEllipsoidWorld(dimensions, -far, far, radius, std::move(numbered))->obstaclesNear(position, radius);
+  if (covering.empty()) return 0;
+  std::vector<bool> drop(obstacles.size(), false);
+  for (const auto& o : covering) drop[static_cast<std::size_t>(o.id)] = true;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < obstacles.size(); ++i)
+    if (!drop[i]) obstacles[kept++] = std::move(obstacles[i]);
+  obstacles.resize(kept);
+  return covering.size();
 }
 
 msg::PathState toMsg(const planner::State& state) {

@@ -1,5 +1,6 @@
 // The world source's decisions without DDS: when the fused world may be planned on before the first map,
 // and the map check that keeps the world it builds.
+#include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include "ddsnav/nodes/world_source.hpp"
 
@@ -76,6 +77,35 @@ TEST(BuildOccupancyMap, KeepsTheWorldItChecksWithThePolicyAsked) {
   EXPECT_NE(bad.error.find("not a binary OctoMap"), std::string::npos) << bad.error;
   EXPECT_EQ(bad.world, nullptr);
   EXPECT_EQ(nodes::checkOccupancyMap(garbage, "map", scenario), bad.error);
+}
+
+TEST(ClearFootprint, RemovesExactlyTheEllipsesTheRobotTouchesAndKeepsTheOrder) {
+  // The robot (radius 0.5) at the origin. Each ellipse is judged as a world of that ellipse alone would
+  // judge it: the robot touches it when its centre is inside it or within the radius of its surface.
+  const auto ellipse = [](int id, double x, double y, double a, double b, double yaw) {
+    planner::EllipsoidObstacle e;
+    e.id = id;
+    e.center = planner::Vec3(x, y, 0);
+    e.semi_axes = planner::Vec3(a, b, 1);
+    e.axes = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return e;
+  };
+  std::vector<planner::EllipsoidObstacle> obstacles{
+      ellipse(10, 0.2, 0.1, 0.3, 0.2, 0.0),     // around the robot's centre
+      ellipse(11, 1.2, 0.0, 0.6, 0.1, 0.0),     // its surface 0.6 m away: clear
+      ellipse(12, 0.0, 0.9, 1.0, 0.45, 0.3),    // reaches within the radius: touched
+      ellipse(13, 30.0, -4.0, 2.0, 1.0, 1.0),   // far
+      ellipse(14, -0.95, 0.0, 0.2, 0.5, 0.0),   // its surface 0.75 m away: clear
+  };
+  std::vector<int> expected;
+  const planner::Vec3 far = planner::Vec3::Constant(1e9);
+  for (const auto& e : obstacles)
+    if (planner::makeEllipsoidWorld(2, -far, far, 0.5, {e})->isFree(planner::Vec3::Zero())) expected.push_back(e.id);
+  ASSERT_EQ(expected, (std::vector<int>{11, 13, 14}));
+  EXPECT_EQ(nodes::clearFootprint(obstacles, Eigen::Vector3d::Zero(), 0.5, 2), 2u);
+  std::vector<int> kept;
+  for (const auto& e : obstacles) kept.push_back(e.id);
+  EXPECT_EQ(kept, expected);
 }
 
 }  // namespace
