@@ -18,11 +18,11 @@ const char* toString(ReplanReason reason) {
 }
 
 TrajectoryTracker::TrajectoryTracker(Trajectory trajectory, const VehicleLimits& limits, const TrackerConfig& config)
-    : trajectory_(std::move(trajectory)), limits_(limits), config_(config) {
-  if (trajectory_.samples.size() < 2) throw std::invalid_argument("tracker: trajectory needs at least 2 samples");
+    : trajectory_(std::make_shared<const Trajectory>(std::move(trajectory))), limits_(limits), config_(config) {
+  if (trajectory_->samples.size() < 2) throw std::invalid_argument("tracker: trajectory needs at least 2 samples");
   if (!(limits_.v_max > 0) || !(limits_.omega_max > 0) || !std::isfinite(limits_.v_max) || !std::isfinite(limits_.omega_max))
     throw std::invalid_argument("tracker: v_max and omega_max must be positive numbers");
-  if (trajectory_.dimensions == 3 && !(limits_.vz_max > 0)) throw std::invalid_argument("tracker: vz_max must be > 0 in 3-D");
+  if (trajectory_->dimensions == 3 && !(limits_.vz_max > 0)) throw std::invalid_argument("tracker: vz_max must be > 0 in 3-D");
   for (double g : {config_.zeta, config_.b, config_.max_natural_frequency, config_.min_gain, config_.max_lead, config_.lookahead_min, config_.goal_tolerance,
                    config_.replan_deviation})
     if (!(g > 0) || !std::isfinite(g)) throw std::invalid_argument("tracker: gains, distances and tolerances must be positive numbers");
@@ -33,7 +33,7 @@ TrajectoryTracker::TrajectoryTracker(Trajectory trajectory, const VehicleLimits&
 }
 
 TrajectorySample TrajectoryTracker::sampleAtArcLength(double s) const {
-  const auto& samples = trajectory_.samples;
+  const auto& samples = trajectory_->samples;
   auto it = std::lower_bound(samples.begin(), samples.end(), s,
                              [](const TrajectorySample& a, double v) { return a.arc_length < v; });
   if (it == samples.end()) return samples.back();
@@ -41,10 +41,10 @@ TrajectorySample TrajectoryTracker::sampleAtArcLength(double s) const {
 }
 
 TrajectoryTracker::Projection TrajectoryTracker::project(const Vec3& position) const {
-  const auto& s = trajectory_.samples;
+  const auto& s = trajectory_->samples;
   // Search a window around the previous projection so that a path passing near itself (a hairpin) cannot
   // make the projection jump to the wrong part of it.
-  const double s_ref = trajectory_.at(status_.reference_time).arc_length;
+  const double s_ref = trajectory_->at(status_.reference_time).arc_length;
   const double s_prev = s[last_segment_].arc_length;
   const double s_hi = std::max(s_prev, s_ref) + 2.0 * config_.max_lead + 1.0;
   std::size_t lo = last_segment_;
@@ -118,7 +118,7 @@ VehicleCommand TrajectoryTracker::purePursuit(const VehicleState& state, const P
 
 VehicleCommand TrajectoryTracker::approachGoal(const VehicleState& state) const {
   // The reference has finished but the vehicle is not there yet: drive to the end point.
-  const Vec3 d = trajectory_.samples.back().position - state.position;
+  const Vec3 d = trajectory_->samples.back().position - state.position;
   const double dist = std::hypot(d.x(), d.y());
   const double bearing = wrapAngle(std::atan2(d.y(), d.x()) - state.heading);
   VehicleCommand cmd;
@@ -132,15 +132,15 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) throw std::invalid_argument("tracker: update dt must be a positive finite number");
   if (!state.position.allFinite() || !std::isfinite(state.heading))
     throw std::invalid_argument("tracker: vehicle state has non-finite values");
-  const auto& samples = trajectory_.samples;
+  const auto& samples = trajectory_->samples;
   status_.time += dt;
   ++status_.updates;
 
   // Advance the reference unless it is already too far ahead of the vehicle.
   const Projection before = project(state.position);
-  const double next_time = std::min(status_.reference_time + dt, trajectory_.duration());
-  if (trajectory_.at(next_time).arc_length - before.arc_length <= config_.max_lead) status_.reference_time = next_time;
-  const TrajectorySample ref = trajectory_.at(status_.reference_time);
+  const double next_time = std::min(status_.reference_time + dt, trajectory_->duration());
+  if (trajectory_->at(next_time).arc_length - before.arc_length <= config_.max_lead) status_.reference_time = next_time;
+  const TrajectorySample ref = trajectory_->at(status_.reference_time);
 
   const Projection proj = project(state.position);
   last_segment_ = proj.segment;
@@ -153,10 +153,10 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
   status_.mean_cross_track_error = sum_cross_ / static_cast<double>(status_.updates);
   status_.mean_position_error = sum_position_ / static_cast<double>(status_.updates);
   status_.max_cross_track_error = std::max(status_.max_cross_track_error, std::abs(status_.cross_track_error));
-  const double length = trajectory_.length();
+  const double length = trajectory_->length();
   status_.progress = length > 0 ? std::clamp(proj.arc_length / length, 0.0, 1.0) : 1.0;
 
-  const bool reference_done = status_.reference_time >= trajectory_.duration();
+  const bool reference_done = status_.reference_time >= trajectory_->duration();
   if (!status_.goal_reached && reference_done &&
       (state.position - samples.back().position).norm() <= config_.goal_tolerance)
     status_.goal_reached = true;
@@ -178,13 +178,13 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
 
   cmd.v = std::clamp(cmd.v, 0.0, limits_.v_max);
   cmd.omega = std::clamp(cmd.omega, -limits_.omega_max, limits_.omega_max);
-  cmd.vz = trajectory_.dimensions == 3 ? std::clamp(cmd.vz, -limits_.vz_max, limits_.vz_max) : 0.0;
+  cmd.vz = trajectory_->dimensions == 3 ? std::clamp(cmd.vz, -limits_.vz_max, limits_.vz_max) : 0.0;
   return cmd;
 }
 
 double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {
   if (!position.allFinite() || !(within_s > 0) || status_.updates > 0) return 0.0;
-  const auto& s = trajectory_.samples;
+  const auto& s = trajectory_->samples;
   // The nearest point of the trajectory's first within_s seconds; a later part passing nearby (a loop
   // back) is not considered.
   double best_d = std::numeric_limits<double>::infinity();
@@ -202,7 +202,7 @@ double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {
     }
   }
   if (best_time <= 0.0) return 0.0;
-  status_.reference_time = std::min(best_time, trajectory_.duration());
+  status_.reference_time = std::min(best_time, trajectory_->duration());
   last_segment_ = best_segment;
   return status_.reference_time;
 }
@@ -217,10 +217,10 @@ ReplanDecision TrajectoryTracker::checkReplan(const planner::CollisionWorld& wor
     out = {true, ReplanReason::Deviation, m.str(), Vec3::Zero()};
     return out;
   }
-  const auto& s = trajectory_.samples;
+  const auto& s = trajectory_->samples;
   const double horizon = std::isfinite(min_horizon_s) ? std::max(config_.replan_horizon, min_horizon_s) : config_.replan_horizon;
   const double until = status_.reference_time + horizon;
-  const double until_arc = trajectory_.at(status_.reference_time).arc_length + config_.replan_horizon_distance;
+  const double until_arc = trajectory_->at(status_.reference_time).arc_length + config_.replan_horizon_distance;
   const auto within = [&](const TrajectorySample& sample) { return sample.time <= until || sample.arc_length <= until_arc; };
   for (std::size_t i = last_segment_; i < s.size() && within(s[i]); ++i) {
     if (world.isFree(s[i].position)) continue;

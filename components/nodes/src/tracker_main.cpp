@@ -99,7 +99,7 @@ class TrackerComponent : public runtime::Component {
         commands_(publisher(runtime::topics::cmd_vel)),
         statuses_(publisher(runtime::topics::tracking)),
         // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
-        world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m),
+        world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m, /*preferred_on_demand=*/true),
         mission_(missionConfig()),
         replan_gate_(params_.replan),
         tracker_config_(trackerConfig()) {
@@ -203,6 +203,7 @@ class TrackerComponent : public runtime::Component {
         if (ahead) switch_at_ = ahead->time;
         next_trajectory_.reset();
         requests_.publish(request);
+        world_source_.prefetchPreferred();  // built while the planner plans, ready when its path comes to be smoothed
         unanswered_request_ = request;
         unanswered_sent_ = std::chrono::steady_clock::now();
         return false;

@@ -92,7 +92,7 @@ bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unk
 }
 
 WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario,
-                         double preferred_unknown_margin_m)
+                         double preferred_unknown_margin_m, bool preferred_on_demand)
     : kind_(world.kind),
       scenario_(scenario),
       unknown_(world.unknown),
@@ -101,6 +101,7 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       surface_margin_m_(world.solid_below_surface && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)
                             ? world.surface_margin_m
                             : 0.0),
+      preferred_on_demand_(preferred_on_demand),
       clock_(ctx.clock()) {
   if (preferred_unknown_margin_m > 0.0 && scenario.dimensions == 2 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) &&
       unknown_ == planner::UnknownSpace::Optimistic)
@@ -165,6 +166,13 @@ void WorldSource::buildMap(const msg::OccupancyMap& m) {
   options.surface_margin_m = surface_margin_m_;
   auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, options);
   std::shared_ptr<const planner::CollisionWorld> preferred;
+  if (checked.error.empty() && preferred_unknown_margin_m_ > 0.0 && preferred_on_demand_) {
+    auto source = std::make_shared<const msg::OccupancyMap>(m);
+    std::lock_guard lock(mutex_);
+    map_world_ = std::move(checked.world);
+    preferred_source_ = std::move(source);
+    return;
+  }
   if (checked.error.empty() && preferred_unknown_margin_m_ > 0.0) {
     options.unknown_margin_m = preferred_unknown_margin_m_;
     auto with_margin = buildOccupancyMap(m, kWorldFrame, scenario_, options);
@@ -183,7 +191,35 @@ void WorldSource::buildMap(const msg::OccupancyMap& m) {
 
 bool WorldSource::hasPreferredWorld() const {
   std::lock_guard lock(mutex_);
-  return preferred_map_world_ != nullptr;
+  return preferred_on_demand_ ? preferred_source_ != nullptr : preferred_map_world_ != nullptr;
+}
+
+void WorldSource::prefetchPreferred() {
+  if (!preferred_on_demand_ || preferred_unknown_margin_m_ <= 0.0) return;
+  // Under its own key: it must not supersede a map waiting to be built, nor be superseded by one.
+  map_worker_.submit(1, [this](std::stop_token stop) {
+    if (!stop.stop_requested()) preferredOnDemand();
+  });
+}
+
+std::shared_ptr<const planner::CollisionWorld> WorldSource::preferredOnDemand() const {
+  std::lock_guard build(preferred_build_mutex_);
+  std::shared_ptr<const msg::OccupancyMap> source;
+  {
+    std::lock_guard lock(mutex_);
+    if (!preferred_source_) return nullptr;
+    if (preferred_built_from_ == preferred_source_) return preferred_map_world_;
+    source = preferred_source_;
+  }
+  planner::OctoMapWorldOptions options;  // as buildMap's (a preferred world is 2-D and optimistic)
+  options.solid_below_surface = solid_below_surface_;
+  options.surface_margin_m = surface_margin_m_;
+  options.unknown_margin_m = preferred_unknown_margin_m_;
+  auto built = buildOccupancyMap(*source, kWorldFrame, scenario_, options);
+  std::lock_guard lock(mutex_);
+  preferred_built_from_ = source;
+  preferred_map_world_ = built.error.empty() ? std::shared_ptr<const planner::CollisionWorld>(std::move(built.world)) : nullptr;
+  return preferred_map_world_;
 }
 
 bool WorldSource::available() const {
@@ -228,9 +264,11 @@ std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Ve
     std::lock_guard lock(mutex_);
     if (kind_ == WorldKind::Scenario) return planner::makeScenarioWorld(s);
     if (!availableLocked()) return nullptr;
-    map_world = preferred && preferred_map_world_ ? preferred_map_world_ : map_world_;
+    map_world = preferred && !preferred_on_demand_ && preferred_map_world_ ? preferred_map_world_ : map_world_;
     if (kind_ != WorldKind::Map) ellipses = toEllipsoidObstacles(*obstacles_);
   }
+  if (preferred && preferred_on_demand_)
+    if (auto built = preferredOnDemand()) map_world = std::move(built);
   // The map's world is shared and immutable: a Map snapshot is a view of it (its own validity-check
   // count and check resolution), a Fused one pairs it with this snapshot's obstacles.
   auto viewed = [&](std::unique_ptr<planner::CollisionWorld> world) -> std::unique_ptr<planner::CollisionWorld> {

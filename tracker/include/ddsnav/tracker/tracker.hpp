@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <limits>
+#include <memory>
 #include <string>
 
 namespace ddsnav::tracker {
@@ -80,7 +81,7 @@ class TrajectoryTracker {
   VehicleCommand update(const VehicleState& state, double dt);
 
   const TrackingStatus& status() const { return status_; }
-  const Trajectory& trajectory() const { return trajectory_; }
+  const Trajectory& trajectory() const { return *trajectory_; }
   const TrackerConfig& config() const { return config_; }
 
   // Whether the vehicle should ask for a new plan: cross-track error beyond replan_deviation, or a sample
@@ -109,7 +110,9 @@ class TrajectoryTracker {
   VehicleCommand approachGoal(const VehicleState& state) const;
   TrajectorySample sampleAtArcLength(double s) const;
 
-  Trajectory trajectory_;
+  // Shared, never changed: a copy of the tracker (the replan check takes one per check, on a worker) does not
+  // copy thousands of samples on the control thread.
+  std::shared_ptr<const Trajectory> trajectory_;
   VehicleLimits limits_;
   TrackerConfig config_;
   TrackingStatus status_;

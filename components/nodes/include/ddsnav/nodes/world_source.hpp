@@ -56,9 +56,12 @@ class WorldSource {
   // Subscribes through ctx (its executor, its topic names). `world.unknown`: how the map's never-observed
   // space counts (map and fused worlds).
   // `preferred_unknown_margin_m` (the planner's `unknown_margin_m`; 2-D map and fused worlds): each map is also
-  // built with that OctoMapWorldOptions::unknown_margin_m, for snapshot(..., preferred = true).
+  // built with that OctoMapWorldOptions::unknown_margin_m, for snapshot(..., preferred = true): as it arrives
+  // (the planner, which plans on it every time), or with `preferred_on_demand` at the first such snapshot of
+  // each map (the tracker, which wants it only to smooth a new path: the margin makes a build ~10x dearer, 42
+  // ms for the AUV's coast, and maps come several times a second).
   WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario,
-              double preferred_unknown_margin_m = 0.0);
+              double preferred_unknown_margin_m = 0.0, bool preferred_on_demand = false);
   WorldKind kind() const { return kind_; }
 
   // False until the world's input has arrived (always true for the scenario world; for the fused one see
@@ -75,6 +78,10 @@ class WorldSource {
   std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position,
                                                     const std::optional<planner::Vec3>& goal = std::nullopt,
                                                     double goal_radius = 0.0, bool preferred = false) const;
+  // With preferred_on_demand: builds the preferred world of the newest map now, on the map worker, so that the
+  // snapshot that asks for it soon (the tracker's, for the path a request it just sent will bring) finds it
+  // built. Nothing otherwise.
+  void prefetchPreferred();
   // Whether maps are also built with the preferred unknown margin (and one has been).
   bool hasPreferredWorld() const;
   // How far its maps widen observed terrain (OctoMapWorldOptions::surface_margin_m): surface_margin_m for a
@@ -91,6 +98,8 @@ class WorldSource {
 
  private:
   void buildMap(const msg::OccupancyMap& map);
+  // On demand: the preferred world of the newest map, built now unless it was already; nullptr without one.
+  std::shared_ptr<const planner::CollisionWorld> preferredOnDemand() const;
   bool availableLocked() const;
 
   WorldKind kind_;
@@ -106,7 +115,13 @@ class WorldSource {
   // on map_worker_, so neither the executor nor a snapshot waits for it; snapshots share it.
   std::shared_ptr<const planner::CollisionWorld> map_world_;
   double preferred_unknown_margin_m_ = 0.0;  // > 0 only for 2-D map and fused worlds
-  std::shared_ptr<const planner::CollisionWorld> preferred_map_world_;  // the same map with that margin
+  // The same map with that margin; on demand, built (and replaced) by snapshot() when preferred_source_ is
+  // newer than what it was built from.
+  mutable std::shared_ptr<const planner::CollisionWorld> preferred_map_world_;
+  bool preferred_on_demand_ = false;
+  std::shared_ptr<const msg::OccupancyMap> preferred_source_;  // on demand: the newest good map
+  mutable std::shared_ptr<const msg::OccupancyMap> preferred_built_from_;
+  mutable std::mutex preferred_build_mutex_;  // one on-demand build at a time; never held with mutex_ waiting on it
   std::optional<msg::ObstacleArray> obstacles_;
   std::optional<std::int64_t> first_obstacles_ns_;  // component clock
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;
