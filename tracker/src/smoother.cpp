@@ -520,7 +520,19 @@ void fillReport(Trajectory& traj, const CollisionWorld& world, bool clearance) {
       const double v0 = std::hypot(s[i - 1].speed, s[i - 1].vz), v1 = std::hypot(s[i].speed, s[i].vz);
       if (dt > 1e-9) r.max_accel = std::max(r.max_accel, std::abs(v1 - v0) / dt);
     }
-    if (clearance) r.min_clearance = std::min(r.min_clearance, world.clearance(s[i].position));
+  }
+  if (!clearance) return;
+  // The clearance is 1-Lipschitz in the position: a sample nearer to a measured one than that one's clearance
+  // minus the least so far cannot be below the least, so it is not measured and the minimum stays exact. In open
+  // water this skips most of a long trajectory's samples (auv_coastal: 9 300 queries, 55 % of a smoothing).
+  for (std::size_t i = 0; i < s.size();) {
+    const double c = world.clearance(s[i].position);
+    r.min_clearance = std::min(r.min_clearance, c);
+    if (c == std::numeric_limits<double>::infinity()) break;  // nothing anywhere to come close to
+    const double slack = c - r.min_clearance;
+    std::size_t next = i + 1;
+    while (next < s.size() && (s[next].position - s[i].position).norm() < slack) ++next;
+    i = next;
   }
 }
 

@@ -265,6 +265,23 @@ TEST(Smoother, APathMovedOffARoughWallIsStraightenedNotKinked) {
   expectDrivable(t, *world, limits(), cfg);
 }
 
+TEST(Smoother, ReportedMinimumClearanceIsTheLeastOfEverySample) {
+  // The report measures only the samples that could be nearer than the least so far (the clearance is
+  // 1-Lipschitz); the result must be what measuring every sample gives.
+  auto sc = scenario2d(60, 0.3,
+                       "  - {type: sphere, center: [15, 8], radius: 2}\n  - {type: sphere, center: [30, 13], radius: 1.5}\n"
+                       "  - {type: box, min: [40, 0], max: [42, 8]}\n  - {type: sphere, center: [50, 16], radius: 3}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto path = pathOf({{2, 10, 0}, {22, 12, 0}, {36, 10, 0}, {45, 10, 0}, {58, 12, 0}});
+  SmootherConfig cfg;
+  cfg.clearance_target = 0.0;  // the path passes where the planner put it, close to the obstacles
+  const auto t = smoothPath(path, *world, limits(), cfg);
+  double least = std::numeric_limits<double>::infinity();
+  for (const auto& sample : t.samples) least = std::min(least, world->clearance(sample.position));
+  EXPECT_LT(least, 2.0);
+  EXPECT_DOUBLE_EQ(t.report.min_clearance, least);
+}
+
 namespace {
 // A world whose edge check only samples states every checkResolution() (the base class's check, as an
 // OctoMap world does), around an exact scenario world.
