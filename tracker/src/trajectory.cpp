@@ -132,4 +132,59 @@ TrajectorySample Trajectory::at(double time) const {
   return out;
 }
 
+Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double speed, double decel) {
+  if (trajectory.samples.empty()) throw std::invalid_argument("brakeAlong: empty trajectory");
+  if (!std::isfinite(speed) || speed < 0.0) throw std::invalid_argument("brakeAlong: speed must be finite and >= 0");
+  if (!std::isfinite(decel) || !(decel > 0.0)) throw std::invalid_argument("brakeAlong: decel must be positive");
+  const double dt = trajectory.dt > 0.0 ? trajectory.dt : 0.05;
+  const auto& in = trajectory.samples;
+  const double s0 = trajectory.at(from_time).arc_length;
+  const double s_end = in.back().arc_length;
+  // The original sample at arc length s (interpolated), for the path's geometry there.
+  const auto atArc = [&](double s) {
+    auto it = std::lower_bound(in.begin(), in.end(), s, [](const TrajectorySample& x, double v) { return x.arc_length < v; });
+    if (it == in.begin()) return in.front();
+    if (it == in.end()) return in.back();
+    const TrajectorySample& b = *it;
+    const TrajectorySample& a = *(it - 1);
+    const double f = b.arc_length > a.arc_length ? (s - a.arc_length) / (b.arc_length - a.arc_length) : 1.0;
+    TrajectorySample out = f < 0.5 ? a : b;
+    out.position = a.position + f * (b.position - a.position);
+    out.heading = a.heading + f * (b.heading - a.heading);
+    out.curvature = a.curvature + f * (b.curvature - a.curvature);
+    return out;
+  };
+  Trajectory out;
+  out.dimensions = trajectory.dimensions;
+  out.dt = dt;
+  out.curve = trajectory.curve;
+  const double stop_time = speed / decel;
+  for (int k = 0;; ++k) {
+    double t = k * dt;
+    bool last = t >= stop_time;
+    if (last) t = stop_time;
+    double s = s0 + speed * t - 0.5 * decel * t * t;
+    if (s >= s_end) s = s_end, last = true;
+    TrajectorySample sample = atArc(s);
+    const double v_path = last ? 0.0 : std::max(0.0, speed - decel * t);  // along the path
+    // The path's own split of its speed into horizontal and vertical parts (a climb in 3-D).
+    const double along = std::hypot(sample.speed, sample.vz);
+    const double horizontal = along > 1e-9 ? sample.speed / along : 1.0, vertical = along > 1e-9 ? sample.vz / along : 0.0;
+    sample.time = t;
+    sample.speed = v_path * horizontal;
+    sample.vz = v_path * vertical;
+    sample.yaw_rate = sample.curvature * sample.speed;
+    sample.arc_length = s - s0;
+    if (!out.samples.empty() && t <= out.samples.back().time) break;  // a stop from rest: one sample only
+    out.samples.push_back(sample);
+    if (last) break;
+  }
+  if (out.samples.size() == 1) {  // already at rest: hold the position
+    TrajectorySample hold = out.samples.front();
+    hold.time = dt;
+    out.samples.push_back(hold);
+  }
+  return out;
+}
+
 }  // namespace ddsnav::tracker

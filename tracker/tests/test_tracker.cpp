@@ -216,3 +216,44 @@ TEST(Tracker, SkipsToTheVehicleOnALateSwitch) {
   EXPECT_DOUBLE_EQ(on_time.skipToVehicle({0.5, 5.0, 0}, 5.0), 0.0);
   EXPECT_DOUBLE_EQ(on_time.status().reference_time, 0.0);
 }
+
+TEST(BrakeAlong, StopsOnThePathWithinTheBrakingDistance) {
+  // A curve driven at speed: braking from its middle keeps to the same path and comes to rest v^2 / 2a on.
+  auto sc = scenario2d(60, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  ddsnav::planner::VehicleLimits limits;
+  limits.v_max = 4.0;
+  limits.omega_max = 1.0;
+  const auto t = smoothPath(pathOf({{5, 5, 0}, {30, 5, 0}, {40, 20, 0}, {40, 50, 0}}), *world, limits);
+  const double from = 0.5 * t.duration();
+  const auto at = t.at(from);
+  ASSERT_GT(at.speed, 1.0);
+  const double decel = 1.5;
+  const auto b = brakeAlong(t, from, at.speed, decel);
+  ASSERT_GE(b.samples.size(), 2u);
+  EXPECT_NEAR(b.samples.back().speed, 0.0, 1e-12);
+  EXPECT_NEAR(b.samples.back().arc_length, at.speed * at.speed / (2 * decel), 1e-6);
+  EXPECT_NEAR(b.samples.front().speed, at.speed, 1e-9);
+  for (std::size_t i = 0; i < b.samples.size(); ++i) {
+    const auto& s = b.samples[i];
+    // On the original path (its samples are at most a few cm apart).
+    double nearest = 1e9;
+    for (const auto& o : t.samples) nearest = std::min(nearest, (o.position - s.position).norm());
+    EXPECT_LT(nearest, 0.2) << "sample " << i;
+    if (i > 0) {
+      EXPECT_GT(s.time, b.samples[i - 1].time);
+      EXPECT_LE(s.speed, b.samples[i - 1].speed + 1e-12);
+      EXPECT_LE(b.samples[i - 1].speed - s.speed, decel * (s.time - b.samples[i - 1].time) + 1e-9);
+    }
+  }
+  TrajectoryTracker follower(b, limits);  // a trajectory the follower takes
+  // Braking past the end stops at the end; a stop from rest holds the position.
+  const auto late = brakeAlong(t, t.duration() - 0.5, 3.0, 0.1);
+  EXPECT_NEAR((late.samples.back().position - t.samples.back().position).norm(), 0.0, 1e-9);
+  EXPECT_NEAR(late.samples.back().speed, 0.0, 1e-12);
+  const auto hold = brakeAlong(t, from, 0.0, decel);
+  ASSERT_EQ(hold.samples.size(), 2u);
+  EXPECT_EQ(hold.samples[0].position, hold.samples[1].position);
+  EXPECT_THROW(brakeAlong(t, from, -1.0, decel), std::invalid_argument);
+  EXPECT_THROW(brakeAlong(t, from, 1.0, 0.0), std::invalid_argument);
+}

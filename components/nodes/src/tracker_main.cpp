@@ -47,6 +47,7 @@ class TrackerComponent : public runtime::Component {
     tracker::TrackerConfig tracker;
     std::optional<double> replan_horizon_m;
     tracker::SmootherConfig smoother;
+    double max_decel;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
           planner(p.declare<std::string>("planner", "gart-lazy", {.doc = "planner asked for in each request (docs/planners.md)"})),
@@ -78,6 +79,9 @@ class TrackerComponent : public runtime::Component {
       replan_horizon_m = p.declareOptional<double>(
           "replan_horizon_m", {.min = 0, .max = 1e5, .unit = "m",
                                .doc = "trajectory length ahead checked for obstacles; default: the simulator's default sensor range for the scenario (docs/tracking.md)"});
+      max_decel = p.declare<double>("max_decel", 2.0,
+                                    {.above = 0, .max = 1000, .unit = "m/s^2",
+                                     .doc = "deceleration the vehicle can brake at; a stop brakes along the trajectory at limit_fraction (0.85) of it"});
       smoother.sample_dt = p.declare<double>("sample_dt", smoother.sample_dt, {.above = 0, .unit = "s", .doc = "trajectory sample spacing"});
       // Perceived obstacles grow as more of them is scanned: on gart_cluttered_2d ellipses grew by 0.05-0.32 m
       // next to trajectories kept 0.16-0.2 m away, the vehicle touched them and then stood inside the
@@ -271,7 +275,7 @@ class TrackerComponent : public runtime::Component {
       // flying on toward the block between refusals only makes it worse (bugtrap_1.0: 23 refusals, 74 m short at
       // the timeout). Stop, and plan from rest.
       if (++rest_start_refusals_ >= 2 && follower_) {
-        stop();
+        startBraking(state);
         follower_.reset();
         switch_at_.reset();
         next_trajectory_.reset();
@@ -376,6 +380,26 @@ class TrackerComponent : public runtime::Component {
     });
   }
 
+  // A stop brakes along the trajectory being flown, until the vehicle is at rest (the control step follows it). A
+  // zero command alone let the vehicle coast straight on along its heading while its speed ran down — metres off
+  // a curving trajectory, next to the very surface that made it stop (gart_terrain_3d in real time: 4.2 m/s, 0.9 m
+  // off the trajectory, 0.14 m into a hill).
+  void startBraking(const tracker::VehicleState& state) {
+    braking_.reset();
+    if (follower_) {
+      try {
+        const double reference_speed = follower_->trajectory().at(follower_->status().reference_time).speed;
+        const double speed = std::max(std::hypot(state.v, state.vz), std::abs(reference_speed));
+        braking_.emplace(tracker::brakeAlong(follower_->trajectory(), follower_->status().reference_time, speed,
+                                             smoother_config_.limit_fraction * params_.max_decel),
+                         limits_, tracker_config_);
+      } catch (const std::exception& e) {
+        spdlog::warn("cannot brake along the trajectory ({}): stopping where the vehicle is heading", e.what());
+      }
+    }
+    if (!braking_) stop();
+  }
+
   // `announced`: published when it was ready (a trajectory that waited for its switch point).
   void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id, const tracker::VehicleState& state,
                         bool announced = false) {
@@ -412,11 +436,14 @@ class TrackerComponent : public runtime::Component {
     measureClockSpeed();
     repeatUntilAPlannerAnswers();
     if (stopping_for_ && state) {
-      stop();
+      if (braking_) commands_.publish(nodes::toMsg(braking_->update(*state, dt), clock().nowNs()));
+      else stop();
       const double stopping_s = static_cast<double>(clock().nowNs() - stopping_since_ns_) * 1e-9;
       if (std::abs(state->v) > kAtRest && stopping_s < 10.0) return;
       if (std::abs(state->v) > kAtRest)
         spdlog::warn("the vehicle is not at rest after {:.1f} s ({:.2f} m/s): asking from here", stopping_s, state->v);
+      braking_.reset();
+      stop();
       act(mission_.replan(clock().nowNs(), *state, *stopping_for_));
       stopping_for_.reset();
       return;
@@ -550,7 +577,7 @@ class TrackerComponent : public runtime::Component {
         // Stop, and ask from where the vehicle comes to rest: a plan from where it started braking would
         // begin metres behind it (v^2 / 2a), and one still on its way from a predicted start ahead would
         // begin where it never arrives. A newer request supersedes that one.
-        stop();
+        startBraking(current);
         follower_.reset();
         switch_at_.reset();
         next_trajectory_.reset();
@@ -590,6 +617,7 @@ class TrackerComponent : public runtime::Component {
   double request_heading_ = 0.0;      // its start heading: the new trajectory starts there
   double request_speed_ = 0.0;        // and speed: > 0 for a replan ahead, flown through without a stop
   std::optional<tracker::TrajectoryTracker> follower_;
+  std::optional<tracker::TrajectoryTracker> braking_;  // while stopping_for_: the rest of the trajectory, braked along
   // A replan from a predicted start: the new trajectory waits until the vehicle's reference on the current
   // one reaches that start (switch_at_, s of the current trajectory), so a plan ready early is not flown
   // from behind its start; a late one is switched to at once.

@@ -78,4 +78,11 @@ struct Trajectory {
   TrajectorySample at(double time) const;
 };
 
+// The rest of `trajectory` from `from_time`, driven from `speed` (m/s along the path) down to rest at a constant
+// `decel` (m/s^2): the same path, retimed, so that a vehicle told to stop brakes along its checked path instead of
+// coasting straight on (a UAV braking from 4.2 m/s leaves a curving trajectory by metres). Ends at rest where the
+// speed reaches 0, or at the trajectory's end. Sampled every trajectory.dt. std::invalid_argument for an empty
+// trajectory, a negative or non-finite speed or a decel that is not positive.
+Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double speed, double decel);
+
 }  // namespace ddsnav::tracker
