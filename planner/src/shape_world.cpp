@@ -168,9 +168,9 @@ ShapeWorld::ShapeWorld(int dimensions, const Vec3& bounds_min, const Vec3& bound
     extent_sum += std::max(s.hi.x() - s.lo.x(), s.hi.y() - s.lo.y()) + 2.0 * radius_;
   }
   // Cells about the size of a typical obstacle keep each cell's list short; at most 16 cells per shape (at
-  // least 1024) and 2^18 in all. The grid is built for every world snapshot: small perceived ellipses in
-  // wide bounds asked for the full 2^18 cells, three 1 MB arrays filled per snapshot, and that was most of
-  // the tracker's CPU (gart_cluttered_2d: 70 % in building this grid, a snapshot 10-90 ms).
+  // least 1024) and 2^18 in all. Worlds are built per snapshot, and a few shapes in wide bounds asked for the
+  // full 2^18 cells, three 1 MB arrays filled each time (nodes::clearFootprint's one-ellipse worlds over ±1e9 m
+  // were 67 % of the tracker's CPU on gart_cluttered_2d before it built one world for all ellipses).
   const double wx = bmax_.x() - bmin_.x(), wy = bmax_.y() - bmin_.y();
   cell_size_ = shapes_.empty() ? std::max(wx, wy) : std::max(extent_sum / shapes_.size(), 1e-3);
   const double max_cells = std::clamp(16.0 * static_cast<double>(shapes_.size()), 1024.0, double(1 << 18));

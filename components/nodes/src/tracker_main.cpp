@@ -382,8 +382,8 @@ class TrackerComponent : public runtime::Component {
 
   // A stop brakes along the trajectory being flown, until the vehicle is at rest (the control step follows it). A
   // zero command alone let the vehicle coast straight on along its heading while its speed ran down — metres off
-  // a curving trajectory, next to the very surface that made it stop (gart_terrain_3d in real time: 4.2 m/s, 0.9 m
-  // off the trajectory, 0.14 m into a hill).
+  // a curving trajectory, next to the very surface that made it stop (likely how a real-time gart_terrain_3d run,
+  // stopping at 4.2 m/s, went 0.9 m off its trajectory and 0.14 m into a hill).
   void startBraking(const tracker::VehicleState& state) {
     braking_.reset();
     if (follower_) {

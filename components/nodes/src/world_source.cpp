@@ -101,8 +101,8 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       surface_margin_m_(world.solid_below_surface && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)
                             ? world.surface_margin_m
                             : 0.0),
-      preferred_on_demand_(preferred_on_demand),
-      clock_(ctx.clock()) {
+      clock_(ctx.clock()),
+      preferred_on_demand_(preferred_on_demand) {
   if (preferred_unknown_margin_m > 0.0 && scenario.dimensions == 2 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) &&
       unknown_ == planner::UnknownSpace::Optimistic)
     preferred_unknown_margin_m_ = preferred_unknown_margin_m;
@@ -159,24 +159,26 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
   }
 }
 
-void WorldSource::buildMap(const msg::OccupancyMap& m) {
+planner::OctoMapWorldOptions WorldSource::mapOptions(bool preferred) const {
   planner::OctoMapWorldOptions options;
   options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
   options.solid_below_surface = solid_below_surface_;
   options.surface_margin_m = surface_margin_m_;
-  auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, options);
-  std::shared_ptr<const planner::CollisionWorld> preferred;
-  if (checked.error.empty() && preferred_unknown_margin_m_ > 0.0 && preferred_on_demand_) {
-    auto source = std::make_shared<const msg::OccupancyMap>(m);
-    std::lock_guard lock(mutex_);
-    map_world_ = std::move(checked.world);
-    preferred_source_ = std::move(source);
-    return;
-  }
+  if (preferred) options.unknown_margin_m = preferred_unknown_margin_m_;
+  return options;
+}
+
+void WorldSource::buildMap(const msg::OccupancyMap& m) {
+  auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, mapOptions(/*preferred=*/false));
+  std::shared_ptr<const planner::CollisionWorld> preferred;      // built now
+  std::shared_ptr<const msg::OccupancyMap> preferred_source;     // or kept to be built on demand
   if (checked.error.empty() && preferred_unknown_margin_m_ > 0.0) {
-    options.unknown_margin_m = preferred_unknown_margin_m_;
-    auto with_margin = buildOccupancyMap(m, kWorldFrame, scenario_, options);
-    if (with_margin.error.empty()) preferred = std::move(with_margin.world);
+    if (preferred_on_demand_) {
+      preferred_source = std::make_shared<const msg::OccupancyMap>(m);
+    } else {
+      auto with_margin = buildOccupancyMap(m, kWorldFrame, scenario_, mapOptions(/*preferred=*/true));
+      if (with_margin.error.empty()) preferred = std::move(with_margin.world);
+    }
   }
   std::lock_guard lock(mutex_);
   if (!checked.error.empty()) {
@@ -186,7 +188,8 @@ void WorldSource::buildMap(const msg::OccupancyMap& m) {
     return;
   }
   map_world_ = std::move(checked.world);
-  preferred_map_world_ = std::move(preferred);
+  if (preferred_on_demand_) preferred_source_ = std::move(preferred_source);  // the cache follows in preferredOnDemand
+  else preferred_map_world_ = std::move(preferred);
 }
 
 bool WorldSource::hasPreferredWorld() const {
@@ -211,11 +214,7 @@ std::shared_ptr<const planner::CollisionWorld> WorldSource::preferredOnDemand() 
     if (preferred_built_from_ == preferred_source_) return preferred_map_world_;
     source = preferred_source_;
   }
-  planner::OctoMapWorldOptions options;  // as buildMap's (a preferred world is 2-D and optimistic)
-  options.solid_below_surface = solid_below_surface_;
-  options.surface_margin_m = surface_margin_m_;
-  options.unknown_margin_m = preferred_unknown_margin_m_;
-  auto built = buildOccupancyMap(*source, kWorldFrame, scenario_, options);
+  auto built = buildOccupancyMap(*source, kWorldFrame, scenario_, mapOptions(/*preferred=*/true));
   std::lock_guard lock(mutex_);
   preferred_built_from_ = source;
   preferred_map_world_ = built.error.empty() ? std::shared_ptr<const planner::CollisionWorld>(std::move(built.world)) : nullptr;

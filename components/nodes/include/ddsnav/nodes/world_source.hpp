@@ -98,6 +98,8 @@ class WorldSource {
 
  private:
   void buildMap(const msg::OccupancyMap& map);
+  // The options every map of this source is built with; `preferred`: with the preferred unknown margin.
+  planner::OctoMapWorldOptions mapOptions(bool preferred) const;
   // On demand: the preferred world of the newest map, built now unless it was already; nullptr without one.
   std::shared_ptr<const planner::CollisionWorld> preferredOnDemand() const;
   bool availableLocked() const;
@@ -121,7 +123,7 @@ class WorldSource {
   bool preferred_on_demand_ = false;
   std::shared_ptr<const msg::OccupancyMap> preferred_source_;  // on demand: the newest good map
   mutable std::shared_ptr<const msg::OccupancyMap> preferred_built_from_;
-  mutable std::mutex preferred_build_mutex_;  // one on-demand build at a time; never held with mutex_ waiting on it
+  mutable std::mutex preferred_build_mutex_;  // one on-demand build at a time; taken before mutex_, never while holding it
   std::optional<msg::ObstacleArray> obstacles_;
   std::optional<std::int64_t> first_obstacles_ns_;  // component clock
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;
