@@ -17,6 +17,7 @@
 
 #include <ddsnav/sim/sensor_choice.hpp>
 #include <ddsnav/tracker/mission.hpp>
+#include <ddsnav/tracker/path_pieces.hpp>
 #include <ddsnav/tracker/replan.hpp>
 #include <ddsnav/tracker/smoother.hpp>
 #include <ddsnav/tracker/tracker.hpp>
@@ -46,6 +47,7 @@ class TrackerComponent : public runtime::Component {
     tracker::ReplanPolicy replan;
     tracker::TrackerConfig tracker;
     std::optional<double> replan_horizon_m;
+    std::optional<double> piece_length_m;
     tracker::SmootherConfig smoother;
     double max_decel;
     explicit Params(runtime::Parameters& p)
@@ -79,6 +81,11 @@ class TrackerComponent : public runtime::Component {
       replan_horizon_m = p.declareOptional<double>(
           "replan_horizon_m", {.min = 0, .max = 1e5, .unit = "m",
                                .doc = "trajectory length ahead checked for obstacles; default: the simulator's default sensor range for the scenario (docs/tracking.md)"});
+      piece_length_m = p.declareOptional<double>(
+          "piece_length_m", {.min = 0, .max = 1e6, .unit = "m",
+                             .doc = "a path longer than 1.5 x this is smoothed and flown a piece this long at a time, the next piece smoothed "
+                                    "when half of one is flown (docs/tracking.md); default: the larger of 200 m and 2 x the replan horizon "
+                                    "distance; 0: the whole path at once"});
       max_decel = p.declare<double>("max_decel", 2.0,
                                     {.above = 0, .max = 1000, .unit = "m/s^2",
                                      .doc = "deceleration the vehicle can brake at; a stop brakes along the trajectory at limit_fraction (0.85) of it"});
@@ -106,9 +113,11 @@ class TrackerComponent : public runtime::Component {
         world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m, /*preferred_on_demand=*/true),
         mission_(missionConfig()),
         replan_gate_(params_.replan),
-        tracker_config_(trackerConfig()) {
+        tracker_config_(trackerConfig()),
+        piece_length_m_(params_.piece_length_m.value_or(std::max(200.0, 2.0 * tracker_config_.replan_horizon_distance))) {
     spdlog::info("replan check: {:.1f} s or {:.1f} m of the trajectory ahead, whichever reaches farther", tracker_config_.replan_horizon,
                  tracker_config_.replan_horizon_distance);
+    if (piece_length_m_ > 0) spdlog::info("paths longer than {:.0f} m are smoothed and flown {:.0f} m at a time", 1.5 * piece_length_m_, piece_length_m_);
     // A state with a non-finite number would reach the controller (and its commands the vehicle): drop it
     // here, once, and keep following the last good one.
     state_sub_ = subscribe(runtime::topics::vehicle_state, [this](const msg::VehicleState& s) {
@@ -206,6 +215,7 @@ class TrackerComponent : public runtime::Component {
         switch_at_.reset();  // set again by a replan ahead, after this
         if (ahead) switch_at_ = ahead->time;
         next_trajectory_.reset();
+        next_rest_.clear();
         requests_.publish(request);
         world_source_.prefetchPreferred();  // built while the planner plans, ready when its path comes to be smoothed
         unanswered_request_ = request;
@@ -221,17 +231,59 @@ class TrackerComponent : public runtime::Component {
 
   struct Smoothed {
     std::uint32_t request_id = 0;
-    std::optional<tracker::Trajectory> trajectory;  // none: it could not be smoothed (logged)
+    std::optional<tracker::Trajectory> trajectory;  // none: it could not be smoothed (`error` says why)
+    std::string error;
+    std::vector<planner::State> rest;  // the path after the trajectory's end: a long path's later pieces
+    // A long path's next piece (not an answer to a request): the trajectory it continues, from its sample at
+    // `switch_at`.
+    bool next_piece = false;
+    std::uint64_t continues_serial = 0;
+    double switch_at = 0.0;
+    std::int64_t started_ns = 0;
   };
 
-  // Smooths the answer to the current request on the worker; adoptSmoothed() takes the result.
+  // Smooths the answer to the current request on the worker (its first piece, when it is long);
+  // adoptSmoothed() takes the result.
   void startSmoothing(const msg::Path& path, const tracker::VehicleState& state) {
     smoother_config_.initial_heading = request_heading_;
     smoother_config_.initial_speed = request_speed_;
+    auto pieces = tracker::splitPath(nodes::statesOf(path), piece_length_m_);
+    Smoothed job;
+    job.request_id = path.request_id();
+    job.rest = std::move(pieces.rest);
+    runSmoothing(std::move(job), std::move(pieces.piece), state.position, smoother_config_);
+  }
+
+  // A long path's next piece, smoothed while the vehicle flies the current one: from the current trajectory's
+  // sample where the vehicle will be when it is ready (at its speed and heading), along that trajectory to
+  // its end, then along the rest of the planner's path. adoptNextPiece() takes the result.
+  void startNextPiece() {
+    const auto& trajectory = follower_->trajectory();
+    const double expected_s = last_piece_smoothing_s_ >= 0 ? last_piece_smoothing_s_ : replan_gate_.expectedPlanningTime();
+    const double switch_at = follower_->status().reference_time + std::max(1.0, 3.0 * expected_s);
+    if (switch_at >= trajectory.duration()) return;  // too late: the trajectory's end asks for a new plan
+    const tracker::TrajectorySample from = trajectory.at(switch_at);
+    tracker::SmootherConfig config = smoother_config_;
+    config.initial_heading = tracker::wrapAngle(from.heading);
+    config.initial_speed = from.speed;
+    // Half a metre apart: chords that close stay within 6 cm of a 0.5 m-radius curve.
+    auto pieces = tracker::splitPath(tracker::continuationPath(trajectory, switch_at, rest_of_path_, 0.5), piece_length_m_);
+    rest_of_path_.clear();  // the job has it now
+    Smoothed job;
+    job.request_id = mission_.requestId();
+    job.rest = std::move(pieces.rest);
+    job.next_piece = true;
+    job.continues_serial = trajectory_serial_;
+    job.switch_at = switch_at;
+    runSmoothing(std::move(job), std::move(pieces.piece), vehicle_ ? vehicle_->position : from.position, config);
+  }
+
+  void runSmoothing(Smoothed job, std::vector<planner::State> states, const Eigen::Vector3d& position, const tracker::SmootherConfig& config) {
+    job.started_ns = clock().nowNs();
     // The progress report (pacing) waits for it like for a Worker's job.
-    smoothing_ = std::async(std::launch::async, [this, states = nodes::statesOf(path), id = path.request_id(), position = state.position,
-                                                 config = smoother_config_, token = std::make_shared<runtime::PendingWork>()]() mutable {
-      Smoothed out{id, std::nullopt};
+    smoothing_ = std::async(std::launch::async, [this, job = std::move(job), states = std::move(states), position, config,
+                                                 token = std::make_shared<runtime::PendingWork>()]() mutable {
+      const std::string what = (job.next_piece ? "the next piece of plan " : "plan ") + std::to_string(job.request_id);
       try {
         const auto t0 = std::chrono::steady_clock::now();
         auto world = currentWorld(position);
@@ -243,22 +295,65 @@ class TrackerComponent : public runtime::Component {
         // A path the planner could only find on the plain map is in collision there: smoothed on the plain map.
         if (world_source_.hasPreferredWorld()) {
           try {
-            if (auto preferred = currentWorld(position, /*preferred=*/true)) out.trajectory = tracker::smoothPath(states, *preferred, limits_, config);
+            if (auto preferred = currentWorld(position, /*preferred=*/true)) job.trajectory = tracker::smoothPath(states, *preferred, limits_, config);
           } catch (const tracker::SmoothingError& e) {
-            spdlog::debug("plan {}: not smoothed keeping clear of unseen surfaces ({}); on the plain map", id, e.what());
+            spdlog::debug("{}: not smoothed keeping clear of unseen surfaces ({}); on the plain map", what, e.what());
           }
         }
-        if (!out.trajectory) out.trajectory = tracker::smoothPath(states, *world, limits_, config);
+        if (!job.trajectory) job.trajectory = tracker::smoothPath(states, *world, limits_, config);
         const auto t2 = std::chrono::steady_clock::now();
-        spdlog::debug("plan {}: world snapshot {:.1f} ms, smoothing {:.1f} ms (wall)", id,
-                      std::chrono::duration<double, std::milli>(t1 - t0).count(), std::chrono::duration<double, std::milli>(t2 - t1).count());
+        spdlog::debug("{}: world snapshot {:.1f} ms, smoothing {:.1f} ms (wall)", what, std::chrono::duration<double, std::milli>(t1 - t0).count(),
+                      std::chrono::duration<double, std::milli>(t2 - t1).count());
       } catch (const std::exception& e) {
-        spdlog::warn("cannot smooth plan {}: {}", id, e.what());
+        job.error = e.what();
+        spdlog::warn("cannot smooth {}: {}", what, e.what());
       }
       token.reset();
       ctx().executor().post([this] { takeUpNow(Arrived::Smoothing); });
-      return out;
+      return std::move(job);
     });
+  }
+
+  // A long path's next piece waits for its switch point like a replan ahead's trajectory. One that is stale (the
+  // trajectory it continues was replaced, or is being replanned) is dropped; one that could not be smoothed (the
+  // rest of the path is no longer free, or only a start at rest fits) is replanned ahead.
+  void adoptNextPiece(Smoothed smoothed, const tracker::VehicleState& state) {
+    if (!follower_ || smoothed.continues_serial != trajectory_serial_ || next_trajectory_ || mission_.awaitingPlan() || stopping_for_) return;
+    last_piece_smoothing_s_ = static_cast<double>(clock().nowNs() - smoothed.started_ns) * 1e-9;
+    const auto& current = follower_->trajectory();
+    if (smoothed.trajectory && current.at(smoothed.switch_at).speed > 0.5 && smoothed.trajectory->samples.front().speed < 0.1) {
+      smoothed.error = "it could only start at rest, where the vehicle flies on";
+      smoothed.trajectory.reset();
+    }
+    if (!smoothed.trajectory) {
+      const double at = std::min(follower_->status().reference_time + replan_gate_.expectedPlanningTime(), current.duration());
+      const tracker::TrajectorySample ahead = current.at(at);
+      tracker::VehicleState from = state;
+      from.position = ahead.position;
+      from.heading = tracker::wrapAngle(ahead.heading);
+      from.v = ahead.speed;
+      act(mission_.replanAhead(clock().nowNs(), from, "next_piece_failed: " + smoothed.error));
+      switch_at_ = ahead.time;
+      request_speed_ = ahead.speed;
+      return;
+    }
+    auto& trajectory = *smoothed.trajectory;
+    spdlog::info("trajectory {}, next piece: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s, "
+                 "{:.0f} m of the path after it, smoothed in {:.3f} s",
+                 smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
+                 trajectory.report.min_clearance, trajectory.samples.front().speed, tracker::pathLength(smoothed.rest), last_piece_smoothing_s_);
+    const double due_in_s = smoothed.switch_at - follower_->status().reference_time;
+    if (due_in_s > 0) {
+      trajectories_.publish(nodes::toMsg(trajectory, smoothed.request_id, clock().nowNs() + static_cast<std::int64_t>(due_in_s * 1e9)));
+      next_trajectory_ = std::move(trajectory);
+      next_rest_ = std::move(smoothed.rest);
+      next_is_piece_ = true;
+      switch_at_ = smoothed.switch_at;
+      next_since_ns_ = clock().nowNs();
+      next_wait_limit_s_ = 1.5 * due_in_s + 2.0;
+    } else {
+      switchTrajectory(std::move(trajectory), std::move(smoothed.rest), /*next_piece=*/true, smoothed.request_id, state);
+    }
   }
 
   // The smoothed answer becomes the trajectory to follow (now, or at its predicted start); false when it
@@ -276,9 +371,7 @@ class TrackerComponent : public runtime::Component {
       // the timeout). Stop, and plan from rest.
       if (++rest_start_refusals_ >= 2 && follower_) {
         startBraking(state);
-        follower_.reset();
-        switch_at_.reset();
-        next_trajectory_.reset();
+        dropTrajectory();
         mission_.hold();
         stopping_for_ = fmt::format("rest_start: {} plans in a row could only start at rest while the vehicle flies on", rest_start_refusals_);
         stopping_since_ns_ = clock().nowNs();
@@ -300,13 +393,15 @@ class TrackerComponent : public runtime::Component {
       const double due_in_s = *switch_at_ - follower_->status().reference_time;
       trajectories_.publish(nodes::toMsg(trajectory, smoothed.request_id, clock().nowNs() + static_cast<std::int64_t>(due_in_s * 1e9)));
       next_trajectory_ = std::move(trajectory);
+      next_rest_ = std::move(smoothed.rest);
+      next_is_piece_ = false;
       next_since_ns_ = clock().nowNs();
       // The reference reaches the switch point in about that many seconds; a wait well beyond it (the
       // vehicle held back) switches anyway. A fixed 2 s used to switch the AUV 50 s (90 m) before its
       // predicted start when a plan expected to take 64 s came in 15 s: a 92 m deviation, a stop and a replan.
       next_wait_limit_s_ = 1.5 * (*switch_at_ - follower_->status().reference_time) + 2.0;
     } else {
-      switchTrajectory(std::move(trajectory), smoothed.request_id, state);
+      switchTrajectory(std::move(trajectory), std::move(smoothed.rest), /*next_piece=*/false, smoothed.request_id, state);
       switch_at_.reset();
     }
     return true;
@@ -401,18 +496,40 @@ class TrackerComponent : public runtime::Component {
   }
 
   // `announced`: published when it was ready (a trajectory that waited for its switch point).
-  void switchTrajectory(tracker::Trajectory trajectory, std::uint32_t request_id, const tracker::VehicleState& state,
-                        bool announced = false) {
+  // `rest`: the path after its end, smoothed when half of it is flown; `next_piece`: it continues the one flown.
+  void switchTrajectory(tracker::Trajectory trajectory, std::vector<planner::State> rest, bool next_piece, std::uint32_t request_id,
+                        const tracker::VehicleState& state, bool announced = false) {
     if (!announced) trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
+    // The plan's progress counts the pieces flown before this one.
+    flown_pieces_m_ = next_piece && follower_ ? flown_pieces_m_ + follower_->trajectory().at(follower_->status().reference_time).arc_length : 0.0;
+    const bool moving_start = request_speed_ > 0 || trajectory.samples.front().speed > 0;
+    rest_of_path_ = std::move(rest);
+    rest_length_m_ = tracker::pathLength(rest_of_path_);
     follower_.emplace(std::move(trajectory), limits_, tracker_config_);
     ++trajectory_serial_;  // a check still running on the previous one is stale
     replan_gate_.reset();
     // A plan from a predicted start that came later than predicted: the vehicle has flown past that start
     // meanwhile, so the reference begins at the vehicle's projection, not behind it.
-    if (request_speed_ > 0) {
+    if (moving_start) {
       const double skipped = follower_->skipToVehicle(state.position, 2.0 * replan_gate_.expectedPlanningTime() + 2.0);
       if (skipped > 0) spdlog::info("trajectory {}: the switch came late, the reference starts {:.2f} s in, at the vehicle", request_id, skipped);
     }
+  }
+
+  void dropTrajectory() {
+    follower_.reset();
+    switch_at_.reset();
+    next_trajectory_.reset();
+    rest_of_path_.clear();
+    next_rest_.clear();
+  }
+
+  // Progress along the whole plan when it is flown a piece at a time (the pieces flown, this one, the path after it).
+  double planProgress(const tracker::TrackingStatus& status) const {
+    if (!follower_ || (flown_pieces_m_ == 0 && rest_length_m_ == 0)) return status.progress;
+    const double length = follower_->trajectory().length();
+    const double total = flown_pieces_m_ + length + rest_length_m_;
+    return total > 0 ? std::clamp((flown_pieces_m_ + status.progress * length) / total, 0.0, 1.0) : 1.0;
   }
 
   void control() {
@@ -460,6 +577,10 @@ class TrackerComponent : public runtime::Component {
   std::optional<tracker::MissionDecision> takeSmoothed(const tracker::VehicleState& state) {
     if (!ready(smoothing_)) return std::nullopt;
     Smoothed smoothed = smoothing_.get();
+    if (smoothed.next_piece) {
+      adoptNextPiece(std::move(smoothed), state);
+      return std::nullopt;
+    }
     if (smoothed.request_id != mission_.requestId()) return std::nullopt;
     return mission_.pathSmoothed(clock().nowNs(), state, adoptSmoothed(std::move(smoothed), state));
   }
@@ -522,10 +643,13 @@ class TrackerComponent : public runtime::Component {
     const std::optional<tracker::VehicleState> state = current;
     if (next_trajectory_ && (follower_->status().reference_time >= *switch_at_ ||
                              static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > next_wait_limit_s_)) {
-      switchTrajectory(std::move(*next_trajectory_), mission_.requestId(), *state, /*announced=*/true);
+      switchTrajectory(std::move(*next_trajectory_), std::move(next_rest_), next_is_piece_, mission_.requestId(), *state, /*announced=*/true);
       next_trajectory_.reset();
       switch_at_.reset();
     }
+    if (!rest_of_path_.empty() && !next_trajectory_ && !smoothing_.valid() && !mission_.awaitingPlan() &&
+        follower_->trajectory().length() - follower_->trajectory().at(follower_->status().reference_time).arc_length < 0.5 * piece_length_m_)
+      startNextPiece();
     const auto command = follower_->update(*state, dt);
     const auto& status = follower_->status();
     // A line every 10 s of driving, so a run that creeps along one trajectory says why in the log (the
@@ -546,7 +670,7 @@ class TrackerComponent : public runtime::Component {
     out.along_track_error(status.along_track_error);
     out.mean_cross_track_error(status.mean_cross_track_error);
     out.max_cross_track_error(status.max_cross_track_error);
-    out.progress(status.progress);
+    out.progress(planProgress(status));
     out.goal_reached(next.action == tracker::MissionAction::Finished);
     statuses_.publish(out);
     last_status_ = out;
@@ -557,7 +681,7 @@ class TrackerComponent : public runtime::Component {
     } else if (next.action == tracker::MissionAction::RequestPlan || next.action == tracker::MissionAction::Failed) {
       // The trajectory ended outside the goal region: stop, and ask again from here (or give up).
       stop();
-      follower_.reset();
+      dropTrajectory();
       act(next);
     } else if (next.action == tracker::MissionAction::CheckReplan && !next_trajectory_ && !checking_.valid() &&
                static_cast<double>(clock().nowNs() - last_check_ns_) * 1e-9 >= 0.5 * params_.replan_check_period_s) {
@@ -578,9 +702,7 @@ class TrackerComponent : public runtime::Component {
         // begin metres behind it (v^2 / 2a), and one still on its way from a predicted start ahead would
         // begin where it never arrives. A newer request supersedes that one.
         startBraking(current);
-        follower_.reset();
-        switch_at_.reset();
-        next_trajectory_.reset();
+        dropTrajectory();
         mission_.hold();
         if (mission_.awaitingPlan()) spdlog::warn("stopping; plan {} is superseded: {}", mission_.requestId(), verdict.reason);
         else spdlog::info("stopping to replan once at rest: {}", verdict.reason);  // the request follows at rest
@@ -623,6 +745,14 @@ class TrackerComponent : public runtime::Component {
   // from behind its start; a late one is switched to at once.
   std::optional<double> switch_at_;
   std::optional<tracker::Trajectory> next_trajectory_;
+  std::vector<planner::State> next_rest_;  // the path after next_trajectory_'s end
+  bool next_is_piece_ = false;             // next_trajectory_ continues the one flown
+  // A long path's later pieces: the path after the end of the trajectory flown (docs/tracking.md).
+  const double piece_length_m_;
+  std::vector<planner::State> rest_of_path_;
+  double rest_length_m_ = 0.0;
+  double flown_pieces_m_ = 0.0;           // the plan's pieces flown before the current one, m
+  double last_piece_smoothing_s_ = -1.0;  // clock seconds the last next piece took; < 0: none yet
   std::future<Smoothed> smoothing_;
   unsigned rest_start_refusals_ = 0;  // plans refused in a row for starting at rest while the vehicle is moving
   std::optional<std::string> stopping_for_;  // a stop-and-replan's reason, until the vehicle is at rest
