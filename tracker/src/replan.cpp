@@ -1,8 +1,11 @@
 #include "ddsnav/tracker/replan.hpp"
 
+#include "ddsnav/tracker/vehicle.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <stdexcept>
 
 namespace ddsnav::tracker {
@@ -68,6 +71,41 @@ ReplanVerdict ReplanGate::check(const ReplanDecision& decision, const Trajectory
     out.action = ReplanAction::StopAndReplan;
   }
   return out;
+}
+
+namespace {
+
+// Metres free along `direction` from `position` (up to `look`), counted from where the robot there is first
+// free within its radius; 0 when it is not.
+double freeAlong(const planner::CollisionWorld& world, const Vec3& position, const Vec3& direction, double look) {
+  const double step = std::max(0.02, std::min(0.1, world.checkResolution()));
+  double travelled = 0.0;
+  while (!world.isFree(position + travelled * direction)) {
+    travelled += step;
+    if (travelled > world.robotRadius()) return 0.0;
+  }
+  while (travelled < look && world.isFree(position + (travelled + step) * direction)) travelled += step;
+  return travelled;
+}
+
+}  // namespace
+
+double restStartHeading(const planner::CollisionWorld& world, const Vec3& position, double heading, double min_free) {
+  const auto direction = [](double angle) { return Vec3(std::cos(angle), std::sin(angle), 0.0); };
+  if (freeAlong(world, position, direction(heading), min_free) >= min_free) return heading;
+  constexpr int kDirections = 16;
+  double best = heading, best_free = 0.0;
+  // The least turn first: +k and -k steps from the heading, k = 1 .. 8.
+  for (int k = 1; k <= kDirections / 2; ++k) {
+    for (const int sign : {1, -1}) {
+      const double angle = wrapAngle(heading + sign * k * (2.0 * std::numbers::pi / kDirections));
+      const double free = freeAlong(world, position, direction(angle), min_free);
+      if (free >= min_free) return angle;
+      if (free > best_free) best = angle, best_free = free;
+      if (k == kDirections / 2) break;  // +8 and -8 steps are the same direction
+    }
+  }
+  return best;
 }
 
 }  // namespace ddsnav::tracker

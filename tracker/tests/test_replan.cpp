@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <numbers>
+
 namespace ddsnav::tracker {
 namespace {
 
@@ -177,6 +179,31 @@ TEST(Mission, KeepsDrivingWhileAReplanAheadIsPlanned) {
   d = mission.replanAhead(6'000'000, ahead, "trajectory_blocked: again");
   mission.hold();
   EXPECT_EQ(mission.update(7'000'000, here, true, std::nullopt).action, MissionAction::Wait);
+}
+
+
+// A vehicle at rest asks from a heading the planner's tree can grow along: its own while the way ahead is free;
+// stopped facing the end wall of a corridor that turns left, the least turn that opens up (left, up the
+// corridor), not the longest free way (back); touching the wall, free space counts from where it leaves it.
+TEST(RestStartHeading, KeepsAFreeHeadingAndTurnsOutOfACornerTheShortWay) {
+  // Corridor 2 m wide along y in [14, 16] from x = 11 to 60, turning up (x in [11, 13]) at its left end.
+  const auto sc = scenario2d(60, 0.5,
+                             "  - {type: box, min: [0, 0], max: [11, 60]}\n"
+                             "  - {type: box, min: [11, 0], max: [60, 14]}\n"
+                             "  - {type: box, min: [13, 16], max: [60, 60]}\n");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const double pi = std::numbers::pi;
+  EXPECT_DOUBLE_EQ(restStartHeading(*world, Vec3(40, 15, 0), pi, 2.0), pi);  // along the corridor: kept
+  EXPECT_DOUBLE_EQ(restStartHeading(*world, Vec3(40, 15, 0), 0.0, 2.0), 0.0);
+  // At the corner, facing the end wall (0.2 m ahead): up the corridor, a quarter turn.
+  EXPECT_NEAR(restStartHeading(*world, Vec3(11.7, 15, 0), pi, 2.0), pi / 2, 1e-9);
+  // 0.1 m inside the wall: up the corridor and out of the wall (straight up stays in it).
+  const double out_of_wall = restStartHeading(*world, Vec3(11.4, 15, 0), pi, 2.0);
+  EXPECT_GT(out_of_wall, pi / 4);
+  EXPECT_LT(out_of_wall, pi / 2);
+  // Facing down into the floor at the corner: up, the way out (a half turn), or back along the corridor (a
+  // quarter turn): the least turn wins.
+  EXPECT_NEAR(std::abs(restStartHeading(*world, Vec3(11.7, 15, 0), -pi / 2, 2.0)), 0.0, 1e-9);
 }
 
 }  // namespace

@@ -51,8 +51,10 @@ namespace {
 
 const std::vector<std::string> kDefaultScenarios = {"demo_2d",      "gart_cluttered_2d", "gart_terrain_3d", "auv_coastal",
                                                     "auv_harbour",  "bugtrap_1.0",       "stunnel_1.0"};
-const std::vector<std::string> kRecordedTopics = {"sensors/points", "perception/obstacles", "map/octomap",
-                                                  "planning/request", "planning/path", "control/trajectory"};
+// The vehicle's own topics too (small, at the control rate): a failed run's recording shows where it went.
+const std::vector<std::string> kRecordedTopics = {"sensors/points",   "perception/obstacles", "map/octomap",     "planning/request",
+                                                  "planning/path",    "control/trajectory",   "vehicle/state",   "control/cmd_vel",
+                                                  "control/tracking"};
 
 // A child process with stdout and stderr in `log`.
 pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {

@@ -27,6 +27,7 @@
 #include <algorithm>
 #include <cmath>
 #include <future>
+#include <numbers>
 #include <optional>
 
 using namespace ddsnav;
@@ -195,13 +196,17 @@ class TrackerComponent : public runtime::Component {
             from.heading = tracker::wrapAngle(ahead->heading);
           }
         }
+        // At rest the vehicle turns in place before it drives, so the plan may start from another heading: one
+        // the planner's tree can grow along when the vehicle faces an obstacle (docs/tracking.md).
+        double start_heading = from.heading;
+        if (!(mission_.driving() && follower_)) start_heading = restStartHeading(from);
         msg::PlanRequest request;
         msg::Header header;
         header.stamp_ns(clock().nowNs());
         header.frame_id(nodes::kWorldFrame);
         request.header(header);
         request.request_id(d.request_id);
-        request.start(nodes::toMsg(planner::State{from.position, from.heading}));
+        request.start(nodes::toMsg(planner::State{from.position, start_heading}));
         request.goal(nodes::toMsg(planner::State{scenario_.goal, 0.0}));
         request.goal_radius(scenario_.goal_radius);
         request.planner(params_.planner);
@@ -227,6 +232,19 @@ class TrackerComponent : public runtime::Component {
       case tracker::MissionAction::Drive: return true;
       default: return false;
     }
+  }
+
+  double restStartHeading(const tracker::VehicleState& from) {
+    const auto world = currentWorld(from.position);
+    if (!world) return from.heading;
+    // Room for a few of the planner's shortest useful edges, and at least a metre.
+    const double min_free = std::max(1.0, 4.0 * scenario_.robot_radius);
+    const double heading = tracker::restStartHeading(*world, from.position, from.heading, min_free);
+    if (heading != from.heading)
+      spdlog::info("at rest with less than {:.1f} m free ahead: the plan starts at heading {:.0f} deg, the vehicle turns in place from "
+                   "{:.0f} deg first",
+                   min_free, heading * 180 / std::numbers::pi, from.heading * 180 / std::numbers::pi);
+    return heading;
   }
 
   struct Smoothed {
@@ -736,7 +754,7 @@ class TrackerComponent : public runtime::Component {
   tracker::ReplanGate replan_gate_;
   const tracker::TrackerConfig tracker_config_;
   std::int64_t requested_at_ns_ = 0;  // the current request's time, for the gate's planning-time estimate
-  double request_heading_ = 0.0;      // its start heading: the new trajectory starts there
+  double request_heading_ = 0.0;      // the vehicle's heading at its start: the new trajectory starts (turning in place) from it
   double request_speed_ = 0.0;        // and speed: > 0 for a replan ahead, flown through without a stop
   std::optional<tracker::TrajectoryTracker> follower_;
   std::optional<tracker::TrajectoryTracker> braking_;  // while stopping_for_: the rest of the trajectory, braked along

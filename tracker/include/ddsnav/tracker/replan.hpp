@@ -20,6 +20,7 @@
 //     stops and replans from where it is.
 //   - Expected planning time: max(planning_time_s, 1.25 x the longest of the last 8 measured ones).
 
+#include "ddsnav/planner/collision_world.hpp"
 #include "ddsnav/tracker/tracker.hpp"
 #include "ddsnav/tracker/trajectory.hpp"
 
@@ -64,5 +65,16 @@ class ReplanGate {
   int blocked_checks_ = 0;
   std::deque<double> latencies_;
 };
+
+// The heading a vehicle at rest asks its plan from. It can turn in place before it drives, but a planner's
+// kinodynamic tree grows from the start only within its turn limit of the start heading (GART's UAV: 36
+// degrees an edge, edges up to 5 m): facing a wall — stopped at a dead end, or in a corner it ran wide of —
+// every edge ends in the wall and no plan is found (stunnel_0.5: ten plans in a row from a corner, 1.3 million
+// iterations each, then the mission gave up). `heading` itself while at least `min_free` metres straight ahead
+// are free; otherwise, of 16 directions, the one with the least turn from it that has `min_free` metres free
+// (the natural way on out of a corner, not the longest way back), or failing that the one with the most free
+// space. Free space along a direction is counted from where it leaves collision, within the robot radius (a
+// vehicle that stopped touching a wall). Directions are horizontal.
+double restStartHeading(const planner::CollisionWorld& world, const Vec3& position, double heading, double min_free);
 
 }  // namespace ddsnav::tracker
