@@ -126,8 +126,10 @@ class TrackerComponent : public runtime::Component {
       vehicle_ = nodes::fromMsg(s);
     });
     // A new obstacle array is checked against the trajectory at once (an obstacle that appears is seen
-    // within one check, not up to a replan period later); the periodic check covers the map's changes.
-    world_source_.onObstacles([this] { checkOnNewObstacles(); });
+    // within one check, not up to a replan period later), and so is a new map once it is built into the world
+    // (a wall or a hillside it has just added); the periodic check covers the rest.
+    world_source_.onObstacles([this] { checkOnWorldChange(); });
+    world_source_.onMap([this] { checkOnWorldChange(); });
     path_sub_ = subscribe(runtime::topics::path, [this](const msg::Path& p) {
       new_path_ = p;
       planner_answered_ = true;
@@ -470,7 +472,7 @@ class TrackerComponent : public runtime::Component {
     tracker::ReplanDecision decision;
     double took_s = 0.0;
   };
-  void checkOnNewObstacles() {
+  void checkOnWorldChange() {
     if (!follower_ || !vehicle_ || stopping_for_ || next_trajectory_ || checking_.valid() || !mission_.driving()) return;
     startCheck(*vehicle_);
   }

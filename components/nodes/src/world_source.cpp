@@ -151,9 +151,12 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
     // A map is parsed into its world on the map worker: a 3-D octree takes long enough (tens to hundreds of
     // ms) that doing it on the executor held up the planner's requests and the tracker's control loop. A
     // newer map supersedes one still waiting to be built.
-    map_sub_ = ctx.subscribe(runtime::topics::octomap, [this](const msg::OccupancyMap& m) {
-      map_worker_.submit(0, [this, m](std::stop_token stop) {
-        if (!stop.stop_requested()) buildMap(m);
+    map_sub_ = ctx.subscribe(runtime::topics::octomap, [this, &ctx](const msg::OccupancyMap& m) {
+      map_worker_.submit(0, [this, m, &ctx](std::stop_token stop) {
+        // on_map_ is read on the executor, where it is set (as on_obstacles_ is), not here.
+        if (!stop.stop_requested() && buildMap(m)) ctx.executor().post([this] {
+          if (on_map_) on_map_();
+        });
       });
     });
   }
@@ -168,7 +171,7 @@ planner::OctoMapWorldOptions WorldSource::mapOptions(bool preferred) const {
   return options;
 }
 
-void WorldSource::buildMap(const msg::OccupancyMap& m) {
+bool WorldSource::buildMap(const msg::OccupancyMap& m) {
   auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, mapOptions(/*preferred=*/false));
   std::shared_ptr<const planner::CollisionWorld> preferred;      // built now
   std::shared_ptr<const msg::OccupancyMap> preferred_source;     // or kept to be built on demand
@@ -185,11 +188,12 @@ void WorldSource::buildMap(const msg::OccupancyMap& m) {
     ++dropped_maps_;
     spdlog::warn("map/octomap: dropping a map of {} bytes (stamp {} ns): {}; keeping the {} ({} dropped so far)", m.octree().size(),
                  m.header().stamp_ns(), checked.error, map_world_ ? "last good map" : "world empty", dropped_maps_);
-    return;
+    return false;
   }
   map_world_ = std::move(checked.world);
   if (preferred_on_demand_) preferred_source_ = std::move(preferred_source);  // the cache follows in preferredOnDemand
   else preferred_map_world_ = std::move(preferred);
+  return true;
 }
 
 bool WorldSource::hasPreferredWorld() const {

@@ -92,12 +92,15 @@ class WorldSource {
   // Called on the component's executor after each good perception/obstacles array is taken in (not for maps,
   // which are built on a worker): the tracker checks its trajectory at once instead of at its next period.
   void onObstacles(std::function<void()> callback) { on_obstacles_ = std::move(callback); }
+  // Called on the component's executor after each good map has been built into its world (on the map worker):
+  // a surface the map has just added is checked against the trajectory then, not at the next period.
+  void onMap(std::function<void()> callback) { on_map_ = std::move(callback); }
   // Messages dropped as malformed so far, per topic.
   std::size_t droppedObstacleArrays() const;
   std::size_t droppedMaps() const;
 
  private:
-  void buildMap(const msg::OccupancyMap& map);
+  bool buildMap(const msg::OccupancyMap& map);  // false: dropped as malformed (logged)
   // The options every map of this source is built with; `preferred`: with the preferred unknown margin.
   planner::OctoMapWorldOptions mapOptions(bool preferred) const;
   // On demand: the preferred world of the newest map, built now unless it was already; nullptr without one.
@@ -128,7 +131,7 @@ class WorldSource {
   std::optional<std::int64_t> first_obstacles_ns_;  // component clock
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;
   runtime::Worker map_worker_{"map"};  // after what its jobs use, before the subscriptions that feed it
-  std::function<void()> on_obstacles_;
+  std::function<void()> on_obstacles_, on_map_;
   bus::Subscription obstacles_sub_, map_sub_;
 };
 
