@@ -1,19 +1,15 @@
 #include "ddsnav/tracker/path_pieces.hpp"
 
+#include "ddsnav/planner/tree.hpp"
+
 #include <algorithm>
 #include <cmath>
 
 namespace ddsnav::tracker {
 
-double pathLength(const std::vector<planner::State>& path) {
-  double length = 0.0;
-  for (std::size_t i = 1; i < path.size(); ++i) length += (path[i].position - path[i - 1].position).norm();
-  return length;
-}
-
 PathPieces splitPath(const std::vector<planner::State>& path, double piece_length) {
   PathPieces out;
-  if (!(piece_length > 0.0) || path.size() < 2 || pathLength(path) <= 1.5 * piece_length) {
+  if (!(piece_length > 0.0) || path.size() < 2 || planner::pathLength(path) <= 1.5 * piece_length) {
     out.piece = path;
     return out;
   }

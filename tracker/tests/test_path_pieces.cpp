@@ -1,5 +1,6 @@
 // A long path smoothed a piece at a time: where it is split, and the path that continues a trajectory.
 
+#include "ddsnav/planner/tree.hpp"
 #include "ddsnav/tracker/path_pieces.hpp"
 #include "ddsnav/tracker/smoother.hpp"
 #include "test_worlds.hpp"
@@ -17,11 +18,11 @@ TEST(SplitPath, CutsAtTheGivenArcLengthOnTheEdgeThatReachesIt) {
   const auto path = pathOf({{0, 0, 0}, {100, 0, 0}, {100, 100, 0}, {0, 100, 0}});  // 300 m
   const PathPieces pieces = splitPath(path, 150.0);
   ASSERT_EQ(pieces.piece.size(), 3u);
-  EXPECT_NEAR(pathLength(pieces.piece), 150.0, 1e-9);
+  EXPECT_NEAR(planner::pathLength(pieces.piece), 150.0, 1e-9);
   EXPECT_TRUE(pieces.piece.back().position.isApprox(Vec3(100, 50, 0)));
   ASSERT_EQ(pieces.rest.size(), 3u);
   EXPECT_EQ(pieces.rest.front().position, pieces.piece.back().position);
-  EXPECT_NEAR(pathLength(pieces.rest), 150.0, 1e-9);
+  EXPECT_NEAR(planner::pathLength(pieces.rest), 150.0, 1e-9);
   EXPECT_EQ(pieces.rest.back().position, path.back().position);
 }
 

@@ -15,6 +15,7 @@
 #include <ddsnav/runtime/pending_work.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
+#include <ddsnav/planner/tree.hpp>
 #include <ddsnav/sim/sensor_choice.hpp>
 #include <ddsnav/tracker/mission.hpp>
 #include <ddsnav/tracker/path_pieces.hpp>
@@ -334,6 +335,18 @@ class TrackerComponent : public runtime::Component {
     });
   }
 
+  // Asks a plan from `ahead`, a sample of the trajectory being flown, while the vehicle flies on to it; the new
+  // trajectory is switched to there.
+  void replanAheadFrom(const tracker::TrajectorySample& ahead, const tracker::VehicleState& state, const std::string& reason) {
+    tracker::VehicleState from = state;
+    from.position = ahead.position;
+    from.heading = tracker::wrapAngle(ahead.heading);
+    from.v = ahead.speed;
+    act(mission_.replanAhead(clock().nowNs(), from, reason));
+    switch_at_ = ahead.time;
+    request_speed_ = ahead.speed;
+  }
+
   // A long path's next piece waits for its switch point like a replan ahead's trajectory. One that is stale (the
   // trajectory it continues was replaced, or is being replanned) is dropped; one that could not be smoothed (the
   // rest of the path is no longer free, or only a start at rest fits) is replanned ahead.
@@ -347,21 +360,14 @@ class TrackerComponent : public runtime::Component {
     }
     if (!smoothed.trajectory) {
       const double at = std::min(follower_->status().reference_time + replan_gate_.expectedPlanningTime(), current.duration());
-      const tracker::TrajectorySample ahead = current.at(at);
-      tracker::VehicleState from = state;
-      from.position = ahead.position;
-      from.heading = tracker::wrapAngle(ahead.heading);
-      from.v = ahead.speed;
-      act(mission_.replanAhead(clock().nowNs(), from, "next_piece_failed: " + smoothed.error));
-      switch_at_ = ahead.time;
-      request_speed_ = ahead.speed;
+      replanAheadFrom(current.at(at), state, "next_piece_failed: " + smoothed.error);
       return;
     }
     auto& trajectory = *smoothed.trajectory;
     spdlog::info("trajectory {}, next piece: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s, "
                  "{:.0f} m of the path after it, smoothed in {:.3f} s",
                  smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
-                 trajectory.report.min_clearance, trajectory.samples.front().speed, tracker::pathLength(smoothed.rest), last_piece_smoothing_s_);
+                 trajectory.report.min_clearance, trajectory.samples.front().speed, planner::pathLength(smoothed.rest), last_piece_smoothing_s_);
     const double due_in_s = smoothed.switch_at - follower_->status().reference_time;
     if (due_in_s > 0) {
       trajectories_.publish(nodes::toMsg(trajectory, smoothed.request_id, clock().nowNs() + static_cast<std::int64_t>(due_in_s * 1e9)));
@@ -524,7 +530,7 @@ class TrackerComponent : public runtime::Component {
     flown_pieces_m_ = next_piece && follower_ ? flown_pieces_m_ + follower_->trajectory().at(follower_->status().reference_time).arc_length : 0.0;
     const bool moving_start = request_speed_ > 0 || trajectory.samples.front().speed > 0;
     rest_of_path_ = std::move(rest);
-    rest_length_m_ = tracker::pathLength(rest_of_path_);
+    rest_length_m_ = planner::pathLength(rest_of_path_);
     follower_.emplace(std::move(trajectory), limits_, tracker_config_);
     ++trajectory_serial_;  // a check still running on the previous one is stale
     replan_gate_.reset();
@@ -729,13 +735,7 @@ class TrackerComponent : public runtime::Component {
         stopping_for_ = verdict.reason;
         stopping_since_ns_ = clock().nowNs();
       } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan() && !smoothing_.valid()) {
-        tracker::VehicleState from = *state;
-        from.position = verdict.start.position;
-        from.heading = tracker::wrapAngle(verdict.start.heading);
-        from.v = verdict.start.speed;
-        act(mission_.replanAhead(clock().nowNs(), from, verdict.reason));
-        switch_at_ = verdict.start.time;
-        request_speed_ = verdict.start.speed;
+        replanAheadFrom(verdict.start, *state, verdict.reason);
       }
     }
   }
@@ -770,7 +770,7 @@ class TrackerComponent : public runtime::Component {
   // A long path's later pieces: the path after the end of the trajectory flown (docs/tracking.md).
   const double piece_length_m_;
   std::vector<planner::State> rest_of_path_;
-  double rest_length_m_ = 0.0;
+  double rest_length_m_ = 0.0;           // of rest_of_path_ when it was set (a next piece's job takes the path itself)
   double flown_pieces_m_ = 0.0;           // the plan's pieces flown before the current one, m
   double last_piece_smoothing_s_ = -1.0;  // clock seconds the last next piece took; < 0: none yet
   std::future<Smoothed> smoothing_;

@@ -17,9 +17,6 @@ struct PathPieces {
   std::vector<planner::State> rest;   // empty when `piece` is the whole path
 };
 
-// Length of the polyline through the states' positions.
-double pathLength(const std::vector<planner::State>& path);
-
 // Splits `path` at arc length `piece_length` (at a point on the edge that reaches it). A path no longer
 // than 1.5 x piece_length is not split (a short rest would be smoothed at once anyway), nor is any path
 // when piece_length <= 0.
