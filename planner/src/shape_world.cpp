@@ -195,11 +195,20 @@ ShapeWorld::ShapeWorld(int dimensions, const Vec3& bounds_min, const Vec3& bound
   for (std::size_t i = 0; i < shapes_.size(); ++i) forEachCell(i, [&](int c) { cell_items_[fill[c]++] = static_cast<int>(i); });
 }
 
+namespace {
+// Clamped while still a double: a shape far outside the bounds (a scenario may place one there) would overflow the
+// cast to int. NaN goes to cell 0.
+int clampedCell(double cell, int count) {
+  if (!(cell > 0.0)) return 0;
+  return cell >= count - 1 ? count - 1 : static_cast<int>(cell);
+}
+}  // namespace
+
 int ShapeWorld::cellX(double x) const {
-  return std::clamp(static_cast<int>(std::floor((x - bmin_.x()) / cell_size_)), 0, nx_ - 1);
+  return clampedCell((x - bmin_.x()) / cell_size_, nx_);
 }
 int ShapeWorld::cellY(double y) const {
-  return std::clamp(static_cast<int>(std::floor((y - bmin_.y()) / cell_size_)), 0, ny_ - 1);
+  return clampedCell((y - bmin_.y()) / cell_size_, ny_);
 }
 
 bool ShapeWorld::insideBounds(const Vec3& p) const {

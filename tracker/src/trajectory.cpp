@@ -132,6 +132,24 @@ TrajectorySample Trajectory::at(double time) const {
   return out;
 }
 
+double timeAtArcLength(const Trajectory& trajectory, double s) {
+  const auto& in = trajectory.samples;
+  if (in.empty()) return 0.0;
+  auto it = std::lower_bound(in.begin(), in.end(), s, [](const TrajectorySample& x, double v) { return x.arc_length < v; });
+  if (it == in.begin()) return in.front().time;
+  if (it == in.end()) return in.back().time;
+  const TrajectorySample& b = *it;
+  const TrajectorySample& a = *(it - 1);
+  const double f = b.arc_length > a.arc_length ? (s - a.arc_length) / (b.arc_length - a.arc_length) : 1.0;
+  return a.time + f * (b.time - a.time);
+}
+
+double brakingDecel(double speed, double room, double comfortable, double limit) {
+  if (!(speed > 0.0)) return comfortable;
+  if (!(room > 0.0)) return limit;
+  return std::clamp(speed * speed / (2.0 * room), comfortable, std::max(comfortable, limit));
+}
+
 Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double speed, double decel) {
   if (trajectory.samples.empty()) throw std::invalid_argument("brakeAlong: empty trajectory");
   if (!std::isfinite(speed) || speed < 0.0) throw std::invalid_argument("brakeAlong: speed must be finite and >= 0");

@@ -217,6 +217,33 @@ TEST(Tracker, SkipsToTheVehicleOnALateSwitch) {
   EXPECT_DOUBLE_EQ(on_time.status().reference_time, 0.0);
 }
 
+TEST(BrakeAlong, BrakesHarderOnlyWhenTheBlockIsCloserThanTheComfortableStop) {
+  // 5 m/s at 1.7 m/s^2 needs 7.35 m: with 20 m of room the comfortable rate; with 6.5 m, 5^2 / (2 * 6.5) = 1.92;
+  // with 5 m the vehicle's limit (it cannot do better); from rest, the comfortable one.
+  EXPECT_DOUBLE_EQ(brakingDecel(5.0, 20.0, 1.7, 2.0), 1.7);
+  EXPECT_NEAR(brakingDecel(5.0, 6.5, 1.7, 2.0), 25.0 / 13.0, 1e-12);
+  EXPECT_DOUBLE_EQ(brakingDecel(5.0, 5.0, 1.7, 2.0), 2.0);
+  EXPECT_DOUBLE_EQ(brakingDecel(5.0, 0.0, 1.7, 2.0), 2.0);
+  EXPECT_DOUBLE_EQ(brakingDecel(0.0, 1.0, 1.7, 2.0), 1.7);
+  EXPECT_DOUBLE_EQ(brakingDecel(5.0, std::nan(""), 1.7, 2.0), 2.0);
+}
+
+TEST(BrakeAlong, TimeAtArcLengthInvertsTheTrajectorysArcLength) {
+  auto sc = scenario2d(60, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  ddsnav::planner::VehicleLimits limits;
+  limits.v_max = 4.0;
+  limits.omega_max = 1.0;
+  const auto t = smoothPath(pathOf({{5, 5, 0}, {30, 5, 0}, {40, 20, 0}}), *world, limits);
+  for (double f : {0.1, 0.37, 0.5, 0.93}) {
+    const double time = f * t.duration();
+    EXPECT_NEAR(timeAtArcLength(t, t.at(time).arc_length), time, 1e-6) << f;
+  }
+  EXPECT_DOUBLE_EQ(timeAtArcLength(t, -5.0), 0.0);
+  EXPECT_DOUBLE_EQ(timeAtArcLength(t, 1e9), t.duration());
+  EXPECT_DOUBLE_EQ(timeAtArcLength(Trajectory{}, 3.0), 0.0);
+}
+
 TEST(BrakeAlong, StopsOnThePathWithinTheBrakingDistance) {
   // A curve driven at speed: braking from its middle keeps to the same path and comes to rest v^2 / 2a on.
   auto sc = scenario2d(60, 0.3, "");

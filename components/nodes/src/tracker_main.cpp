@@ -505,15 +505,29 @@ class TrackerComponent : public runtime::Component {
   // zero command alone let the vehicle coast straight on along its heading while its speed ran down — metres off
   // a curving trajectory, next to the very surface that made it stop (likely how a real-time gart_terrain_3d run,
   // stopping at 4.2 m/s, went 0.9 m off its trajectory and 0.14 m into a hill).
-  void startBraking(const tracker::VehicleState& state) {
+  // The braking starts where the vehicle is, not at the reference: a vehicle lagging its reference by metres was
+  // told to catch up at full speed first (a recorded gart_terrain_3d crossing: ~5 m/s for 0.3 s, then into the
+  // hillside found 1.16 s ahead). `blocked_time`: the trajectory's time at its first blocked sample, when a block
+  // made the stop; braking is harder than the comfortable rate, up to the vehicle's limit, when it is close.
+  void startBraking(const tracker::VehicleState& state, std::optional<double> blocked_time = std::nullopt) {
     braking_.reset();
     if (follower_) {
       try {
-        const double reference_speed = follower_->trajectory().at(follower_->status().reference_time).speed;
-        const double speed = std::max(std::hypot(state.v, state.vz), std::abs(reference_speed));
-        braking_.emplace(tracker::brakeAlong(follower_->trajectory(), follower_->status().reference_time, speed,
-                                             smoother_config_.limit_fraction * params_.max_decel),
-                         limits_, tracker_config_);
+        const auto& trajectory = follower_->trajectory();
+        const auto& status = follower_->status();
+        const double vehicle_arc = std::max(0.0, trajectory.at(status.reference_time).arc_length + status.along_track_error);
+        const double from_time = tracker::timeAtArcLength(trajectory, vehicle_arc);
+        const double speed = std::max(std::hypot(state.v, state.vz), std::abs(trajectory.at(from_time).speed));
+        const double comfortable = smoother_config_.limit_fraction * params_.max_decel;
+        double decel = comfortable;
+        if (blocked_time) {
+          // A tenth of the room is kept: the blocked sample is where the robot already touches the obstacle.
+          const double room = 0.9 * (trajectory.at(*blocked_time).arc_length - vehicle_arc);
+          decel = tracker::brakingDecel(speed, room, comfortable, params_.max_decel);
+          if (decel > comfortable)
+            spdlog::info("braking at {:.2f} m/s^2 from {:.2f} m/s: {:.2f} m to the block", decel, speed, room / 0.9);
+        }
+        braking_.emplace(tracker::brakeAlong(trajectory, from_time, speed, decel), limits_, tracker_config_);
       } catch (const std::exception& e) {
         spdlog::warn("cannot brake along the trajectory ({}): stopping where the vehicle is heading", e.what());
       }
@@ -727,7 +741,9 @@ class TrackerComponent : public runtime::Component {
         // Stop, and ask from where the vehicle comes to rest: a plan from where it started braking would
         // begin metres behind it (v^2 / 2a), and one still on its way from a predicted start ahead would
         // begin where it never arrives. A newer request supersedes that one.
-        startBraking(current);
+        std::optional<double> blocked_time;
+        if (replan.reason == tracker::ReplanReason::TrajectoryBlocked) blocked_time = follower_->status().reference_time + replan.time_ahead;
+        startBraking(current, blocked_time);
         dropTrajectory();
         mission_.hold();
         if (mission_.awaitingPlan()) spdlog::warn("stopping; plan {} is superseded: {}", mission_.requestId(), verdict.reason);

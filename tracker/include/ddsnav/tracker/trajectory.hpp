@@ -78,6 +78,14 @@ struct Trajectory {
   TrajectorySample at(double time) const;
 };
 
+// The time at which `trajectory` has covered arc length `s` (clamped to its ends); 0 for an empty one.
+double timeAtArcLength(const Trajectory& trajectory, double s);
+
+// The deceleration that stops from `speed` within `room` metres, kept between `comfortable` and `limit`: the
+// comfortable one when it stops in time, harder when the room is short, never past the vehicle's limit (at the limit
+// the stop may run past the room: it is what the vehicle can do).
+double brakingDecel(double speed, double room, double comfortable, double limit);
+
 // The rest of `trajectory` from `from_time`, driven from `speed` (m/s along the path) down to rest at a constant
 // `decel` (m/s^2): the same path, retimed, so that a vehicle told to stop brakes along its checked path instead of
 // coasting straight on (a UAV braking from 4.2 m/s leaves a curving trajectory by metres). Ends at rest where the
