@@ -170,7 +170,8 @@ TEST(MapperIdentical, PipelinedMapIsCompleteAtEveryRead) {
       EXPECT_EQ(fullBytes(mapper.octree()), fullBytes(reference)) << "after scan " << i;
     } else {
       std::ostringstream bytes;
-      reference.writeBinaryConst(bytes);
+      octomap::OcTree max_likelihood(reference);  // writeBinary prunes its tree's maximum likelihood: on a copy
+      max_likelihood.writeBinary(bytes);
       const ExportedMap map = mapper.exportMap();
       EXPECT_EQ(std::string(map.octree_binary.begin(), map.octree_binary.end()), bytes.str()) << "after scan " << i;
     }
@@ -205,14 +206,26 @@ TEST(MapperExport, BinaryBytesAreOctoMapsOwn) {
   writeOctreeBinary(mapper.octree(), empty_ours);
   mapper.octree().writeBinaryConst(empty_octomap);
   EXPECT_EQ(empty_ours.str(), empty_octomap.str());
-  ASSERT_TRUE(mapper.insert(simulateScan(makeCityBlock(5), lidar3d(8, 300), {0, 0, 1.8f})).inserted);
+  // Three scans from three places: free space seen from more than one leaves neighbours of one class with
+  // different probabilities, which the live tree keeps apart and the maximum-likelihood tree merges.
+  for (float x : {0.0f, 2.5f, 5.0f})
+    ASSERT_TRUE(mapper.insert(simulateScan(makeCityBlock(5), lidar3d(8, 300), {x, 0.5f * x, 1.8f})).inserted);
   std::ostringstream ours, octomap_bytes;
   writeOctreeBinary(mapper.octree(), ours);
   mapper.octree().writeBinaryConst(octomap_bytes);
   EXPECT_GT(ours.str().size(), 1000u);
   EXPECT_EQ(ours.str(), octomap_bytes.str());
+  // The export is OctoMap's writeBinary of the same tree: its maximum likelihood, pruned — the live tree unchanged.
+  const std::size_t live_nodes = mapper.octree().size();
   const auto exported = mapper.exportMap();
-  EXPECT_EQ(std::string(exported.octree_binary.begin(), exported.octree_binary.end()), octomap_bytes.str());
+  EXPECT_EQ(mapper.octree().size(), live_nodes);
+  octomap::OcTree max_likelihood(mapper.octree());
+  std::ostringstream pruned_bytes;
+  max_likelihood.writeBinary(pruned_bytes);
+  EXPECT_LT(pruned_bytes.str().size(), octomap_bytes.str().size());
+  std::printf("3 scans: the whole tree %zu bytes, its maximum likelihood pruned %zu\n", octomap_bytes.str().size(), pruned_bytes.str().size());
+  EXPECT_EQ(std::string(exported.octree_binary.begin(), exported.octree_binary.end()), pruned_bytes.str());
+  EXPECT_EQ(exported.leaf_count, max_likelihood.getNumLeafNodes());
 }
 
 TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
@@ -230,6 +243,14 @@ TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
   EXPECT_DOUBLE_EQ(map.resolution, 0.2);
   EXPECT_GT(map.leaf_count, 100u);
   for (int i = 0; i < 3; ++i) EXPECT_LT(map.bounds_min[i], map.bounds_max[i]);
+  // The export's one walk bounds the leaves as OctoMap's own walk does (pruning merges whole octants: same bounds).
+  double lo[3], hi[3];
+  mapper.octree().getMetricMin(lo[0], lo[1], lo[2]);
+  mapper.octree().getMetricMax(hi[0], hi[1], hi[2]);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(map.bounds_min[i], lo[i], 1e-9) << "axis " << i;
+    EXPECT_NEAR(map.bounds_max[i], hi[i], 1e-9) << "axis " << i;
+  }
 
   std::istringstream in(std::string(map.octree_binary.begin(), map.octree_binary.end()));
   octomap::OcTree read(0.1);
@@ -242,7 +263,8 @@ TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
     ASSERT_NE(n, nullptr);
     EXPECT_EQ(read.isNodeOccupied(n), mapper.octree().isNodeOccupied(*it));
   }
-  EXPECT_EQ(leaves, map.leaf_count);
+  EXPECT_GE(leaves, map.leaf_count);  // the live tree's leaves; the map's are those of its maximum likelihood, pruned
+  EXPECT_EQ(read.getNumLeafNodes(), map.leaf_count);
 
   const std::string path = ::testing::TempDir() + "ddsnav_mapper_roundtrip.bt";
   mapper.writeBt(path);

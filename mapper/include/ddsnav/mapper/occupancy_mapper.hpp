@@ -86,12 +86,14 @@ struct InsertResult {
 
 // What the map/octomap message carries.
 struct ExportedMap {
-  std::vector<std::uint8_t> octree_binary;  // OcTree::writeBinaryConst bytes
+  // OcTree::writeBinary's bytes: the maximum-likelihood tree, pruned (eight leaves of one class are their parent);
+  // the binary format carries only each leaf's class, so a reader gets the same map as from the whole tree.
+  std::vector<std::uint8_t> octree_binary;
   double resolution = 0.0;
   int dimensions = 3;
   std::array<double, 3> bounds_min{0, 0, 0};  // metric bounds of the known voxels (zero when empty)
   std::array<double, 3> bounds_max{0, 0, 0};
-  std::size_t leaf_count = 0;
+  std::size_t leaf_count = 0;  // leaves of that pruned tree
 };
 
 class OccupancyMapper {
