@@ -365,33 +365,40 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
 
 // ---- lead-in ------------------------------------------------------------------------------------------
 
-// A start moving at `heading`: puts a point `length` ahead along it after the start, the longest of a few
-// candidates (halving down to 0.5 m) whose two new edges are collision free with `min_clearance` and
-// whose corner at the new point is at most a right angle and can be rounded at `turn_radius` (both edges
-// at least radius x tan(corner / 2) long: a tighter corner is a near stop, and the tracker then deviates). Returns the points unchanged when none is.
-std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double length, double turn_radius,
+// A start moving at `heading` (and climbing at `climb` = vz / horizontal speed, 3-D): puts a point `length` ahead
+// along it after the start, the longest of a few candidates (halving down to 0.5 m) whose two new edges are
+// collision free with `min_clearance` and whose corner at the new point is at most a right angle and can be rounded
+// at `turn_radius` (both edges at least radius x tan(corner / 2) long: a tighter corner is a near stop, and the
+// tracker then deviates). At each length the climbing direction is tried first, then the level one. Returns the
+// points unchanged when none is.
+std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double climb, double length, double turn_radius,
                          const CollisionWorld& world, double min_clearance) {
   if (points.size() < 2 || !(length > 0)) return points;
-  const Vec3 direction(std::cos(heading), std::sin(heading), 0.0);
+  std::vector<Vec3> directions;
+  if (std::isfinite(climb) && std::abs(climb) > 1e-3) directions.push_back(Vec3(std::cos(heading), std::sin(heading), climb).normalized());
+  directions.push_back(Vec3(std::cos(heading), std::sin(heading), 0.0));
   const Vec3& start = points.front();
   for (double l = length; l >= std::min(0.5, length) - 1e-9; l *= 0.5) {
-    const Vec3 ahead = start + l * direction;
-    // The first point after the start that lies beyond the lead-in (the ones it passes are dropped).
-    std::size_t next = 1;
-    while (next + 1 < points.size() && (points[next] - start).dot(direction) <= l) ++next;
-    const Vec3 onward = points[next] - ahead;
-    if (onward.norm() < 1e-6) continue;
-    // The corner at the new point must be roundable at the turn radius: a tighter one is a near stop.
-    const double corner = std::acos(std::clamp(onward.normalized().dot(direction), -1.0, 1.0));
-    const double tangent = turn_radius * std::tan(0.5 * corner);
-    if (corner > 0.5 * std::numbers::pi || l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) continue;
-    if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !world.isSegmentFree(ahead, points[next])) continue;
-    const double need = std::min(min_clearance, world.clearance(start));
-    if (!clearanceAtLeast(world, start, ahead, need) || !clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next]))))
-      continue;
-    std::vector<Vec3> out{start, ahead};
-    out.insert(out.end(), points.begin() + static_cast<std::ptrdiff_t>(next), points.end());
-    return out;
+    for (const Vec3& direction : directions) {
+      const Vec3 ahead = start + l * direction;
+      // The first point after the start that lies beyond the lead-in (the ones it passes are dropped).
+      std::size_t next = 1;
+      while (next + 1 < points.size() && (points[next] - start).dot(direction) <= l) ++next;
+      const Vec3 onward = points[next] - ahead;
+      if (onward.norm() < 1e-6) continue;
+      // The corner at the new point must be roundable at the turn radius: a tighter one is a near stop.
+      const double corner = std::acos(std::clamp(onward.normalized().dot(direction), -1.0, 1.0));
+      const double tangent = turn_radius * std::tan(0.5 * corner);
+      if (corner > 0.5 * std::numbers::pi || l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) continue;
+      if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !world.isSegmentFree(ahead, points[next])) continue;
+      const double need = std::min(min_clearance, world.clearance(start));
+      if (!clearanceAtLeast(world, start, ahead, need) ||
+          !clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next]))))
+        continue;
+      std::vector<Vec3> out{start, ahead};
+      out.insert(out.end(), points.begin() + static_cast<std::ptrdiff_t>(next), points.end());
+      return out;
+    }
   }
   return points;
 }
@@ -438,7 +445,9 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
     cap[i] = std::min(cap[i], limit);
     cap[i + 1] = std::min(cap[i + 1], limit);
   }
-  cap.front() = std::min(cap.front(), cfg.initial_speed);  // start at the vehicle's speed (0: at rest)
+  // Start at the vehicle's speed (0: at rest); in 3-D along the path, its climb included (initial_speed is horizontal).
+  const double initial = dims == 3 && cfg.initial_speed > 0 ? std::hypot(cfg.initial_speed, cfg.initial_vz) : cfg.initial_speed;
+  cap.front() = std::min(cap.front(), initial);
   cap.back() = 0.0;                                        // end at rest
 
   // Forward-backward pass: the fastest profile under the caps with |ds/dt change| <= max_accel.
@@ -618,7 +627,8 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
     // (gart_cluttered_2d: 7 refusals in one mission at 0.7-3.6 m/s).
     const double lead_radius =
         std::min(radius, std::max(config.initial_speed, 0.1 * limits.v_max) / (config.limit_fraction * limits.omega_max));
-    points = leadIn(points, *config.initial_heading, std::max(2 * radius, 1.0), lead_radius, world, config.shortcut_clearance);
+    const double climb = dims == 3 ? config.initial_vz / config.initial_speed : 0.0;
+    points = leadIn(points, *config.initial_heading, climb, std::max(2 * radius, 1.0), lead_radius, world, config.shortcut_clearance);
   }
   traj.report.shortcut_waypoints = points.size();
 

@@ -220,6 +220,7 @@ class TrackerComponent : public runtime::Component {
         requested_at_ns_ = clock().nowNs();
         request_heading_ = from.heading;
         request_speed_ = ahead ? ahead->speed : 0.0;  // a replan ahead sets its predicted speed after this
+        request_vz_ = ahead ? ahead->vz : 0.0;
         switch_at_.reset();  // set again by a replan ahead, after this
         if (ahead) switch_at_ = ahead->time;
         next_trajectory_.reset();
@@ -268,6 +269,7 @@ class TrackerComponent : public runtime::Component {
   void startSmoothing(const msg::Path& path, const tracker::VehicleState& state) {
     smoother_config_.initial_heading = request_heading_;
     smoother_config_.initial_speed = request_speed_;
+    smoother_config_.initial_vz = request_vz_;
     auto pieces = tracker::splitPath(nodes::statesOf(path), piece_length_m_);
     Smoothed job;
     job.request_id = path.request_id();
@@ -287,6 +289,7 @@ class TrackerComponent : public runtime::Component {
     tracker::SmootherConfig config = smoother_config_;
     config.initial_heading = tracker::wrapAngle(from.heading);
     config.initial_speed = from.speed;
+    config.initial_vz = from.vz;
     // Half a metre apart: chords that close stay within 6 cm of a 0.5 m-radius curve.
     auto pieces = tracker::splitPath(tracker::continuationPath(trajectory, switch_at, rest_of_path_, 0.5), piece_length_m_);
     rest_of_path_.clear();  // the job has it now
@@ -345,6 +348,7 @@ class TrackerComponent : public runtime::Component {
     act(mission_.replanAhead(clock().nowNs(), from, reason));
     switch_at_ = ahead.time;
     request_speed_ = ahead.speed;
+    request_vz_ = ahead.vz;
   }
 
   // A long path's next piece waits for its switch point like a replan ahead's trajectory. One that is stale (the
@@ -774,6 +778,7 @@ class TrackerComponent : public runtime::Component {
   std::int64_t requested_at_ns_ = 0;  // the current request's time, for the gate's planning-time estimate
   double request_heading_ = 0.0;      // the vehicle's heading at its start: the new trajectory starts (turning in place) from it
   double request_speed_ = 0.0;        // and speed: > 0 for a replan ahead, flown through without a stop
+  double request_vz_ = 0.0;           // and climb rate (3-D), for the lead-in's direction
   std::optional<tracker::TrajectoryTracker> follower_;
   std::optional<tracker::TrajectoryTracker> braking_;  // while stopping_for_: the rest of the trajectory, braked along
   // A replan from a predicted start: the new trajectory waits until the vehicle's reference on the current

@@ -52,6 +52,10 @@ struct SmootherConfig {
   // so the curve leaves the start tangent to the vehicle's heading and no turn in place is needed; where it
   // is not, the trajectory starts at rest with the turn. 0: start at rest.
   double initial_speed = 0.0;
+  // Climb rate (m/s) the vehicle has at the start, 3-D: the lead-in follows the vehicle's climb first (a UAV
+  // climbing a hillside at 15 deg found no level lead-in clear of the slope ahead, and each plan ahead started at
+  // rest and was refused), then the level heading. Ignored in 2-D and at rest.
+  double initial_vz = 0.0;
   bool compute_clearance = true;     // fill report.min_clearance (one clearance query per sample)
 };
 
