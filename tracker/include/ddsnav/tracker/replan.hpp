@@ -18,7 +18,8 @@
 //     from where the vehicle will be when the plan is ready: the trajectory's sample at reference time +
 //     expected planning time. The vehicle keeps flying the still-valid part meanwhile. Closer than that, it
 //     stops and replans from where it is.
-//   - Expected planning time: max(planning_time_s, 1.25 x the longest of the last 8 measured ones).
+//   - Expected planning time: max(planning_time_s, 1.25 x the second longest of the last 8 measured ones — the
+//     longest while there is one): one outlier does not turn the next eight replans into stops.
 
 #include "ddsnav/planner/collision_world.hpp"
 #include "ddsnav/tracker/tracker.hpp"
