@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <map>
 #include <set>
@@ -372,8 +373,15 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
 // tracker then deviates). At each length the climbing direction is tried first, then the level one. Returns the
 // points unchanged when none is.
 std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double climb, double length, double turn_radius,
-                         const CollisionWorld& world, double min_clearance) {
+                         const CollisionWorld& world, double min_clearance, std::string& failure) {
   if (points.size() < 2 || !(length > 0)) return points;
+  std::string longest_failure, shortest_failure;
+  auto failed = [&](double l, const char* why) {
+    char text[96];
+    std::snprintf(text, sizeof text, "%.1f m: %s", l, why);
+    if (longest_failure.empty()) longest_failure = text;
+    shortest_failure = text;
+  };
   std::vector<Vec3> directions;
   if (std::isfinite(climb) && std::abs(climb) > 1e-3) directions.push_back(Vec3(std::cos(heading), std::sin(heading), climb).normalized());
   directions.push_back(Vec3(std::cos(heading), std::sin(heading), 0.0));
@@ -389,17 +397,22 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
       // The corner at the new point must be roundable at the turn radius: a tighter one is a near stop.
       const double corner = std::acos(std::clamp(onward.normalized().dot(direction), -1.0, 1.0));
       const double tangent = turn_radius * std::tan(0.5 * corner);
-      if (corner > 0.5 * std::numbers::pi || l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) continue;
-      if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !world.isSegmentFree(ahead, points[next])) continue;
+      if (corner > 0.5 * std::numbers::pi) { failed(l, "the path turns back more than a right angle"); continue; }
+      if (l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) { failed(l, "the corner is too tight for the turn radius"); continue; }
+      if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead)) { failed(l, "the lead-in is blocked"); continue; }
+      if (!world.isSegmentFree(ahead, points[next])) { failed(l, "the edge back to the path is blocked"); continue; }
       const double need = std::min(min_clearance, world.clearance(start));
       if (!clearanceAtLeast(world, start, ahead, need) ||
-          !clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next]))))
+          !clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next])))) {
+        failed(l, "too close to an obstacle");
         continue;
+      }
       std::vector<Vec3> out{start, ahead};
       out.insert(out.end(), points.begin() + static_cast<std::ptrdiff_t>(next), points.end());
       return out;
     }
   }
+  failure = longest_failure.empty() ? "no candidate" : longest_failure + (shortest_failure != longest_failure ? "; " + shortest_failure : "");
   return points;
 }
 
@@ -628,7 +641,8 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
     const double lead_radius =
         std::min(radius, std::max(config.initial_speed, 0.1 * limits.v_max) / (config.limit_fraction * limits.omega_max));
     const double climb = dims == 3 ? config.initial_vz / config.initial_speed : 0.0;
-    points = leadIn(points, *config.initial_heading, climb, std::max(2 * radius, 1.0), lead_radius, world, config.shortcut_clearance);
+    points = leadIn(points, *config.initial_heading, climb, std::max(2 * radius, 1.0), lead_radius, world, config.shortcut_clearance,
+                    traj.report.lead_in_failure);
   }
   traj.report.shortcut_waypoints = points.size();
 

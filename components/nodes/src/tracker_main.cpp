@@ -395,7 +395,8 @@ class TrackerComponent : public runtime::Component {
     // rest (no lead-in along the heading was free) would make it overshoot its start. Asked again (ahead, or
     // from rest once the block is close enough to stop for it).
     if (request_speed_ > 0.5 && trajectory.samples.front().speed < 0.1) {
-      spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown", smoothed.request_id, request_speed_);
+      spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
+                   smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
       // Twice in a row: nothing ahead leaves room to go on at speed (inside a bug trap every plan turns back), and
       // flying on toward the block between refusals only makes it worse (bugtrap_1.0: 23 refusals, 74 m short at
       // the timeout). Stop, and plan from rest.
@@ -415,7 +416,9 @@ class TrackerComponent : public runtime::Component {
     spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s, ready {:.3f} s after its request",
                  smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
                  trajectory.report.min_clearance, trajectory.samples.front().speed, latency);
-    replan_gate_.planReady(latency);
+    // The mission's first request may wait for the planner's world (3.3 s of simulated time on gart_terrain_3d):
+    // not a planning time to predict replans by.
+    if (smoothed.request_id != kFirstRequestId) replan_gate_.planReady(latency);
     if (follower_ && switch_at_ && follower_->status().reference_time < *switch_at_) {
       // Published now, stamped with when its first sample is due (the reference reaches the switch point in
       // about that many seconds): the new trajectory is known from the moment it is ready, which is what the
@@ -453,6 +456,7 @@ class TrackerComponent : public runtime::Component {
   }
 
   static constexpr double kAtRest = 0.05;  // m/s: the vehicle has stopped
+  static constexpr std::uint32_t kFirstRequestId = 1;  // tracker::Mission numbers its requests from 1
 
   // The clock's speed (simulated seconds per wall second) over the last few seconds, for the mission's
   // answer timeout: the planner's budget is wall time.

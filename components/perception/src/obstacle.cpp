@@ -93,6 +93,34 @@ Eigen::Matrix<double, N, N> encloseOffsets(const Eigen::Matrix<double, N, N>& co
   return axes * variance.asDiagonal() * axes.transpose();
 }
 
+// Shortens the major axis of an enclosing 2-D C to where the enclosed offsets end along it, plus `slack`: the
+// smallest major variance that keeps every offset inside with the minor one unchanged,
+//   v_major = max_j u_j,major^2 / (q - u_j,minor^2 / v_minor),
+// then widened by slack (the bound ends `slack` beyond the farthest offset, so a voxel beside a tip point is inside
+// too). Never lengthens. Why: along a wall piece the points are spread evenly, not as a Gaussian, and the p-bound of
+// their Gaussian fit (a semi-axis of 0.88 x the piece's length against half the length where the points end) reached
+// 0.56 m past the end of a 1.5 m piece — past a convex corner, into the corridor turning there (stunnel_0.5: a 2 m
+// corridor, a 1 m robot, the corner closed). Beyond a piece's last point is the next piece, with its own ellipse, or
+// space the same beams saw free.
+Eigen::Matrix2d shortenToOffsets(const Eigen::Matrix2d& covariance, const std::vector<Eigen::Vector3d>& offsets, double q,
+                                 double slack) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver;
+  solver.computeDirect(covariance);
+  const Eigen::Vector2d major = solver.eigenvectors().col(1), minor = solver.eigenvectors().col(0);
+  const double v_major = solver.eigenvalues()[1], v_minor = std::max(solver.eigenvalues()[0], 1e-12);
+  double needed = 0.0;
+  for (const auto& offset : offsets) {
+    const double along = major.dot(offset.head<2>()), across = minor.dot(offset.head<2>());
+    const double room = q - across * across / v_minor;
+    if (!(room > 1e-6 * q)) return covariance;  // a point on the minor bound: nothing to shorten safely
+    needed = std::max(needed, along * along / room);
+  }
+  const double semi = std::sqrt(q * needed) + slack;
+  const double shortened = semi * semi / q;
+  if (!(shortened < v_major)) return covariance;
+  return shortened * major * major.transpose() + v_minor * minor * minor.transpose();
+}
+
 // The fit of fitEllipsoid() over n points given by point(k) (z = 0 in 2-D) and their unit beam
 // directions bearing(k) (zero vector: no range-noise term for that point).
 template <class PointAt, class BearingAt>
@@ -147,7 +175,8 @@ ObstacleEllipsoid fitCore(std::size_t n, PointAt point, BearingAt bearing, int d
       offsets[k] = length > 0.0 ? Eigen::Vector3d(d * ((length + margin) / length)) : d;
     }
     if (dimensions == 2) {
-      const Eigen::Matrix2d grown = encloseOffsets<2>(covariance.topLeftCorner<2, 2>(), offsets, q);
+      Eigen::Matrix2d grown = encloseOffsets<2>(covariance.topLeftCorner<2, 2>(), offsets, q);
+      if (params.shorten_to_points) grown = shortenToOffsets(grown, offsets, q, margin);
       covariance.topLeftCorner<2, 2>() = grown;
     } else {
       covariance = encloseOffsets<3>(covariance, offsets, q);

@@ -391,13 +391,42 @@ TEST(Pieces, OneCornerVoxelMakesAThinPieceThickerNotLonger) {
   // grows the short axis to hold it; the long axis stays near the Gaussian value (0.88 x 1.4 m).
   std::vector<SupportPoint> support;
   for (int i = 0; i <= 14; ++i) support.push_back({Eigen::Vector3f(0, 0.1f * i, 0), Eigen::Vector3f(1, 0, 0)});
-  const EllipsoidFitParams params{0.99, 0.02, 0.1, true};
+  EllipsoidFitParams params{0.99, 0.02, 0.1, true};
+  params.shorten_to_points = false;  // the Gaussian bound, the enclosing step alone
   const ObstacleEllipsoid face = fitEllipsoid(support, 2, params);
   support.push_back({Eigen::Vector3f(0.3f, 1.4f, 0), Eigen::Vector3f(1, 0, 0)});
   const ObstacleEllipsoid corner = fitEllipsoid(support, 2, params);
   for (const auto& s : support) EXPECT_TRUE(corner.contains(s.position.cast<double>()));
   EXPECT_LT(corner.semi_axes.x(), 1.25 * face.semi_axes.x());  // uniform scaling made it ~3x
   EXPECT_GT(corner.semi_axes.y(), 2.0 * face.semi_axes.y());
+  // Shortened to its points (the default), neither is longer, and every point stays inside.
+  params.shorten_to_points = true;
+  const ObstacleEllipsoid short_corner = fitEllipsoid(support, 2, params);
+  for (const auto& s : support) EXPECT_TRUE(short_corner.contains(s.position.cast<double>()));
+  EXPECT_LE(short_corner.semi_axes.x(), corner.semi_axes.x() + 1e-9);
+}
+
+TEST(Pieces, AWallPieceEndsAboutWhereItsPointsEnd) {
+  // A 1.5 m piece of wall: the Gaussian p-bound reaches 0.88 x 1.5 = 1.31 m from its centre, 0.56 m past its
+  // last point; shortened, the ellipse ends two enclosing margins (2 x 0.13 m) past it, and holds every point
+  // pushed out by one margin.
+  std::vector<SupportPoint> support;
+  for (int i = 0; i <= 15; ++i) support.push_back({Eigen::Vector3f(0.1f * i, 0, 0), Eigen::Vector3f(0, 1, 0)});
+  EllipsoidFitParams params{0.99, 0.02, 0.1, true};
+  const double margin = enclosingMargin(params.range_noise_sigma, params.voxel_size, 2);
+  params.shorten_to_points = false;
+  const ObstacleEllipsoid gaussian = fitEllipsoid(support, 2, params);
+  params.shorten_to_points = true;
+  const ObstacleEllipsoid piece = fitEllipsoid(support, 2, params);
+  EXPECT_GT(gaussian.semi_axes.x(), 0.88 * 1.5 - 0.01);  // 16 discrete points: 1.40
+  EXPECT_NEAR(piece.semi_axes.x(), 0.75 + 2 * margin, 0.02);
+  EXPECT_NEAR(piece.semi_axes.y(), gaussian.semi_axes.y(), 1e-9);  // only the length changes
+  EXPECT_NEAR(piece.center.x(), 0.75, 1e-6);
+  for (const auto& s : support) {
+    const Eigen::Vector3d p = s.position.cast<double>();
+    const Eigen::Vector3d d = p - piece.center;
+    EXPECT_TRUE(piece.contains(p + (d.norm() > 0 ? Eigen::Vector3d(d * (margin / d.norm())) : Eigen::Vector3d::Zero())));
+  }
 }
 
 }  // namespace

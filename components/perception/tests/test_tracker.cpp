@@ -55,16 +55,16 @@ TEST(Tracker, SameSurfaceKeepsItsIdAndAFarOneGetsANewId) {
 }
 
 TEST(Tracker, OverlappingEllipsesOfDifferentSurfacesAreNotMerged) {
-  // A post 0.42 m beyond the end of a 1.4 m wall piece lies inside the piece's ellipse (whose
-  // chi-square semi-axis is 0.88 x its length), and the combined-extent gate of the old tracker
-  // accepted it; its voxels are farther than the association distance from the wall's, so it is
-  // another surface and gets its own track.
+  // A post 0.42 m beyond the end of a 1.4 m wall piece lies inside the piece's ellipsoid (3-D: its
+  // chi-square semi-axis is 0.97 x its length; a 2-D ellipse is shortened to its points and would not
+  // reach it), and the combined-extent gate of the old tracker accepted it; its voxels are farther than
+  // the association distance from the wall's, so it is another surface and gets its own track.
   ObstacleTracker tracker;
   const Eigen::Vector3f sensor(0, -4, 0);
-  const auto& first = tracker.update(std::vector{detectionOf(segment({-0.7, 0, 0}, {0.7, 0, 0}), sensor)});
+  const auto& first = tracker.update(std::vector{detectionOf(segment({-0.7, 0, 0}, {0.7, 0, 0}), sensor, 3)});
   ASSERT_EQ(first.size(), 1u);
   const std::size_t first_voxels = first[0].support.size();
-  const auto post = detectionOf(segment({1.12, 0, 0}, {1.18, 0, 0}), sensor);
+  const auto post = detectionOf(segment({1.12, 0, 0}, {1.18, 0, 0}), sensor, 3);
   ASSERT_TRUE(first[0].contains(post.center));
   const auto& after = tracker.update(std::vector{post});
   EXPECT_EQ(after.size(), 2u);

@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <limits>
+#include <string>
 #include <vector>
 
 namespace ddsnav::tracker {
@@ -61,6 +62,9 @@ struct TrajectoryReport {
   double max_heading_jump = 0.0;       // rad between consecutive samples
   double min_clearance = std::numeric_limits<double>::infinity();  // m, robot boundary to obstacles
   std::size_t samples_in_collision = 0;  // always 0 for a trajectory the smoother returns
+  // A moving start (initial_speed > 0) whose lead-in did not fit: why, for the longest and the shortest length
+  // tried (the trajectory then starts at rest); empty otherwise.
+  std::string lead_in_failure;
 };
 
 struct Trajectory {

@@ -46,6 +46,9 @@ struct EllipsoidFitParams {
   double range_noise_sigma = 0.02;  // m, sensor range noise (1 sigma) along each beam
   double voxel_size = 0.0;          // m; adds the uniform-in-voxel variance leaf^2 / 12 per axis
   bool enclose_points = true;       // scale C up (never down) until every cluster point is inside
+  // 2-D, with enclose_points: the major axis ends one enclosing margin beyond the farthest point along it (a piece
+  // of wall ends about where its points end, not 0.38 x its length beyond); never lengthens
+  bool shorten_to_points = true;
 };
 
 // Fits the probability-p ellipsoid to a cluster:
@@ -60,7 +63,10 @@ struct EllipsoidFitParams {
 // variance only (up to 8 such steps), anything left scales C uniformly. A sensed surface that is
 // far from Gaussian (an L of two box faces, a partly seen arc) keeps its Gaussian ellipse only if
 // that ellipse holds every sensed point — the planner must never be told a seen obstacle point is
-// free — and a thin piece with one corner voxel gets thicker, not metres longer.
+// free — and a thin piece with one corner voxel gets thicker, not metres longer. In 2-D, with shorten_to_points (the
+// default), the major axis is then shortened to end one enclosing margin beyond the farthest pushed-out point along
+// it, every point still inside: along a piece of wall the points are spread evenly, not as a Gaussian, and the
+// p-bound beyond its last point (0.56 m past a 1.5 m piece) is free space or the next piece's (docs/perception.md).
 // `dimensions` 2 uses only x, y (an ellipse in the z = 0 plane). `indices` selects points
 // (all when empty).
 ObstacleEllipsoid fitEllipsoid(std::span<const Eigen::Vector3f> points, std::span<const int> indices,
