@@ -550,7 +550,11 @@ class TrackerComponent : public runtime::Component {
     if (!announced) trajectories_.publish(nodes::toMsg(trajectory, request_id, clock().nowNs()));
     // The plan's progress counts the pieces flown before this one.
     flown_pieces_m_ = next_piece && follower_ ? flown_pieces_m_ + follower_->trajectory().at(follower_->status().reference_time).arc_length : 0.0;
-    const bool moving_start = request_speed_ > 0 || trajectory.samples.front().speed > 0;
+    // A start that turns in place is never skipped: the skip to the vehicle's projection jumped past the turn (a
+    // slow replan ahead at a stunnel_0.5 corner: 3.29 s in, the reference heading 1.2 rad off the vehicle's, which
+    // swung 0.6 m off the trajectory into the wall).
+    const bool turns_in_place = trajectory.samples.front().speed < 0.1 && std::abs(trajectory.initial_turn) > 1e-3;
+    const bool moving_start = !turns_in_place && (request_speed_ > 0 || trajectory.samples.front().speed > 0);
     rest_of_path_ = std::move(rest);
     rest_length_m_ = planner::pathLength(rest_of_path_);
     follower_.emplace(std::move(trajectory), limits_, tracker_config_);
