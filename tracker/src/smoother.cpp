@@ -386,30 +386,43 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
   if (std::isfinite(climb) && std::abs(climb) > 1e-3) directions.push_back(Vec3(std::cos(heading), std::sin(heading), climb).normalized());
   directions.push_back(Vec3(std::cos(heading), std::sin(heading), 0.0));
   const Vec3& start = points.front();
+  // The turn radius bounds horizontal turns (omega); a change of climb is the vertical rate's business, left to the
+  // time parametrisation. So in 3-D the corner is measured in the horizontal plane: the 3-D angle counted a
+  // hillside's 20 degrees of climb as a turn, and every short lead-in of a climbing UAV was "too tight".
+  const bool three_d = world.dimensions() == 3;
+  auto cornerAngle = [&](const Vec3& a, const Vec3& b) {
+    Vec3 u = a, w = b;
+    if (three_d && std::hypot(u.x(), u.y()) > 1e-6 && std::hypot(w.x(), w.y()) > 1e-6) u.z() = 0.0, w.z() = 0.0;
+    return std::acos(std::clamp(u.normalized().dot(w.normalized()), -1.0, 1.0));
+  };
   for (double l = length; l >= std::min(0.5, length) - 1e-9; l *= 0.5) {
     for (const Vec3& direction : directions) {
       const Vec3 ahead = start + l * direction;
       // The first point after the start that lies beyond the lead-in (the ones it passes are dropped).
-      std::size_t next = 1;
-      while (next + 1 < points.size() && (points[next] - start).dot(direction) <= l) ++next;
-      const Vec3 onward = points[next] - ahead;
-      if (onward.norm() < 1e-6) continue;
-      // The corner at the new point must be roundable at the turn radius: a tighter one is a near stop.
-      const double corner = std::acos(std::clamp(onward.normalized().dot(direction), -1.0, 1.0));
-      const double tangent = turn_radius * std::tan(0.5 * corner);
-      if (corner > 0.5 * std::numbers::pi) { failed(l, "the path turns back more than a right angle"); continue; }
-      if (l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) { failed(l, "the corner is too tight for the turn radius"); continue; }
-      if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead)) { failed(l, "the lead-in is blocked"); continue; }
-      if (!world.isSegmentFree(ahead, points[next])) { failed(l, "the edge back to the path is blocked"); continue; }
-      const double need = std::min(min_clearance, world.clearance(start));
-      if (!clearanceAtLeast(world, start, ahead, need) ||
-          !clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next])))) {
-        failed(l, "too close to an obstacle");
-        continue;
+      std::size_t first = 1;
+      while (first + 1 < points.size() && (points[first] - start).dot(direction) <= l) ++first;
+      // Back to that point, or to one of the next two (a gentler corner, the points between dropped: a path that
+      // curves right after its start — around a hill — left no corner a fast vehicle could round).
+      for (std::size_t next = first; next < std::min(points.size(), first + 3); ++next) {
+        const Vec3 onward = points[next] - ahead;
+        if (onward.norm() < 1e-6) continue;
+        // The corner at the new point must be roundable at the turn radius: a tighter one is a near stop.
+        const double corner = cornerAngle(direction, onward);
+        const double tangent = turn_radius * std::tan(0.5 * corner);
+        if (corner > 0.5 * std::numbers::pi) { failed(l, "the path turns back more than a right angle"); continue; }
+        if (l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) { failed(l, "the corner is too tight for the turn radius"); continue; }
+        if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead)) { failed(l, "the lead-in is blocked"); break; }
+        if (!world.isSegmentFree(ahead, points[next])) { failed(l, "the edge back to the path is blocked"); continue; }
+        const double need = std::min(min_clearance, world.clearance(start));
+        if (!clearanceAtLeast(world, start, ahead, need)) { failed(l, "too close to an obstacle"); break; }
+        if (!clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next])))) {
+          failed(l, "too close to an obstacle");
+          continue;
+        }
+        std::vector<Vec3> out{start, ahead};
+        out.insert(out.end(), points.begin() + static_cast<std::ptrdiff_t>(next), points.end());
+        return out;
       }
-      std::vector<Vec3> out{start, ahead};
-      out.insert(out.end(), points.begin() + static_cast<std::ptrdiff_t>(next), points.end());
-      return out;
     }
   }
   failure = longest_failure.empty() ? "no candidate" : longest_failure + (shortest_failure != longest_failure ? "; " + shortest_failure : "");

@@ -390,6 +390,28 @@ TEST(Smoother, AClimbingStartLeadsInAlongItsClimb) {
   EXPECT_NEAR(climbing.samples.front().vz / climbing.samples.front().speed, 0.4, 0.05);
 }
 
+// The lead-in's corner is a horizontal turn: a level start before a path that climbs 49 degrees over a step, 18
+// degrees to the left, fits a 2 m lead-in (an 18 degree turn), where the 3-D angle (50 degrees) did not.
+TEST(Smoother, ALeadInsCornerIsMeasuredInTheHorizontal) {
+  const std::string text =
+      "name: step\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [2, 15, 4.6]\n"
+      "goal: [25, 16, 8]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 5.0, omega_max: 0.6, vz_max: 2.0, dt: 1.0}\n"
+      "obstacles:\n  - {type: box, min: [6, 0, 0], max: [30, 30, 5]}\n";
+  const auto sc = ddsnav::planner::parseScenario(text, "step");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = *sc.vehicle;
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;
+  cfg.initial_speed = 3.0;
+  const Trajectory t = smoothPath(pathOf({{2, 15, 4.6}, {7, 16, 8}, {25, 16, 8}}), *world, l, cfg);
+  EXPECT_TRUE(t.report.lead_in_failure.empty()) << t.report.lead_in_failure;
+  for (const auto& sample : t.samples) EXPECT_TRUE(world->isFree(sample.position)) << "t=" << sample.time;
+  // Moving, no turn in place; slower than 3 m/s where the lead-in bends up into the climb (vz_max).
+  EXPECT_GT(t.samples.front().speed, 2.0);
+  EXPECT_NEAR(t.initial_turn, 0.0, 1e-9);
+  EXPECT_NEAR(t.samples.front().heading, 0.0, 1e-6);
+}
+
 // No room for a lead-in (a wall right ahead of the heading): the trajectory starts at rest and turns.
 TEST(Smoother, AMovingStartWithoutRoomStartsAtRest) {
   const auto sc = scenario2d(60, 0.3, "  - {type: box, min: [5.6, 0], max: [7, 60]}\n");  // 0.3 m of room ahead
