@@ -367,7 +367,7 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
 // ---- lead-in ------------------------------------------------------------------------------------------
 
 // A start moving at `heading` (and climbing at `climb` = vz / horizontal speed, 3-D): puts a point `length` ahead
-// along it after the start, the longest of a few candidates (halving down to 0.5 m) whose two new edges are
+// along it after the start, the longest of a few candidates (x 0.7 down to 0.5 m) whose two new edges are
 // collision free with `min_clearance` and whose corner at the new point is at most a right angle and can be rounded
 // at `turn_radius` (both edges at least radius x tan(corner / 2) long: a tighter corner is a near stop, and the
 // tracker then deviates). At each length the climbing direction is tried first, then the level one. Returns the
@@ -395,7 +395,8 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
     if (three_d && std::hypot(u.x(), u.y()) > 1e-6 && std::hypot(w.x(), w.y()) > 1e-6) u.z() = 0.0, w.z() = 0.0;
     return std::acos(std::clamp(u.normalized().dot(w.normalized()), -1.0, 1.0));
   };
-  for (double l = length; l >= std::min(0.5, length) - 1e-9; l *= 0.5) {
+  // Steps of 0.7: between "blocked" (too long) and "too tight" (too short) the halving often had no length left.
+  for (double l = length; l >= std::min(0.5, length) - 1e-9; l *= 0.7) {
     for (const Vec3& direction : directions) {
       const Vec3 ahead = start + l * direction;
       // The first point after the start that lies beyond the lead-in (the ones it passes are dropped).

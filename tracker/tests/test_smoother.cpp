@@ -372,16 +372,16 @@ TEST(Smoother, ASlowMovingStartTurnsAtItsOwnSpeedsRadius) {
 // the one along its climb does, so the trajectory starts moving, climbing as the vehicle was.
 TEST(Smoother, AClimbingStartLeadsInAlongItsClimb) {
   const std::string text =
-      "name: step\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [2, 15, 4.6]\n"
-      "goal: [25, 15, 8]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 5.0, omega_max: 0.6, vz_max: 2.0, dt: 1.0}\n"
-      "obstacles:\n  - {type: box, min: [6, 0, 0], max: [30, 30, 5]}\n";
+      "name: step\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [2, 15, 5.0]\n"
+      "goal: [25, 17.5, 8.5]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 5.0, omega_max: 0.6, vz_max: 2.0, dt: 1.0}\n"
+      "obstacles:\n  - {type: box, min: [4, 0, 0], max: [30, 30, 5]}\n";
   const auto sc = ddsnav::planner::parseScenario(text, "step");
   const auto world = ddsnav::planner::makeScenarioWorld(sc);
   const auto l = *sc.vehicle;
   SmootherConfig cfg;
   cfg.initial_heading = 0.0;
   cfg.initial_speed = 3.0;
-  const auto path = pathOf({{2, 15, 4.6}, {7, 17.5, 8}, {25, 17.5, 8}});  // the first edge 27 deg to the left
+  const auto path = pathOf({{2, 15, 5.0}, {7, 17.5, 8.5}, {25, 17.5, 8.5}});  // the first edge 27 deg to the left
   const Trajectory level = smoothPath(path, *world, l, cfg);  // as before: no climb given
   EXPECT_DOUBLE_EQ(level.samples.front().speed, 0.0);
   cfg.initial_vz = 1.2;  // climbing at 0.4 (22 deg)
