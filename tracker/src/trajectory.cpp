@@ -132,16 +132,31 @@ TrajectorySample Trajectory::at(double time) const {
   return out;
 }
 
+namespace {
+
+// Where arc length s falls among non-empty samples: between samples[index - 1] and samples[index] at fraction f
+// (index 0 or f = 1 at the ends, clamped).
+struct ArcPosition {
+  std::size_t index = 0;
+  double f = 0.0;
+};
+ArcPosition locateArc(const std::vector<TrajectorySample>& in, double s) {
+  auto it = std::lower_bound(in.begin(), in.end(), s, [](const TrajectorySample& x, double v) { return x.arc_length < v; });
+  if (it == in.begin()) return {0, 0.0};
+  if (it == in.end()) return {in.size() - 1, 1.0};
+  const TrajectorySample& b = *it;
+  const TrajectorySample& a = *(it - 1);
+  return {static_cast<std::size_t>(it - in.begin()), b.arc_length > a.arc_length ? (s - a.arc_length) / (b.arc_length - a.arc_length) : 1.0};
+}
+
+}  // namespace
+
 double timeAtArcLength(const Trajectory& trajectory, double s) {
   const auto& in = trajectory.samples;
   if (in.empty()) return 0.0;
-  auto it = std::lower_bound(in.begin(), in.end(), s, [](const TrajectorySample& x, double v) { return x.arc_length < v; });
-  if (it == in.begin()) return in.front().time;
-  if (it == in.end()) return in.back().time;
-  const TrajectorySample& b = *it;
-  const TrajectorySample& a = *(it - 1);
-  const double f = b.arc_length > a.arc_length ? (s - a.arc_length) / (b.arc_length - a.arc_length) : 1.0;
-  return a.time + f * (b.time - a.time);
+  const ArcPosition at = locateArc(in, s);
+  if (at.index == 0) return in.front().time;
+  return in[at.index - 1].time + at.f * (in[at.index].time - in[at.index - 1].time);
 }
 
 double brakingDecel(double speed, double room, double comfortable, double limit) {
@@ -160,12 +175,11 @@ Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double spe
   const double s_end = in.back().arc_length;
   // The original sample at arc length s (interpolated), for the path's geometry there.
   const auto atArc = [&](double s) {
-    auto it = std::lower_bound(in.begin(), in.end(), s, [](const TrajectorySample& x, double v) { return x.arc_length < v; });
-    if (it == in.begin()) return in.front();
-    if (it == in.end()) return in.back();
-    const TrajectorySample& b = *it;
-    const TrajectorySample& a = *(it - 1);
-    const double f = b.arc_length > a.arc_length ? (s - a.arc_length) / (b.arc_length - a.arc_length) : 1.0;
+    const ArcPosition at = locateArc(in, s);
+    if (at.index == 0) return in.front();
+    const TrajectorySample& a = in[at.index - 1];
+    const TrajectorySample& b = in[at.index];
+    const double f = at.f;
     TrajectorySample out = f < 0.5 ? a : b;
     out.position = a.position + f * (b.position - a.position);
     out.heading = a.heading + f * (b.heading - a.heading);

@@ -370,12 +370,17 @@ TEST(Smoother, ASlowMovingStartTurnsAtItsOwnSpeedsRadius) {
 
 // A UAV climbing toward a step in the terrain: no level lead-in clears the step nor fits the steep first edge,
 // the one along its climb does, so the trajectory starts moving, climbing as the vehicle was.
-TEST(Smoother, AClimbingStartLeadsInAlongItsClimb) {
+// A 3-D world with a 5 m step from x = step_x on, for a UAV (5 m/s, 0.6 rad/s, 2 m/s climb) moving at 3 m/s along x.
+static ddsnav::planner::Scenario stepScenario(double step_x) {
   const std::string text =
-      "name: step\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [2, 15, 5.0]\n"
-      "goal: [25, 17.5, 8.5]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 5.0, omega_max: 0.6, vz_max: 2.0, dt: 1.0}\n"
-      "obstacles:\n  - {type: box, min: [4, 0, 0], max: [30, 30, 5]}\n";
-  const auto sc = ddsnav::planner::parseScenario(text, "step");
+      "name: step\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [2, 15, 6]\n"
+      "goal: [25, 15, 8]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 5.0, omega_max: 0.6, vz_max: 2.0, dt: 1.0}\n"
+      "obstacles:\n  - {type: box, min: [" + std::to_string(step_x) + ", 0, 0], max: [30, 30, 5]}\n";
+  return ddsnav::planner::parseScenario(text, "step");
+}
+
+TEST(Smoother, AClimbingStartLeadsInAlongItsClimb) {
+  const auto sc = stepScenario(4.0);
   const auto world = ddsnav::planner::makeScenarioWorld(sc);
   const auto l = *sc.vehicle;
   SmootherConfig cfg;
@@ -390,14 +395,10 @@ TEST(Smoother, AClimbingStartLeadsInAlongItsClimb) {
   EXPECT_NEAR(climbing.samples.front().vz / climbing.samples.front().speed, 0.4, 0.05);
 }
 
-// The lead-in's corner is a horizontal turn: a level start before a path that climbs 49 degrees over a step, 18
-// degrees to the left, fits a 2 m lead-in (an 18 degree turn), where the 3-D angle (50 degrees) did not.
+// The lead-in's corner is a horizontal turn: a level start before a path that climbs steeply over a step, a little
+// to the left, fits a 2.7 m lead-in (a 24 degree turn), where the 3-D angle (57 degrees) did not.
 TEST(Smoother, ALeadInsCornerIsMeasuredInTheHorizontal) {
-  const std::string text =
-      "name: step\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [2, 15, 4.6]\n"
-      "goal: [25, 16, 8]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 5.0, omega_max: 0.6, vz_max: 2.0, dt: 1.0}\n"
-      "obstacles:\n  - {type: box, min: [6, 0, 0], max: [30, 30, 5]}\n";
-  const auto sc = ddsnav::planner::parseScenario(text, "step");
+  const auto sc = stepScenario(6.0);
   const auto world = ddsnav::planner::makeScenarioWorld(sc);
   const auto l = *sc.vehicle;
   SmootherConfig cfg;
