@@ -65,6 +65,7 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
   if (!(c.clearance_target >= 0.0) || !std::isfinite(c.clearance_target)) fail("clearance_target must be a number >= 0");
   if (c.initial_heading && !std::isfinite(*c.initial_heading)) fail("initial_heading must be finite");
   if (!(c.end_tolerance >= 0.0) || !std::isfinite(c.end_tolerance)) fail("end_tolerance must be a number >= 0");
+  if (!(c.lead_in_decel >= 0.0) || !std::isfinite(c.lead_in_decel)) fail("lead_in_decel must be a number >= 0");
 }
 
 void checkPathFree(const std::vector<Vec3>& points, const CollisionWorld& world) {
@@ -366,14 +367,67 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
 
 // ---- lead-in ------------------------------------------------------------------------------------------
 
+// No lead-in at speed fitted: brake to rest straight along the heading (`braking_length`, the stop at the lead-in's
+// deceleration and some slack), turn in place there and join the path at whichever of its first points makes the
+// whole way shortest — a path that turns back (inside a bug trap every replan does) is joined near its start.
+// It is the stop the tracker would otherwise make after refusing the plan, without the refusals and the planning
+// round trip from rest. Nothing (and why in `failure`) when the braking line or every way back to the path is
+// blocked.
+std::optional<std::vector<Vec3>> brakingLeadIn(const std::vector<Vec3>& points, const std::vector<Vec3>& directions,
+                                               double braking_length, const CollisionWorld& world, double min_clearance,
+                                               double stop_clearance, std::string& failure) {
+  auto describe = [](double l, const char* why) {
+    char text[96];
+    std::snprintf(text, sizeof text, "braking in %.1f m: %s", l, why);
+    return std::string(text);
+  };
+  const Vec3& start = points.front();
+  // The braking line keeps stop_clearance (the smoother's clearance target), or 70 % of the start's own where that is
+  // less (a corridor, which a heading a few degrees off its axis approaches): it must not end close to what the vehicle
+  // stops for, as an overshoot of the stop goes on along the heading (stunnel_1.0: a stop 0.2 m before the end wall at
+  // 0.1 m allowed, the vehicle 0.13 m into it).
+  const double start_clearance = world.clearance(start);
+  const double need = std::max(std::min(min_clearance, start_clearance), std::min(stop_clearance, 0.7 * start_clearance));
+  // Remaining path length from each point, to compare the ways back.
+  std::vector<double> remaining(points.size(), 0.0);
+  for (std::size_t i = points.size() - 1; i-- > 0;) remaining[i] = remaining[i + 1] + (points[i + 1] - points[i]).norm();
+  constexpr std::size_t kJoinCandidates = 10;  // path points tried as the way back: the first ten after the start
+  for (const Vec3& direction : directions) {
+    const Vec3 ahead = start + braking_length * direction;
+    if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !clearanceAtLeast(world, start, ahead, need)) {
+      failure = describe(braking_length, "the braking line is blocked");
+      continue;
+    }
+    std::size_t best = 0;
+    double best_length = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 1; k < std::min(points.size(), 1 + kJoinCandidates); ++k) {
+      const double way = (points[k] - ahead).norm() + remaining[k];
+      if (way >= best_length) continue;
+      if (!world.isSegmentFree(ahead, points[k]) || !clearanceAtLeast(world, ahead, points[k], std::min(need, world.clearance(points[k]))))
+        continue;
+      best = k, best_length = way;
+    }
+    if (best == 0) {
+      failure = describe(braking_length, "no way back to the path from the stop");
+      continue;
+    }
+    std::vector<Vec3> out{start, ahead};
+    out.insert(out.end(), points.begin() + static_cast<std::ptrdiff_t>(best), points.end());
+    return out;
+  }
+  return std::nullopt;
+}
+
 // A start moving at `heading` (and climbing at `climb` = vz / horizontal speed, 3-D): puts a point `length` ahead
 // along it after the start, the longest of a few candidates (x 0.7 down to 0.5 m) whose two new edges are
 // collision free with `min_clearance` and whose corner at the new point is at most a right angle and can be rounded
 // at `turn_radius` (both edges at least radius x tan(corner / 2) long: a tighter corner is a near stop, and the
-// tracker then deviates). At each length the climbing direction is tried first, then the level one. Returns the
-// points unchanged when none is.
+// tracker then deviates). At each length the climbing direction is tried first, then the level one. When none is and
+// `braking_length` > 0, a braking lead-in of that length (`braking` set). Returns the points unchanged when none fits.
 std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double climb, double length, double turn_radius,
-                         const CollisionWorld& world, double min_clearance, std::string& failure) {
+                         double braking_length, double stop_clearance, const CollisionWorld& world, double min_clearance,
+                         std::string& failure, bool& braking) {
+  braking = false;
   if (points.size() < 2 || !(length > 0)) return points;
   std::string longest_failure, shortest_failure;
   auto failed = [&](double l, const char* why) {
@@ -427,6 +481,14 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
     }
   }
   failure = longest_failure.empty() ? "no candidate" : longest_failure + (shortest_failure != longest_failure ? "; " + shortest_failure : "");
+  if (braking_length > 0) {
+    std::string braking_failure;
+    if (auto out = brakingLeadIn(points, directions, braking_length, world, min_clearance, stop_clearance, braking_failure)) {
+      braking = true;
+      return std::move(*out);
+    }
+    failure += "; " + braking_failure;
+  }
   return points;
 }
 
@@ -438,8 +500,9 @@ struct Profile {
   std::vector<double> arc;    // arc length at each curve point
 };
 
+// `braking_arc`: the first metres of a braking lead-in, where the profile may brake at cfg.lead_in_decel.
 Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::VehicleLimits& limits, int dims,
-                        const SmootherConfig& cfg) {
+                        const SmootherConfig& cfg, double braking_arc = 0.0) {
   const std::size_t n = pts.size();
   const double v_eff = cfg.limit_fraction * limits.v_max;
   const double w_eff = cfg.limit_fraction * limits.omega_max;
@@ -483,7 +546,10 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
   v.assign(n, 0.0);
   v.front() = cap.front();
   for (std::size_t i = 0; i + 1 < n; ++i) v[i + 1] = std::min(cap[i + 1], std::sqrt(v[i] * v[i] + 2 * cfg.max_accel * ds[i]));
-  for (std::size_t i = n - 1; i-- > 0;) v[i] = std::min(v[i], std::sqrt(v[i + 1] * v[i + 1] + 2 * cfg.max_accel * ds[i]));
+  std::vector<double> decel(n - 1, cfg.max_accel);
+  double arc = 0.0;
+  for (std::size_t i = 0; i + 1 < n && arc < braking_arc; arc += ds[i], ++i) decel[i] = std::max(cfg.max_accel, cfg.lead_in_decel);
+  for (std::size_t i = n - 1; i-- > 0;) v[i] = std::min(v[i], std::sqrt(v[i + 1] * v[i + 1] + 2 * decel[i] * ds[i]));
 
   prof.time.assign(n, 0.0);
   prof.arc.assign(n, 0.0);
@@ -647,6 +713,7 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   }
   points = dropCollinear(points);
   const double radius = config.corner_radius < 0 ? limits.v_max / limits.omega_max : config.corner_radius;
+  double braking_arc = 0.0;  // a braking lead-in's length
   if (config.initial_speed > 0 && config.initial_heading) {
     // The lead-in's corner needs the turn radius of the speed the vehicle has there, not of v_max: a replan
     // ahead near an obstacle starts slower, and at the full-speed radius (v_max / omega_max: 8 m for the
@@ -655,12 +722,24 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
     const double lead_radius =
         std::min(radius, std::max(config.initial_speed, 0.1 * limits.v_max) / (config.limit_fraction * limits.omega_max));
     const double climb = dims == 3 ? config.initial_vz / config.initial_speed : 0.0;
-    points = leadIn(points, *config.initial_heading, climb, std::max(2 * radius, 1.0), lead_radius, world, config.shortcut_clearance,
-                    traj.report.lead_in_failure);
+    // When nothing fits at speed: a stop along the heading at the lead-in's deceleration, with some slack for the
+    // vehicle's lag behind its reference.
+    const double path_speed = dims == 3 ? std::hypot(config.initial_speed, config.initial_vz) : config.initial_speed;
+    const double stop = path_speed * path_speed / (2 * std::max(config.lead_in_decel, config.max_accel));
+    // Below 0.1 m a stop is no lead-in: starting at rest overshoots the start by no more (the tracker flies such a
+    // start from a moving vehicle below 0.5 m/s).
+    const double braking_length = config.lead_in_decel > 0 && stop > 0.1 ? 1.25 * stop + 0.3 : 0.0;
+    bool braking = false;
+    points = leadIn(points, *config.initial_heading, climb, std::max(2 * radius, 1.0), lead_radius, braking_length,
+                    config.clearance_target, world, config.shortcut_clearance, traj.report.lead_in_failure, braking);
+    if (braking) braking_arc = traj.report.lead_in_braking = braking_length;
   }
   traj.report.shortcut_waypoints = points.size();
 
   Corners corners = makeCorners(points, radius, world, config.clearance_target);
+  // A braking lead-in stops at its corner and turns there in place: a rounded corner would start bending (and
+  // cutting it) from the start, at speed.
+  if (braking_arc > 0 && corners.size.size() > 2) corners.size[1] = 0.0;
   const double step = std::min(0.05, world.checkResolution());
 
   for (int iteration = 0;; ++iteration) {
@@ -679,7 +758,7 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
         if (std::abs(turn) > 1e-9) pts.insert(pts.begin(), start);
         traj.initial_turn = turn;
       }
-      const Profile prof = timeParametrise(pts, limits, dims, config);
+      const Profile prof = timeParametrise(pts, limits, dims, config, braking_arc);
       traj.samples = sampleInTime(pts, prof, config.sample_dt);
       // Samples lie on chords between checked curve points; check them too, they are what gets flown.
       for (const auto& s : traj.samples) {

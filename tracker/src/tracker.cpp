@@ -185,12 +185,14 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
 double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {
   if (!position.allFinite() || !(within_s > 0) || status_.updates > 0) return 0.0;
   const auto& s = trajectory_->samples;
-  // The nearest point of the trajectory's first within_s seconds; a later part passing nearby (a loop
-  // back) is not considered.
+  // The nearest point of the trajectory's first within_s seconds, up to its first stop; a later part passing nearby
+  // (a loop back, or the way back after a braking lead-in's turn in place: a vehicle that overshot the stop would skip
+  // the turn and swing into whatever it stopped for) is not considered.
   double best_d = std::numeric_limits<double>::infinity();
   double best_time = 0.0;
   std::size_t best_segment = 0;
   for (std::size_t i = 0; i + 1 < s.size() && s[i].time <= within_s; ++i) {
+    if (i > 0 && s[i].speed < 1e-6 && std::abs(s[i].vz) < 1e-6) break;
     const Vec3 a = s[i].position, ab = s[i + 1].position - a;
     const double len2 = ab.squaredNorm();
     const double f = len2 > 0 ? std::clamp((position - a).dot(ab) / len2, 0.0, 1.0) : 0.0;

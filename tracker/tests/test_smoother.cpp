@@ -426,3 +426,57 @@ TEST(Smoother, AMovingStartWithoutRoomStartsAtRest) {
   EXPECT_DOUBLE_EQ(t.samples.front().speed, 0.0);
   EXPECT_NEAR(std::abs(t.initial_turn), std::numbers::pi / 2, 1e-6);
 }
+
+// A plan asked ahead of a moving vehicle that turns back (inside a bug trap every replan does): no lead-in fits at
+// speed, so the trajectory brakes to rest along the heading at lead_in_decel, turns in place and joins the path,
+// instead of starting at rest where the vehicle arrives at 3 m/s. Without the braking lead-in it starts at rest.
+TEST(Smoother, AMovingStartWhosePathTurnsBackBrakesAlongItsHeading) {
+  const auto sc = scenario2d(60, 0.3, "");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = limits(5.0, 0.6);
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;  // east
+  cfg.initial_speed = 3.0;
+  cfg.lead_in_decel = 1.7;
+  const auto path = pathOf({{20, 20, 0}, {14, 24, 0}, {5, 40, 0}});  // back west-north-west
+  const Trajectory t = smoothPath(path, *world, l, cfg);
+  expectMovingStart(t, *world, l, 3.0, 0.0);
+  const double stop = 1.25 * 9.0 / (2 * 1.7) + 0.3;  // the stop at 1.7 m/s^2 with its slack
+  EXPECT_NEAR(t.report.lead_in_braking, stop, 1e-9);
+  EXPECT_FALSE(t.report.lead_in_failure.empty());  // why none fitted at speed
+  // Brakes no harder than asked, along the heading, and comes to rest near the stop point before turning.
+  bool came_to_rest = false;
+  for (std::size_t i = 1; i < t.samples.size(); ++i) {
+    const auto& a = t.samples[i - 1];
+    const auto& b = t.samples[i];
+    EXPECT_LE((a.speed - b.speed) / (b.time - a.time), 1.7 + 1e-6) << "t=" << b.time;
+    if (b.arc_length < stop - 1.0) {
+      EXPECT_NEAR(b.position.y(), 20.0, 1e-6) << "t=" << b.time;
+      EXPECT_NEAR(b.heading, 0.0, 1e-6) << "t=" << b.time;
+    }
+    if (b.speed < 0.05 && b.position.x() > 20.0 + stop - 2.0) came_to_rest = true;
+  }
+  EXPECT_TRUE(came_to_rest);
+  EXPECT_NEAR(t.samples.back().position.x(), 5.0, 1e-6);
+
+  cfg.lead_in_decel = 0.0;
+  const Trajectory at_rest = smoothPath(path, *world, l, cfg);
+  EXPECT_DOUBLE_EQ(at_rest.samples.front().speed, 0.0);
+  EXPECT_DOUBLE_EQ(at_rest.report.lead_in_braking, 0.0);
+}
+
+// No room to brake along the heading (a wall 2 m ahead of a vehicle at 3 m/s): no braking lead-in either, the
+// trajectory starts at rest and says why.
+TEST(Smoother, ABrakingLeadInNeedsRoomToStop) {
+  const auto sc = scenario2d(60, 0.3, "  - {type: box, min: [22.3, 0], max: [24, 60]}\n");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = limits(5.0, 0.6);
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;
+  cfg.initial_speed = 3.0;
+  cfg.lead_in_decel = 1.7;
+  const Trajectory t = smoothPath(pathOf({{20, 20, 0}, {14, 24, 0}, {5, 40, 0}}), *world, l, cfg);
+  EXPECT_DOUBLE_EQ(t.samples.front().speed, 0.0);
+  EXPECT_DOUBLE_EQ(t.report.lead_in_braking, 0.0);
+  EXPECT_NE(t.report.lead_in_failure.find("the braking line is blocked"), std::string::npos) << t.report.lead_in_failure;
+}

@@ -167,6 +167,7 @@ class PlannerComponent : public runtime::Component {
         if (!result) return;  // answered (failed)
         if (result->stopped) return stopped();
         if (result->solved) notePreferredSolve(result->stats.time_s);
+        else ++preferred_failures_;
         if (!result->solved)
           spdlog::info("request {}: no path keeping {:.1f} m from unseen surfaces in {:.2f} s; planning on the plain map", request.request_id(),
                        params_.unknown_margin_m, preferred_budget);
@@ -190,7 +191,9 @@ class PlannerComponent : public runtime::Component {
   // The preferred world's share of a request's budget: a tenth of it, and once a few solves there have
   // succeeded, at most 3 x their median (at least 0.1 s). Where it closes an unseen passage the vehicle must
   // take, it finds nothing and the whole share is waited for before the plain map is tried: 0.5 s of a 5 s
-  // budget on stunnel_1.0, the worst replan of the run, where the successful solves took 11-125 ms.
+  // budget on stunnel_1.0, the worst replan of the run, where the successful solves took 11-125 ms. Each failure
+  // there since the last success halves the share (down to 0.1 s): in stunnel_0.5's 2 m corridor, whose next leg
+  // the margin closes until the vehicle looks into it, hardly a try succeeds, and 0.5 s went to each of 20 requests.
   double preferredBudget(double budget) const {
     double share = budget / 10;
     if (preferred_solve_s_.size() >= 3) {
@@ -198,9 +201,11 @@ class PlannerComponent : public runtime::Component {
       std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
       share = std::min(share, std::max(0.1, 3.0 * sorted[sorted.size() / 2]));
     }
+    share = std::max(std::min(share, 0.1), std::ldexp(share, -std::min(preferred_failures_, 30)));
     return share;
   }
   void notePreferredSolve(double seconds) {
+    preferred_failures_ = 0;
     preferred_solve_s_.push_back(seconds);
     if (preferred_solve_s_.size() > 15) preferred_solve_s_.pop_front();
   }
@@ -258,8 +263,9 @@ class PlannerComponent : public runtime::Component {
     std::shared_ptr<planner::Planner> algorithm;
     std::int64_t since_ns = 0;  // clock time it came
   };
-  std::map<std::uint64_t, Deferred> deferred_;
-  std::deque<double> preferred_solve_s_;  // the latest successful solves on the preferred world, s (the worker's)  // requests waiting for the world, by requester (serveDeferred)
+  std::map<std::uint64_t, Deferred> deferred_;  // requests waiting for the world, by requester (serveDeferred)
+  std::deque<double> preferred_solve_s_;  // the latest successful solves on the preferred world, s (the worker's)
+  int preferred_failures_ = 0;            // failed tries on the preferred world since its last success (the worker's)
   std::optional<runtime::Timer> deferred_timer_;  // polls while a request waits
   runtime::Worker worker_{"planner"};  // after what its jobs use: stopped and joined before they go
   bus::Subscription requests_;

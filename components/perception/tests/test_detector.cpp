@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <random>
 
 namespace ddsnav::perception {
@@ -404,6 +405,33 @@ TEST(Pieces, OneCornerVoxelMakesAThinPieceThickerNotLonger) {
   const ObstacleEllipsoid short_corner = fitEllipsoid(support, 2, params);
   for (const auto& s : support) EXPECT_TRUE(short_corner.contains(s.position.cast<double>()));
   EXPECT_LE(short_corner.semi_axes.x(), corner.semi_axes.x() + 1e-9);
+}
+
+// An inner corner seen from the corridor turning around it (stunnel_0.5): a 1.2 m face and a 0.3 m leg of the
+// adjoining face. Kept whole (thinner than 0.4 m), its ellipse reached 0.9 m past the corner into the corridor and
+// closed it for a 1 m robot; the default width (0.25 m) cuts it into nearly straight pieces, none of which reaches
+// much past the corner.
+static double reachPastTheCorner(double max_width) {
+  std::vector<Eigen::Vector3f> points;
+  for (int i = 0; i <= 12; ++i) points.emplace_back(0.0f, 0.1f * i, 0.0f);
+  for (int i = 1; i <= 3; ++i) points.emplace_back(-0.1f * i, 1.2f, 0.0f);
+  std::vector<int> all(points.size());
+  std::iota(all.begin(), all.end(), 0);
+  Clusters pieces;
+  splitByExtent(points, all, 2, 1.5, max_width, pieces);
+  const EllipsoidFitParams params{0.99, 0.02, 0.1, true};
+  double reach = -std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < pieces.size(); ++k) {
+    const ObstacleEllipsoid e = fitEllipsoid(points, pieces[k], Eigen::Vector3d(1.0, 1.5, 0.0), 2, params);
+    for (int i : pieces[k]) EXPECT_TRUE(e.contains(points[static_cast<std::size_t>(i)].cast<double>()));
+    reach = std::max(reach, e.center.y() + std::sqrt(chiSquareQuantile(0.99, 2) * e.covariance(1, 1)) - 1.2);
+  }
+  return reach;
+}
+
+TEST(Pieces, AnInnerCornerIsCutSoItsPiecesEndNearTheCorner) {
+  EXPECT_GT(reachPastTheCorner(0.4), 0.6);  // as before: one piece, its bound far past the corner
+  EXPECT_LT(reachPastTheCorner(DetectorParams{}.max_segment_width), 0.4);
 }
 
 TEST(Pieces, AWallPieceEndsAboutWhereItsPointsEnd) {

@@ -92,7 +92,7 @@ class TrajectoryTracker {
   ReplanDecision checkReplan(const planner::CollisionWorld& world, double min_horizon_s = 0.0) const;
 
   // Moves the reference forward to the vehicle's projection on the first `within_s` seconds of the
-  // trajectory, when the vehicle is already past its start: a trajectory planned from a predicted start
+  // trajectory, up to its first stop (a turn in place is never skipped), when the vehicle is already past its start: a trajectory planned from a predicted start
   // that arrives late would otherwise begin behind the vehicle, and the controller would pull it back (a
   // deviation replan after every late switch). Returns the seconds skipped (0 when none).
   double skipToVehicle(const Vec3& position, double within_s);

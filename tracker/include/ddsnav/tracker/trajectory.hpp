@@ -62,9 +62,13 @@ struct TrajectoryReport {
   double max_heading_jump = 0.0;       // rad between consecutive samples
   double min_clearance = std::numeric_limits<double>::infinity();  // m, robot boundary to obstacles
   std::size_t samples_in_collision = 0;  // always 0 for a trajectory the smoother returns
-  // A moving start (initial_speed > 0) whose lead-in did not fit: why, for the longest and the shortest length
-  // tried (the trajectory then starts at rest); empty otherwise.
+  // A moving start (initial_speed > 0) whose lead-in at speed did not fit: why, for the longest and the shortest
+  // length tried (and the braking lead-in, when that did not fit either: the trajectory then starts at rest); empty
+  // otherwise.
   std::string lead_in_failure;
+  // No lead-in fitted at speed, a braking one did: the start brakes to rest along its heading over this many metres,
+  // turns in place and joins the path (SmootherConfig::lead_in_decel); 0 otherwise.
+  double lead_in_braking = 0.0;
 };
 
 struct Trajectory {
