@@ -480,3 +480,4 @@ TEST(Smoother, ABrakingLeadInNeedsRoomToStop) {
   EXPECT_DOUBLE_EQ(t.report.lead_in_braking, 0.0);
   EXPECT_NE(t.report.lead_in_failure.find("the braking line is blocked"), std::string::npos) << t.report.lead_in_failure;
 }
+

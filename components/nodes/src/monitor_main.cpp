@@ -149,6 +149,8 @@ class MonitorComponent : public runtime::Component {
     subs_.push_back(ctx.subscribe<msg::PlanRequest>(
         runtime::topics::plan_request.name,
         bus::Qos{runtime::topics::plan_request.qos.reliability, runtime::topics::plan_request.qos.durability, 64}, [this](const msg::PlanRequest& m) {
+          // A copy (the tracker repeats its first request until a planner answers) is the same plan.
+          if (!seen_.requests.empty() && seen_.requests.back().request_id == m.request_id()) return;
           const double at = started_ns_ ? (clock().nowNs() - started_ns_) * 1e-9 : 0.0;
           seen_.requests.push_back({m.request_id(), at, bus::printable(m.reason())});
         }));

@@ -166,14 +166,20 @@ class PlannerComponent : public runtime::Component {
         result = attempt(request, algorithm, stop, /*preferred=*/true, preferred_budget);
         if (!result) return;  // answered (failed)
         if (result->stopped) return stopped();
-        if (result->solved) notePreferredSolve(result->stats.time_s);
-        else ++preferred_failures_;
-        if (!result->solved)
+        if (result->solved) {
+          notePreferredSolve(result->stats.time_s);
+        } else if (result->stats.iterations == 0) {  // not searched: the start is inside the margin
+          spdlog::info("request {}: the start is within {:.1f} m of unseen surfaces; planning on the plain map", request.request_id(),
+                       params_.unknown_margin_m);
+        } else {
+          ++preferred_failures_;
           spdlog::info("request {}: no path keeping {:.1f} m from unseen surfaces in {:.2f} s; planning on the plain map", request.request_id(),
                        params_.unknown_margin_m, preferred_budget);
+        }
       }
       if (!result || !result->solved) {
-        result = attempt(request, algorithm, stop, /*preferred=*/false, result ? budget - preferred_budget : budget);
+        const double spent = result && result->stats.iterations > 0 ? preferred_budget : 0.0;
+        result = attempt(request, algorithm, stop, /*preferred=*/false, budget - spent);
         if (!result) return;
         if (result->stopped) return stopped();
       }
@@ -239,6 +245,14 @@ class PlannerComponent : public runtime::Component {
                      problem.start.position.z(), (*moved - problem.start.position).norm());
         problem.start.position = *moved;
       }
+    }
+    // The preferred world blocks unseen space next to seen surfaces (unknown_margin_m): a vehicle rounding the seen
+    // corner of a wall stands in it, deeper than the reach (bugtrap_0.6: the request failed "start ... is in
+    // collision" ten times and the mission ended). Not solved there, so the plain map is tried.
+    if (preferred && !world->isFree(problem.start.position)) {
+      planner::PlanResult not_there;  // not solved, 0 iterations: solve() tells it from a search that failed
+      not_there.planner = algorithm.name();
+      return not_there;
     }
     problem.goal = nodes::fromMsg(request.goal()).position;
     problem.goal_radius = request.goal_radius();

@@ -97,11 +97,12 @@ class TrackerComponent : public runtime::Component {
       // planner's world. 0.5 m covers that growth; narrower passages are still crossed in their middle.
       smoother.clearance_target = p.declare<double>(
           "clearance_target", 1.0, {.min = 0, .max = 100, .unit = "m", .doc = "the smoother moves the path this far from obstacles where there is room (docs/tracking.md)"});
-      // A plan that cannot be flown through at speed brakes to rest on its lead-in (docs/tracking.md), at half the
-      // vehicle's deceleration: the stop is followed by a turn in place, so an overshoot is a deviation, and a
-      // vehicle that reached the switch behind its reference first speeds up to catch it (at 0.85 of it, 1.2 m
-      // past the stop on bugtrap_0.6, a deviation replan).
-      smoother.lead_in_decel = 0.5 * max_decel;
+      // Off by default: measured against refusing such plans, it did not shorten the bug-trap missions (docs/tracking.md).
+      smoother.lead_in_decel = p.declare<double>(
+          "lead_in_decel", 0.0,
+          {.min = 0, .max = 1000, .unit = "m/s^2",
+           .doc = "deceleration of a braking lead-in, the stop along the heading a plan that cannot be flown through at speed may start "
+                  "with (docs/tracking.md); 0: none, such a plan is refused"});
     }
   };
 
@@ -406,17 +407,10 @@ class TrackerComponent : public runtime::Component {
     // A plan from a predicted start the vehicle reaches at speed must be flown through; one that starts at
     // rest (no lead-in along the heading was free) would make it overshoot its start. Asked again (ahead, or
     // from rest once the block is close enough to stop for it).
-    // One whose lead-in brakes to rest first is flown on the second such plan in a row: the first is asked again
-    // (GART's first edge points anywhere; around the top of bugtrap_0.6 a plan from a UAV at 4.2 m/s turned left at
-    // once, and braking for it cost a stop that the next plan, from farther on, may not need).
-    const bool braking_first = trajectory.report.lead_in_braking > 0 && rest_start_refusals_ == 0;
-    if (request_speed_ > 0.5 && (trajectory.samples.front().speed < 0.1 || braking_first)) {
-      if (braking_first)
-        spdlog::warn("trajectory {} brakes to rest in {:.1f} m first (no lead-in at speed: {}): not flown, asked once more",
-                     smoothed.request_id, trajectory.report.lead_in_braking, trajectory.report.lead_in_failure);
-      else
-        spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
-                     smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
+    // One whose lead-in brakes to rest first is flown.
+    if (request_speed_ > 0.5 && trajectory.samples.front().speed < 0.1) {
+      spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
+                   smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
       // Twice in a row: nothing ahead leaves room to go on at speed (inside a bug trap every plan turns back), and
       // flying on toward the block between refusals only makes it worse (bugtrap_1.0: 23 refusals, 74 m short at
       // the timeout). Stop, and plan from rest.

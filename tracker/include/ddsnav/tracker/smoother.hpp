@@ -58,9 +58,9 @@ struct SmootherConfig {
   double initial_vz = 0.0;
   // Deceleration (m/s^2) of a braking lead-in: when no lead-in fits at speed (the path turns back, or its corner is too
   // tight for the start's speed), the start brakes to rest straight along its heading, turns in place and joins the
-  // path, instead of starting at rest where the vehicle arrives moving. 0: no braking lead-in. Below max_accel,
-  // max_accel is used.
-  double lead_in_decel = 1.0;
+  // path, instead of starting at rest where the vehicle arrives moving. 0 (the default): no braking lead-in. Below
+  // max_accel, max_accel is used.
+  double lead_in_decel = 0.0;
   bool compute_clearance = true;     // fill report.min_clearance (one clearance query per sample)
 };
 
