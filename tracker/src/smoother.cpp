@@ -511,6 +511,7 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
 
   std::vector<double> ds(n - 1), dxy(n - 1), dz(n - 1), dth(n - 1);
   std::vector<double> cap(n, inf);
+  std::vector<double> interval_cap(n - 1, inf);  // each interval's own speed limit
   for (std::size_t i = 0; i + 1 < n; ++i) {
     const Vec3 d = pts[i + 1].position - pts[i].position;
     ds[i] = d.norm();
@@ -532,6 +533,7 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
         }
       }
     }
+    interval_cap[i] = limit;
     cap[i] = std::min(cap[i], limit);
     cap[i + 1] = std::min(cap[i + 1], limit);
   }
@@ -555,7 +557,22 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
   prof.arc.assign(n, 0.0);
   for (std::size_t i = 0; i + 1 < n; ++i) {
     double tau = 0.0;
-    if (ds[i] > 0) tau = v[i] + v[i + 1] > 1e-12 ? 2 * ds[i] / (v[i] + v[i + 1]) : 2 * std::sqrt(ds[i] / cfg.max_accel);
+    if (ds[i] > 0) {
+      // Speed changing evenly between the ends; but where both ends are far slower than the interval allows, the
+      // fastest way along it: speed up at max_accel to a peak (at most the interval's own limit), hold it, slow down.
+      // Between two near-stops (the ends of a cusp's sub-millimetre intervals, limited to ~1e-7 m/s by their heading
+      // change) the even ramp took 240 s for 12 mm (stunnel_0.5: a 148 m trajectory of 298 s, the vehicle standing at
+      // its start until the timeout).
+      const double a = cfg.max_accel;
+      const double ramp = 2 * ds[i] / std::max(v[i] + v[i + 1], 1e-300);
+      const double peak = std::min(interval_cap[i], std::sqrt(0.5 * (2 * a * ds[i] + v[i] * v[i] + v[i + 1] * v[i + 1])));
+      double fastest = ramp;
+      if (peak > std::max(v[i], v[i + 1]) + 1e-12) {
+        const double ramps = (peak * peak - v[i] * v[i] + peak * peak - v[i + 1] * v[i + 1]) / (2 * a);
+        fastest = (2 * peak - v[i] - v[i + 1]) / a + std::max(0.0, ds[i] - ramps) / peak;
+      }
+      tau = ramp > 2 * fastest ? fastest : ramp;
+    }
     // The speed caps already imply these; they matter for pure rotations and guard rounding.
     tau = std::max({tau, std::abs(dth[i]) / w_eff, std::abs(dz[i]) / vz_eff});
     prof.time[i + 1] = prof.time[i] + tau;
@@ -639,6 +656,27 @@ void fillReport(Trajectory& traj, const CollisionWorld& world, bool clearance) {
 }
 
 }  // namespace
+
+std::optional<std::string> findCrawl(const Trajectory& trajectory, const planner::VehicleLimits& limits) {
+  constexpr double kCrawlSpeed = 0.01;   // m/s, along the path
+  constexpr double kLongestCrawl = 5.0;  // s
+  const auto& s = trajectory.samples;
+  std::size_t first = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const bool crawling = std::hypot(s[i].speed, s[i].vz) < kCrawlSpeed && std::abs(s[i].yaw_rate) < 0.05 * limits.omega_max;
+    if (!crawling) {
+      first = i + 1;
+      continue;
+    }
+    if (s[i].time - s[first].time > kLongestCrawl) {
+      char text[160];
+      std::snprintf(text, sizeof text, "for over %.0f s from t = %.1f s at (%.2f, %.2f, %.2f): below %.2f m/s, not turning in place",
+                    kLongestCrawl, s[first].time, s[first].position.x(), s[first].position.y(), s[first].position.z(), kCrawlSpeed);
+      return std::string(text);
+    }
+  }
+  return std::nullopt;
+}
 
 std::vector<Vec3> shortcutPolyline(const std::vector<Vec3>& points, const CollisionWorld& world, double min_clearance,
                                    double tolerance) {
@@ -773,6 +811,7 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
         traj.report.fallback_iterations = iteration;
         traj.report.shortcut_waypoints = corners.points.size();
         fillReport(traj, world, config.compute_clearance);
+        if (const auto crawl = findCrawl(traj, limits)) fail("the smoothed trajectory crawls " + *crawl);
         return traj;
       }
       traj.samples.clear();

@@ -481,3 +481,23 @@ TEST(Smoother, ABrakingLeadInNeedsRoomToStop) {
   EXPECT_NE(t.report.lead_in_failure.find("the braking line is blocked"), std::string::npos) << t.report.lead_in_failure;
 }
 
+// A trajectory that crawls (below 1 cm/s, not turning in place) for more than 5 s is found, with where; starting at
+// rest, turning in place and stopping at the end are not crawling.
+TEST(Smoother, ACrawlIsFoundAndNamed) {
+  const auto l = limits(5.0, 0.6);
+  Trajectory t;
+  for (int k = 0; k <= 400; ++k) {
+    TrajectorySample s;
+    s.time = 0.05 * k;
+    s.position = Vec3(0.001 * k, 0, 0);
+    s.speed = k == 0 ? 0.0 : 0.02;  // 2 cm/s: slow, not a crawl
+    t.samples.push_back(s);
+  }
+  EXPECT_FALSE(findCrawl(t, l));
+  for (auto& s : t.samples) s.speed = 0.0, s.yaw_rate = 0.5;  // turning in place for 20 s
+  EXPECT_FALSE(findCrawl(t, l));
+  for (std::size_t k = 100; k < t.samples.size(); ++k) t.samples[k].speed = 0.001, t.samples[k].yaw_rate = -0.003;  // 15 s of crawl
+  const auto crawl = findCrawl(t, l);
+  ASSERT_TRUE(crawl);
+  EXPECT_NE(crawl->find("from t = 5.0 s at (0.10, 0.00, 0.00)"), std::string::npos) << *crawl;
+}

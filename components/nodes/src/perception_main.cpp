@@ -49,6 +49,11 @@ class PerceptionComponent : public runtime::Component {
       detector.beam_spacing = p.declare<double>("beam_spacing_rad", 2.0 * M_PI / 720.0, {.above = 0, .below = 1, .unit = "rad", .doc = "the sensor's azimuth step"});
       detector.max_segment_length =
           p.declare<double>("max_segment_length", d.max_segment_length, {.min = 0, .unit = "m", .doc = "longest piece one ellipse may cover (0: never cut)"});
+      detector.max_segment_width = p.declare<double>(
+          "max_segment_width", d.max_segment_width,
+          {.min = 0, .max = 100, .unit = "m", .doc = "2-D: a thicker piece (an L at a corner, a curved arc) is halved (docs/perception.md, step 6; 0: as max_segment_length)"});
+      detector.max_segment_width_3d = p.declare<double>(
+          "max_segment_width_3d", d.max_segment_width_3d, {.min = 0, .max = 100, .unit = "m", .doc = "the same in 3-D"});
       detector.structure_extent = p.declare<double>(
           "structure_extent_m", 0.0,
           {.min = 0, .max = 1e6, .unit = "m", .doc = "clusters with a longer box diagonal are structure, not obstacles (0: none)"});

@@ -188,7 +188,7 @@ void ReferenceObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   const double tol = params_.association_distance;
   const float tol2 = static_cast<float>(tol * tol);
   const float max_length = static_cast<float>(params_.max_segment_length);
-  const float max_width = static_cast<float>(params_.max_segment_width);
+  const float max_width = static_cast<float>(params_.segmentWidth(dims));
   std::size_t refreshed = 0, added = 0;
 
   // The last voxel the walk assigned (its track and position): along a surface, the next voxel is
@@ -350,7 +350,7 @@ void ReferenceObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     ev.pieces.clear();
     for (std::size_t g = 0; g < ev.groups.size(); ++g)
       splitByExtent(ev.leftover_points, ev.groups[g], dims, params_.max_segment_length,
-                    params_.max_segment_width, ev.pieces);
+                    params_.segmentWidth(dims), ev.pieces);
     for (std::size_t k = 0; k < ev.pieces.size(); ++k) {
       const auto piece = ev.pieces[k];
       Evidence::Track track;

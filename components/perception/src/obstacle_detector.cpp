@@ -50,6 +50,8 @@ void DetectorParams::validate() const {
           "finite and >= 0 m (0: never cut)");
   require(std::isfinite(max_segment_width) && max_segment_width >= 0.0, "max_segment_width",
           "finite and >= 0 m (0: as max_segment_length)");
+  require(std::isfinite(max_segment_width_3d) && max_segment_width_3d >= 0.0, "max_segment_width_3d",
+          "finite and >= 0 m (0: as max_segment_length)");
   require(probability > 0.0 && probability < 1.0, "probability", "in (0, 1)");
   require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
   require(max_points >= 1 && max_points < (std::size_t{1} << 31), "max_points", "in [1, 2^31)");
@@ -121,7 +123,7 @@ std::vector<ObstacleEllipsoid> ObstacleDetector::detect(std::span<const Eigen::V
   // chi-square semi-axis (0.88 x its length) covers the free space around it.
   pieces_.clear();
   for (std::size_t i = 0; i < parts_.size(); ++i)
-    splitByExtent(voxels_, parts_[i], dimensions, params_.max_segment_length, params_.max_segment_width, pieces_);
+    splitByExtent(voxels_, parts_[i], dimensions, params_.max_segment_length, params_.segmentWidth(dimensions), pieces_);
   stats_.ms_split = timer.lap();
 
   // 7. One ellipsoid per piece, carrying its voxels (with their beam directions) for the tracker.

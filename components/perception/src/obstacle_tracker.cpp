@@ -263,6 +263,7 @@ TrackerParams TrackerParams::matching(const DetectorParams& detector) {
   p.voxel_size_3d = std::max(p.voxel_size, std::min(2.0 * p.voxel_size, p.association_distance));
   p.max_segment_length = detector.max_segment_length > 0.0 ? detector.max_segment_length : p.max_segment_length;
   p.max_segment_width = detector.max_segment_width > 0.0 ? detector.max_segment_width : p.max_segment_length;
+  p.max_segment_width_3d = detector.max_segment_width_3d > 0.0 ? detector.max_segment_width_3d : p.max_segment_length;
   p.range_noise_sigma = detector.range_noise_sigma;
   p.enclose_points = detector.enclose_points;
   // No voxel of a scan lies beyond max_range, so none can reach a track beyond this (see the header).
@@ -284,6 +285,8 @@ void TrackerParams::validate() const {
           "max_segment_length", "finite and >= association_distance");
   require(std::isfinite(max_segment_width) && max_segment_width > 0.0 && max_segment_width <= max_segment_length,
           "max_segment_width", "in (0, max_segment_length]");
+  require(std::isfinite(max_segment_width_3d) && max_segment_width_3d > 0.0 && max_segment_width_3d <= max_segment_length,
+          "max_segment_width_3d", "in (0, max_segment_length]");
   require(std::isfinite(range_noise_sigma) && range_noise_sigma >= 0.0, "range_noise_sigma", "finite and >= 0");
   require(max_voxels_per_track >= 1, "max_voxels_per_track", ">= 1");
   require(max_deferred_refits >= 1, "max_deferred_refits", ">= 1");
@@ -547,7 +550,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
   const double tol = params_.association_distance;
   const float tol2 = static_cast<float>(tol * tol);
   const float max_length = static_cast<float>(params_.max_segment_length);
-  const float max_width = static_cast<float>(params_.max_segment_width);
+  const float max_width = static_cast<float>(params_.segmentWidth(dims));
   std::size_t refreshed = 0, added = 0;
   // How far a voxel's mean may lie outside the association cell it is listed in: rounding only when
   // association cells are whole multiples of voxel cells (the defaults: 0.4 = 4 x 0.1), else up to a
@@ -794,7 +797,7 @@ void ObstacleTracker::absorb(const ObstacleEllipsoid& detection) {
     ev.pieces.clear();
     for (std::size_t g = 0; g < ev.groups.size(); ++g)
       splitByExtent(ev.leftover_points, ev.groups[g], dims, params_.max_segment_length,
-                    params_.max_segment_width, ev.pieces);
+                    params_.segmentWidth(dims), ev.pieces);
     for (std::size_t k = 0; k < ev.pieces.size(); ++k) {
       const auto piece = ev.pieces[k];
       Evidence::Track track;

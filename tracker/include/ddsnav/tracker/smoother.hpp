@@ -11,6 +11,7 @@
 #include <limits>
 #include <optional>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace ddsnav::tracker {
@@ -67,6 +68,11 @@ struct SmootherConfig {
 // Throws SmoothingError (bad path, bad limits, start in collision, cannot be made collision free).
 Trajectory smoothPath(const std::vector<planner::State>& path, const planner::CollisionWorld& world,
                       const planner::VehicleLimits& limits, const SmootherConfig& config = {});
+
+// Where the trajectory crawls: below 1 cm/s for more than 5 s while not turning in place (a cusp the time
+// parametrisation turned into a near stop; on stunnel_0.5 a 148 m trajectory took 298 s, the vehicle standing at its
+// start until the mission's timeout). smoothPath refuses such a trajectory with this text. Nothing when it does not.
+std::optional<std::string> findCrawl(const Trajectory& trajectory, const planner::VehicleLimits& limits);
 
 // The collision-checked shortcutting step on its own: the returned polyline keeps the first and last
 // point, and each of its edges is either an edge of the input or free with a clearance of at least the

@@ -47,7 +47,9 @@ struct DetectorParams {
   double beam_spacing = 2.0 * std::numbers::pi / 1024.0;  // rad, the sensor's azimuth step
   double gap_min_beams = 3.0;          // a gap must also span this many beam steps
   double max_segment_length = 1.5;     // m; longer parts are cut into pieces (step 6); 0: never cut
-  double max_segment_width = 0.25;     // m; thicker pieces (an L, a curved arc) are halved (step 6)
+  double max_segment_width = 0.25;     // m; thicker pieces (an L, a curved arc) are halved (step 6), 2-D
+  double max_segment_width_3d = 0.4;   // m; the same in 3-D (thicker surfaces: more pieces would be more tracks)
+  double segmentWidth(int dimensions) const { return dimensions == 3 ? max_segment_width_3d : max_segment_width; }
   double probability = 0.99;           // p of the ellipsoids
   double range_noise_sigma = 0.02;     // m, the sensor's range noise
   bool enclose_points = true;          // see EllipsoidFitParams::enclose_points

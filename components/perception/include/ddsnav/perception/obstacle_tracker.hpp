@@ -61,7 +61,9 @@ struct TrackerParams {
   double voxel_size_3d = 0.1;
   double association_distance = 0.4;  // m; a voxel this close to a track's voxel is the same surface
   double max_segment_length = 1.5;    // m; a track's voxels stay inside a box of this side (> 0)...
-  double max_segment_width = 0.25;    // m; ...and of this width along its thinnest axis (as the detector)
+  double max_segment_width = 0.25;    // m; ...and of this width along its thinnest axis (as the detector), 2-D
+  double max_segment_width_3d = 0.4;  // m; the same in 3-D (as the detector)
+  double segmentWidth(int dims) const { return dims == 3 ? max_segment_width_3d : max_segment_width; }
   double range_noise_sigma = 0.02;    // m; refit: sensor range noise
   bool enclose_points = true;         // refit: see EllipsoidFitParams::enclose_points
   std::size_t max_voxels_per_track = 100000;  // a further cap on one track's evidence
