@@ -564,7 +564,7 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
       // change) the even ramp took 240 s for 12 mm (stunnel_0.5: a 148 m trajectory of 298 s, the vehicle standing at
       // its start until the timeout).
       const double a = cfg.max_accel;
-      const double ramp = 2 * ds[i] / std::max(v[i] + v[i + 1], 1e-300);
+      const double ramp = v[i] + v[i + 1] > 1e-12 ? 2 * ds[i] / (v[i] + v[i + 1]) : 2 * std::sqrt(ds[i] / a);
       const double peak = std::min(interval_cap[i], std::sqrt(0.5 * (2 * a * ds[i] + v[i] * v[i] + v[i + 1] * v[i + 1])));
       double fastest = ramp;
       if (peak > std::max(v[i], v[i + 1]) + 1e-12) {
@@ -797,6 +797,11 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
         traj.initial_turn = turn;
       }
       const Profile prof = timeParametrise(pts, limits, dims, config, braking_arc);
+      // Bounded before the samples are allocated: a duration the profile should never give (a crawl is refused below).
+      constexpr double kMaxSamples = 1e6;
+      if (!(prof.time.back() / config.sample_dt <= kMaxSamples))
+        fail("the time parametrisation gave " + std::to_string(prof.time.back()) + " s, more than " +
+             std::to_string(static_cast<long>(kMaxSamples)) + " samples of " + std::to_string(config.sample_dt) + " s");
       traj.samples = sampleInTime(pts, prof, config.sample_dt);
       // Samples lie on chords between checked curve points; check them too, they are what gets flown.
       for (const auto& s : traj.samples) {
