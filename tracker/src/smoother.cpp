@@ -560,9 +560,9 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
     if (ds[i] > 0) {
       // Speed changing evenly between the ends; but where both ends are far slower than the interval allows, the
       // fastest way along it: speed up at max_accel to a peak (at most the interval's own limit), hold it, slow down.
-      // Between two near-stops (the ends of a cusp's sub-millimetre intervals, limited to ~1e-7 m/s by their heading
-      // change) the even ramp took 240 s for 12 mm (stunnel_0.5: a 148 m trajectory of 298 s, the vehicle standing at
-      // its start until the timeout).
+      // Between two near-stops (by our reading, the ends of a cusp's sub-millimetre intervals, capped near zero by
+      // their heading change) the even ramp took 240 s for 12 mm (stunnel_0.5: a 148 m trajectory of 298 s, its samples
+      // creeping at ~5e-5 m/s, the vehicle standing at its start until the timeout).
       const double a = cfg.max_accel;
       const double ramp = v[i] + v[i + 1] > 1e-12 ? 2 * ds[i] / (v[i] + v[i + 1]) : 2 * std::sqrt(ds[i] / a);
       const double peak = std::min(interval_cap[i], std::sqrt(0.5 * (2 * a * ds[i] + v[i] * v[i] + v[i + 1] * v[i + 1])));

@@ -162,24 +162,26 @@ class PlannerComponent : public runtime::Component {
       // unseen passage it closes), on the plain map in the rest.
       const double preferred_budget = preferredBudget(budget);
       std::optional<planner::PlanResult> result;
+      double preferred_spent = 0.0;  // of the budget, by a search on the preferred world
       if (world_source_.hasPreferredWorld()) {
-        result = attempt(request, algorithm, stop, /*preferred=*/true, preferred_budget);
+        bool start_in_margin = false;
+        result = attempt(request, algorithm, stop, /*preferred=*/true, preferred_budget, &start_in_margin);
         if (!result) return;  // answered (failed)
         if (result->stopped) return stopped();
         if (result->solved) {
           notePreferredSolve(result->stats.time_s);
-        } else if (result->stats.iterations == 0) {  // not searched: the start is inside the margin
+        } else if (start_in_margin) {
           spdlog::info("request {}: the start is within {:.1f} m of unseen surfaces; planning on the plain map", request.request_id(),
                        params_.unknown_margin_m);
         } else {
           ++preferred_failures_;
+          preferred_spent = preferred_budget;
           spdlog::info("request {}: no path keeping {:.1f} m from unseen surfaces in {:.2f} s; planning on the plain map", request.request_id(),
                        params_.unknown_margin_m, preferred_budget);
         }
       }
       if (!result || !result->solved) {
-        const double spent = result && result->stats.iterations > 0 ? preferred_budget : 0.0;
-        result = attempt(request, algorithm, stop, /*preferred=*/false, budget - spent);
+        result = attempt(request, algorithm, stop, /*preferred=*/false, budget - preferred_spent);
         if (!result) return;
         if (result->stopped) return stopped();
       }
@@ -216,9 +218,10 @@ class PlannerComponent : public runtime::Component {
     if (preferred_solve_s_.size() > 15) preferred_solve_s_.pop_front();
   }
 
-  // One solve on a snapshot of the world; nullopt when the request was answered as failed already (no world).
+  // One solve on a snapshot of the world; nullopt when the request was answered as failed already (no world). On the
+  // preferred world a start that is not free there is not searched from: unsolved, with *start_in_margin set.
   std::optional<planner::PlanResult> attempt(const msg::PlanRequest& request, planner::Planner& algorithm, std::stop_token stop,
-                                             bool preferred, double time_limit_s) {
+                                             bool preferred, double time_limit_s, bool* start_in_margin = nullptr) {
     std::unique_ptr<planner::CollisionWorld> world;
     try {
       world = world_source_.snapshot(nodes::fromMsg(request.start()).position, nodes::fromMsg(request.goal()).position, request.goal_radius(),
@@ -250,7 +253,8 @@ class PlannerComponent : public runtime::Component {
     // corner of a wall stands in it, deeper than the reach (bugtrap_0.6: the request failed "start ... is in
     // collision" ten times and the mission ended). Not solved there, so the plain map is tried.
     if (preferred && !world->isFree(problem.start.position)) {
-      planner::PlanResult not_there;  // not solved, 0 iterations: solve() tells it from a search that failed
+      if (start_in_margin) *start_in_margin = true;
+      planner::PlanResult not_there;
       not_there.planner = algorithm.name();
       return not_there;
     }
