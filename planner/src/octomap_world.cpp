@@ -22,6 +22,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace ddsnav::planner {
 namespace {
@@ -29,6 +30,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::uint64_t kEmpty = ~0ull;
 constexpr std::int64_t kCellLimit = 32768;  // OctoMap keys are 16 bits: cells -32768 .. 32767 per axis
+constexpr std::size_t kMaxContinuationCells = 1u << 20;  // occludedSurfaceContinuation's output, at most
 
 struct Cell {
   std::int64_t x, y, z;
@@ -170,6 +172,111 @@ class OctoMapWorld final : public CollisionWorld {
     if (depth > 0.0) return -depth - radius_;
     const double d = nearestOccupied(p);
     return d == kInf ? kInf : d - radius_;
+  }
+
+  // See occludedSurfaceContinuation (collision_world.hpp).
+  OccludedContinuation occludedContinuation(const Vec3& viewpoint, double max_length) const {
+    OccludedContinuation out;
+    out.cell_size = resolution_;
+    // Only a 2-D map that loaded its free leaves knows which cells were never observed.
+    if (dims_ != 2 || !(unknown_margin_ > 0.0 || unknown_blocked_) || !viewpoint.allFinite() || !(max_length > 0.0)) return out;
+    const auto observedOccupied = [&](std::int64_t x, std::int64_t y) {
+      const Brick* b = findBrick(x >> 3, y >> 3, 0);
+      if (b == nullptr) return false;
+      const std::uint32_t bit = bitOf({x, y, 0});
+      return (((b->occupied[bit >> 6] & b->known[bit >> 6]) >> (bit & 63)) & 1u) != 0;
+    };
+    const auto observed = [&](std::int64_t x, std::int64_t y) {
+      const Brick* b = findBrick(x >> 3, y >> 3, 0);
+      return b != nullptr && ((b->known[bitOf({x, y, 0}) >> 6] >> (bitOf({x, y, 0}) & 63)) & 1u) != 0;
+    };
+    // In cells; a viewpoint outside the bounds is taken at the nearest point inside (the walks stay bounded).
+    const double vx = std::clamp(viewpoint.x(), bmin_.x(), bmax_.x()) * factor_, vy = std::clamp(viewpoint.y(), bmin_.y(), bmax_.y()) * factor_;
+    // Whether the straight line from the centre of cell (x, y) to the viewpoint crosses an observed occupied cell:
+    // the cells a grid walk (Amanatides and Woo) visits between them, except the cell's own neighbours (the surface
+    // being continued ends next to it, and a line that only grazes that end does not hide the cell).
+    const auto hidden = [&](std::int64_t x, std::int64_t y) {
+      const double ox = double(x) + 0.5, oy = double(y) + 0.5;
+      const double dx = vx - ox, dy = vy - oy;
+      const std::int64_t end_x = static_cast<std::int64_t>(std::floor(vx)), end_y = static_cast<std::int64_t>(std::floor(vy));
+      const int step_x = dx > 0 ? 1 : -1, step_y = dy > 0 ? 1 : -1;
+      const double t_dx = dx != 0 ? std::abs(1.0 / dx) : kInf, t_dy = dy != 0 ? std::abs(1.0 / dy) : kInf;
+      double t_x = dx != 0 ? 0.5 * t_dx : kInf, t_y = dy != 0 ? 0.5 * t_dy : kInf;
+      std::int64_t cx = x, cy = y;
+      for (std::int64_t n = std::abs(end_x - x) + std::abs(end_y - y); n > 0; --n) {
+        if (t_x < t_y) {
+          cx += step_x;
+          t_x += t_dx;
+        } else {
+          cy += step_y;
+          t_y += t_dy;
+        }
+        if (std::max(std::abs(cx - x), std::abs(cy - y)) > 1 && observedOccupied(cx, cy)) return true;
+      }
+      return false;
+    };
+    // The seen surface's direction at a cell: the principal axis of the observed occupied cells within half a
+    // metre (at least 2 cells); an end of it is a cell beyond which (along that axis) none of them lies.
+    const std::int64_t w = std::max<std::int64_t>(2, static_cast<std::int64_t>(std::floor(0.5 * factor_ + 1e-9)));
+    const std::int64_t steps = static_cast<std::int64_t>(std::floor(max_length * factor_ + 1e-9));
+    std::unordered_set<std::uint64_t> taken;
+    for (const Brick& brick : bricks_) {
+      std::array<std::uint64_t, 8> seen_occupied{};
+      for (int i = 0; i < 8; ++i) seen_occupied[i] = brick.occupied[i] & brick.known[i];
+      forEachBit(seen_occupied, [&](unsigned bit) {
+        const Cell c = cellOfBit(brick, bit);
+        bool against_unseen = false;  // a face with never-observed space beside it
+        for (std::int64_t dy = -1; dy <= 1 && !against_unseen; ++dy)
+          for (std::int64_t dx = -1; dx <= 1; ++dx)
+            if ((dx != 0 || dy != 0) && !observed(c.x + dx, c.y + dy)) against_unseen = true;
+        if (!against_unseen) return;
+        double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+        for (std::int64_t dy = -w; dy <= w; ++dy)
+          for (std::int64_t dx = -w; dx <= w; ++dx)
+            if (dx * dx + dy * dy <= w * w && observedOccupied(c.x + dx, c.y + dy)) {
+              n += 1, sx += double(dx), sy += double(dy), sxx += double(dx * dx), syy += double(dy * dy), sxy += double(dx * dy);
+            }
+        if (n < double(w) + 1) return;  // too few to tell a direction
+        const double mx = sx / n, my = sy / n;
+        const double cxx = sxx / n - mx * mx, cyy = syy / n - my * my, cxy = sxy / n - mx * my;
+        const double half_trace = 0.5 * (cxx + cyy), root = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
+        const double major = half_trace + root, minor = half_trace - root;
+        if (!(major > 9.0 * std::max(minor, 0.0) + 1e-12)) return;  // not a line: a corner, a blob, a single cell
+        double ax = cxy, ay = major - cxx;  // the major axis
+        if (std::abs(ax) + std::abs(ay) < 1e-12) ax = cxx >= cyy ? 1.0 : 0.0, ay = cxx >= cyy ? 0.0 : 1.0;
+        const double norm = std::hypot(ax, ay);
+        ax /= norm, ay /= norm;
+        double lo = 0, hi = 0;  // the extent of the neighbours along the axis, in cells from c
+        for (std::int64_t dy = -w; dy <= w; ++dy)
+          for (std::int64_t dx = -w; dx <= w; ++dx)
+            if (dx * dx + dy * dy <= w * w && observedOccupied(c.x + dx, c.y + dy)) {
+              const double t = double(dx) * ax + double(dy) * ay;
+              lo = std::min(lo, t), hi = std::max(hi, t);
+            }
+        double sign = 0;
+        if (hi <= 0.5 && lo <= -0.5 * double(w)) sign = 1;        // c ends the surface toward +axis
+        else if (lo >= -0.5 && hi >= 0.5 * double(w)) sign = -1;  // toward -axis
+        if (sign == 0) return;
+        // The end itself must be in sight: a true end seen earlier from elsewhere is hidden now too, and beyond it
+        // lies as much unobserved space as beyond an end the view is cut at.
+        if (hidden(c.x, c.y)) return;
+        // On along the axis through never-observed cells hidden from the viewpoint; the first observed cell or
+        // the first one in plain sight (merely not hit by a ray yet) ends it.
+        std::int64_t last_x = c.x, last_y = c.y;
+        for (std::int64_t k = 1; k <= 2 * steps; ++k) {
+          const double t = 0.5 * double(k) * sign;  // half-cell steps: no cell of the line is jumped over
+          const std::int64_t x = static_cast<std::int64_t>(std::floor(double(c.x) + 0.5 + t * ax));
+          const std::int64_t y = static_cast<std::int64_t>(std::floor(double(c.y) + 0.5 + t * ay));
+          if (x == last_x && y == last_y) continue;
+          last_x = x, last_y = y;
+          if (observed(x, y) || !hidden(x, y)) break;
+          if (out.cells.size() >= kMaxContinuationCells) return;
+          if (taken.insert((std::uint64_t(x + 4 * kCellLimit) << 32) | std::uint64_t(y + 4 * kCellLimit)).second)
+            out.cells.emplace_back((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_, 0.0);
+        }
+      });
+    }
+    return out;
   }
 
   std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override {
@@ -704,6 +811,13 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
     throw std::invalid_argument("makeOctoMapWorld: unknown_margin_m must be in [0, 100] m");
   if (options.max_bricks < 1) throw std::invalid_argument("makeOctoMapWorld: max_bricks must be at least 1");
   return std::make_unique<OctoMapWorld>(dimensions, bounds_min, bounds_max, robot_radius, octree_binary, options);
+}
+
+OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, const Vec3& viewpoint, double max_length_m) {
+  if (!(max_length_m >= 0.0 && max_length_m <= 1000.0))
+    throw std::invalid_argument("occludedSurfaceContinuation: max_length_m must be in [0, 1000] m");
+  const auto* map = dynamic_cast<const OctoMapWorld*>(&world);
+  return map ? map->occludedContinuation(viewpoint, max_length_m) : OccludedContinuation{};
 }
 
 std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,

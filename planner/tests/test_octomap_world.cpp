@@ -473,5 +473,103 @@ TEST(OctoMapWorld, UnknownMarginBlocksUnseenCellsNearSeenSurfacesAsABruteForceSc
   EXPECT_THROW(makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), bad), std::invalid_argument);
 }
 
+
+// A planar scan from the origin of two boxes, hits only (a ray that hits nothing leaves no free cells): a long wall
+// whose face is x = 3 (y from -2 to 4), and in front of it a short wall along y = 0.5 .. 0.7 from x = 1 to the long
+// one, which hides the face from y = 0.5 to y = 2.1 (rays of slope 0.5 to 0.7 end on the short wall's end face).
+octomap::OcTree occludedWallScan() {
+  struct Box {
+    Eigen::Vector2d lo, hi;
+  };
+  const Box boxes[] = {{{3.0, -2.0}, {3.3, 4.0}}, {{1.0, 0.5}, {3.0, 0.7}}};
+  octomap::OcTree tree(0.1);
+  octomap::Pointcloud cloud;
+  for (int i = 0; i < 1440; ++i) {
+    const double a = i * 2.0 * M_PI / 1440.0;
+    const Eigen::Vector2d d(std::cos(a), std::sin(a));
+    double best = std::numeric_limits<double>::infinity();
+    for (const Box& b : boxes) {  // slab test
+      double t0 = 0.0, t1 = 6.0;
+      for (int k = 0; k < 2; ++k) {
+        if (std::abs(d[k]) < 1e-12) {
+          if (b.lo[k] > 0.0 || b.hi[k] < 0.0) t0 = t1 + 1;
+          continue;
+        }
+        double ta = b.lo[k] / d[k], tb = b.hi[k] / d[k];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+      }
+      if (t0 <= t1) best = std::min(best, t0);
+    }
+    if (std::isfinite(best)) cloud.push_back(static_cast<float>((best + 1e-3) * d.x()), static_cast<float>((best + 1e-3) * d.y()), 0.05f);
+  }
+  tree.insertPointCloud(cloud, octomap::point3d(0.0f, 0.0f, 0.05f));
+  return tree;
+}
+
+TEST(OctoMapWorld, ASeenSurfaceGoesOnWhereSomethingInFrontHidesIt) {
+  const octomap::OcTree tree = occludedWallScan();
+  OctoMapWorldOptions knows_unobserved;
+  knows_unobserved.unknown_margin_m = 0.05;  // below one cell: no margin, but the free leaves are loaded
+  const std::shared_ptr<const CollisionWorld> map =
+      makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.2, toBytes(tree), knows_unobserved);
+  const auto continued = occludedSurfaceContinuation(*map, Vec3::Zero(), 5.0);
+  EXPECT_DOUBLE_EQ(continued.cell_size, 0.1);
+  // The hidden stretch of the face (its cells are x in [3.0, 3.1)), and nothing else: not the long wall's ends in
+  // plain sight (nothing behind them was hit, so the cells beyond are unknown too), not the short wall.
+  ASSERT_FALSE(continued.cells.empty());
+  int hidden_stretch = 0;
+  for (const Vec3& c : continued.cells) {
+    EXPECT_NEAR(c.x(), 3.05, 1e-9) << c.transpose();
+    EXPECT_GT(c.y(), 0.5) << c.transpose();
+    EXPECT_LT(c.y(), 2.2) << c.transpose();
+    hidden_stretch += c.y() > 0.75 && c.y() < 2.0;
+  }
+  EXPECT_GE(hidden_stretch, 12);  // 0.75 .. 2.0 m: 12 or 13 cells
+  // A robot of radius 0.2 there: free on the plain map (unknown space is free), blocked with the continuation.
+  const auto with = makeBlockedCellsWorld(map, continued.cells, continued.cell_size);
+  const Vec3 behind(3.1, 1.3, 0.0);
+  EXPECT_TRUE(map->isFree(behind));
+  EXPECT_FALSE(with->isFree(behind));
+  EXPECT_TRUE(with->isFree(Vec3(2.5, 3.0, 0.0)));  // in front of the seen face
+  EXPECT_LT(with->clearance(behind), 0.0);
+  // Only a map that loaded its unobserved cells can tell; other worlds give nothing.
+  const auto plain = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.2, toBytes(tree), OctoMapWorldOptions{});
+  EXPECT_TRUE(occludedSurfaceContinuation(*plain, Vec3::Zero(), 5.0).cells.empty());
+  EXPECT_TRUE(occludedSurfaceContinuation(*map, Vec3::Zero(), 0.0).cells.empty());
+  EXPECT_THROW(occludedSurfaceContinuation(*map, Vec3::Zero(), -1.0), std::invalid_argument);
+  EXPECT_THROW(occludedSurfaceContinuation(*map, Vec3::Zero(), std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
+  // From above the short wall the stretch is in plain sight, and the long wall's lower end, a true end seen from
+  // the origin, is hidden behind the short wall: an end out of sight is not continued, nothing is.
+  for (const Vec3& c : occludedSurfaceContinuation(*map, Vec3(2.0, 1.3, 0.0), 5.0).cells) ADD_FAILURE() << c.transpose();
+}
+
+TEST(BlockedCellsWorld, FreeAndClearanceAsABruteForceScanSays) {
+  const octomap::OcTree tree = occludedWallScan();
+  const std::shared_ptr<const CollisionWorld> map = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-5.0, 5.0);
+  std::vector<Vec3> cells;
+  for (int i = 0; i < 60; ++i) cells.emplace_back(std::floor(u(rng) * 10) / 10 + 0.05, std::floor(u(rng) * 10) / 10 + 0.05, 0.0);
+  const auto world = makeBlockedCellsWorld(map, cells, 0.1);
+  for (int i = 0; i < 4000; ++i) {
+    const Vec3 p(u(rng), u(rng), 0.0);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vec3& c : cells) {
+      const double dx = std::max(std::abs(p.x() - c.x()) - 0.05, 0.0), dy = std::max(std::abs(p.y() - c.y()) - 0.05, 0.0);
+      nearest = std::min(nearest, std::hypot(dx, dy));
+    }
+    ASSERT_EQ(world->isFree(p), map->isFree(p) && nearest > 0.3) << p.transpose();
+    ASSERT_NEAR(world->clearance(p), std::min(map->clearance(p), nearest - 0.3), 1e-9) << p.transpose();
+  }
+  // Each bucket's nearest square is listed among the obstacles near a point, nearest first, with ids of its own.
+  const auto near = world->obstaclesNear(Vec3(0, 0, 0), 3.0);
+  EXPECT_TRUE(std::is_sorted(near.begin(), near.end(), [](const auto& a, const auto& b) { return a.distance < b.distance; }));
+  EXPECT_TRUE(std::any_of(near.begin(), near.end(), [](const auto& o) { return o.id < 0; }));
+  EXPECT_THROW(makeBlockedCellsWorld(nullptr, cells, 0.1), std::invalid_argument);
+  EXPECT_THROW(makeBlockedCellsWorld(map, cells, 0.0), std::invalid_argument);
+  EXPECT_THROW(makeBlockedCellsWorld(map, {Vec3(std::nan(""), 0, 0)}, 0.1), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace ddsnav::planner

@@ -30,4 +30,13 @@ MapScale mapScaleFor(const planner::Scenario& scenario, double sensor_range) {
   return out;
 }
 
+namespace {
+double radiusOf(const planner::Scenario& scenario) {
+  return std::isfinite(scenario.robot_radius) && scenario.robot_radius > 0 ? scenario.robot_radius : 0.0;
+}
+}  // namespace
+
+double defaultStructureExtent(const planner::Scenario& scenario) { return std::min(10.0, 25.0 * radiusOf(scenario)); }
+double defaultUnknownMargin(const planner::Scenario& scenario) { return std::min(1.0, 2.0 * radiusOf(scenario)); }
+
 }  // namespace ddsnav::nodes

@@ -7,12 +7,14 @@
 // cloud's sensor_origin are forgotten, so the tracker's memory stays bounded on any drive.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/map_scale.hpp"
 #include <ddsnav/bus/printable.hpp>
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 
 #include <ddsnav/perception/obstacle_detector.hpp>
 #include <ddsnav/perception/obstacle_tracker.hpp>
+#include <ddsnav/planner/scenario.hpp>
 
 #include <spdlog/spdlog.h>
 
@@ -54,9 +56,13 @@ class PerceptionComponent : public runtime::Component {
           {.min = 0, .max = 100, .unit = "m", .doc = "2-D: a thicker piece (an L at a corner, a curved arc) is halved (docs/perception.md, step 6; 0: as max_segment_length)"});
       detector.max_segment_width_3d = p.declare<double>(
           "max_segment_width_3d", d.max_segment_width_3d, {.min = 0, .max = 100, .unit = "m", .doc = "the same in 3-D"});
-      detector.structure_extent = p.declare<double>(
-          "structure_extent_m", 0.0,
-          {.min = 0, .max = 1e6, .unit = "m", .doc = "clusters with a longer box diagonal are structure, not obstacles (0: none)"});
+      const auto scenario = p.declare<std::string>(
+          "scenario", "", {.doc = "scenario file the simulator runs: structure_extent_m auto follows its robot radius; empty: none"});
+      const auto extent = p.declare<std::string>(
+          "structure_extent_m", "0",
+          {.unit = "m", .doc = "clusters with a longer box diagonal are structure, not obstacles (0: none); auto: min(10 m, 25 x the "
+                               "scenario's robot radius) (docs/world-model.md)"});
+      detector.structure_extent = structureExtent(extent, scenario);
       // Derived from max_range (as declared above): see TrackerParams::matching and docs/perception.md.
       forget_radius = p.declare<double>(
           "forget_radius_m", perception::TrackerParams::matching(detector).forget_radius,
@@ -73,6 +79,23 @@ class PerceptionComponent : public runtime::Component {
       frame = p.declare<std::string>("frame", nodes::kWorldFrame, {.doc = "frame_id clouds must carry"});
     }
   };
+
+  // "auto" (the scenario's rule) or a number of metres in [0, 1e6].
+  static double structureExtent(const std::string& text, const std::string& scenario) {
+    if (text == "auto") {
+      if (scenario.empty()) throw runtime::ParameterError("parameter 'structure_extent_m': auto needs the scenario parameter");
+      return nodes::defaultStructureExtent(planner::loadScenario(scenario));
+    }
+    std::size_t used = 0;
+    double value = std::nan("");
+    try {
+      value = std::stod(text, &used);
+    } catch (const std::exception&) {
+    }
+    if (used != text.size() || !(value >= 0.0 && value <= 1e6))
+      throw runtime::ParameterError("parameter 'structure_extent_m': expected auto or a number of metres in [0, 1e6], got '" + text + "'");
+    return value;
+  }
 
   explicit PerceptionComponent(runtime::Context& ctx)
       : Component(ctx),

@@ -9,6 +9,7 @@
 // solving, which stops at its next iteration and is answered as superseded, and replaces one still waiting.
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/map_scale.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
@@ -35,7 +36,8 @@ class PlannerComponent : public runtime::Component {
     nodes::WorldParameters world;  // world, unknown_space
     std::optional<bool> kinodynamic;
     double max_time_budget_s;
-    double unknown_margin_m;
+    std::optional<double> unknown_margin_m;       // default: nodes::defaultUnknownMargin
+    double hidden_continuation_m;
     std::vector<std::string> planner_options;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: bounds, robot radius, vehicle limits"})),
@@ -43,11 +45,19 @@ class PlannerComponent : public runtime::Component {
           kinodynamic(p.declareOptional<bool>("kinodynamic", {.doc = "plan unicycle edges; default: whether the scenario has a vehicle block"})),
           max_time_budget_s(p.declare<double>("max_time_budget_s", 30.0,
                                               {.above = 0, .unit = "s", .doc = "cap on a request's time_budget_s"})),
-          unknown_margin_m(p.declare<double>(
-              "unknown_margin_m", 1.0,
+          unknown_margin_m(p.declareOptional<double>(
+              "unknown_margin_m",
               {.min = 0, .max = 100, .unit = "m",
                .doc = "2-D map and fused worlds, optimistic: plan first keeping never-observed space this close to a seen surface blocked "
-                      "(its unseen part continues), then, with no path in a tenth of the budget, on the plain map (docs/world-model.md); 0: off"})),
+                      "(its unseen part continues), then, with no path in a tenth of the budget, on the plain map (docs/world-model.md); 0: off; "
+                      "default min(1 m, 2 x the robot radius)"})),
+          // Off by default: measured against planning without it, it did not shorten the bug-trap missions and one
+          // stunnel_0.5 run with it grazed a wall (docs/world-model.md, "Seen surfaces that go on out of sight").
+          hidden_continuation_m(p.declare<double>(
+              "hidden_continuation_m", 0.0,
+              {.min = 0, .max = 100, .unit = "m",
+               .doc = "2-D map and fused worlds: plan first with seen surfaces continued this far into space hidden from the vehicle "
+                      "(where something in front hides them), then without (docs/world-model.md); 0: off"})),
           planner_options(p.declare<std::vector<std::string>>("planner_options", {},
                                                               {.doc = "planner.option=value entries (docs/planners.md, \"Options\")"})) {}
   };
@@ -60,7 +70,9 @@ class PlannerComponent : public runtime::Component {
         kinodynamic_(params_.kinodynamic.value_or(scenario_.vehicle.has_value())),
         // "planner.option=value" entries, checked once here against each planner.
         planner_options_(planner::parsePlannerOptions(params_.planner_options)),
-        world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m),
+        unknown_margin_m_(params_.unknown_margin_m.value_or(nodes::defaultUnknownMargin(scenario_))),
+        hidden_continuation_m_(params_.hidden_continuation_m),
+        world_source_(ctx, params_.world, scenario_, unknown_margin_m_),
         paths_(publisher(runtime::topics::path)) {
     if (kinodynamic_ && !scenario_.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
     for (const auto& [name, assignments] : planner_options_) {
@@ -157,31 +169,38 @@ class PlannerComponent : public runtime::Component {
     if (stop.stop_requested()) return stopped();
     const double budget = std::min(request.time_budget_s(), params_.max_time_budget_s);
     try {
-      // First on the map that keeps unseen space next to seen surfaces blocked (2-D, unknown_margin_m), in a
-      // tenth of the budget (2-D solves that succeed take milliseconds to a few hundred); with no path there (an
-      // unseen passage it closes), on the plain map in the rest.
-      const double preferred_budget = preferredBudget(budget);
-      std::optional<planner::PlanResult> result;
-      double preferred_spent = 0.0;  // of the budget, by a search on the preferred world
+      // The worlds tried in turn, the first that yields a path wins (docs/world-model.md, "Unknown space"): with
+      // unseen space next to seen surfaces blocked (2-D, unknown_margin_m) and seen surfaces continued into hidden
+      // space (hidden_continuation_m); with the continuation only; the plain map. All but the last get a share of
+      // the budget (2-D solves that succeed take milliseconds to a few hundred); a world in which the start is not
+      // free is skipped.
+      std::vector<Tier*> tiers;
       if (world_source_.hasPreferredWorld()) {
-        bool start_in_margin = false;
-        result = attempt(request, algorithm, stop, /*preferred=*/true, preferred_budget, &start_in_margin);
+        tiers.push_back(&margin_tier_);
+        if (hidden_continuation_m_ > 0.0) tiers.push_back(&continuation_tier_);
+      }
+      std::optional<planner::PlanResult> result;
+      double spent = 0.0;  // of the budget, by failed searches on the earlier worlds
+      for (Tier* tier : tiers) {
+        const double share = tier->share(budget - spent);
+        bool start_blocked = false;
+        result = attempt(request, algorithm, stop, tier->preferred, tier->continued ? hidden_continuation_m_ : 0.0, share, &start_blocked);
         if (!result) return;  // answered (failed)
         if (result->stopped) return stopped();
         if (result->solved) {
-          notePreferredSolve(result->stats.time_s);
-        } else if (start_in_margin) {
-          spdlog::info("request {}: the start is within {:.1f} m of unseen surfaces; planning on the plain map", request.request_id(),
-                       params_.unknown_margin_m);
+          tier->solved(result->stats.time_s);
+          break;
+        }
+        if (start_blocked) {
+          spdlog::info("request {}: the start is not free {}; trying the next world", request.request_id(), tier->what);
         } else {
-          ++preferred_failures_;
-          preferred_spent = preferred_budget;
-          spdlog::info("request {}: no path keeping {:.1f} m from unseen surfaces in {:.2f} s; planning on the plain map", request.request_id(),
-                       params_.unknown_margin_m, preferred_budget);
+          tier->failed();
+          spent += share;
+          spdlog::info("request {}: no path {} in {:.2f} s; trying the next world", request.request_id(), tier->what, share);
         }
       }
       if (!result || !result->solved) {
-        result = attempt(request, algorithm, stop, /*preferred=*/false, budget - preferred_spent);
+        result = attempt(request, algorithm, stop, /*preferred=*/false, 0.0, budget - spent);
         if (!result) return;
         if (result->stopped) return stopped();
       }
@@ -196,36 +215,45 @@ class PlannerComponent : public runtime::Component {
     }
   }
 
-  // The preferred world's share of a request's budget: a tenth of it, and once a few solves there have
-  // succeeded, at most 3 x their median (at least 0.1 s). Where it closes an unseen passage the vehicle must
-  // take, it finds nothing and the whole share is waited for before the plain map is tried: 0.5 s of a 5 s
-  // budget on stunnel_1.0, the worst replan of the run, where the successful solves took 11-125 ms. Each failure
-  // there since the last success halves the share (down to 0.1 s): in stunnel_0.5's 2 m corridor, whose next leg
-  // the margin closes until the vehicle looks into it, hardly a try succeeds, and 0.5 s went to each of 20 requests.
-  double preferredBudget(double budget) const {
-    double share = budget / 10;
-    if (preferred_solve_s_.size() >= 3) {
-      std::vector<double> sorted(preferred_solve_s_.begin(), preferred_solve_s_.end());
-      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-      share = std::min(share, std::max(0.1, 3.0 * sorted[sorted.size() / 2]));
+  // A world tried before the plain map, and what its recent searches took. Its share of a request's budget: a
+  // tenth of what is left, and once a few solves there have succeeded, at most 3 x their median (at least 0.1 s).
+  // Where it closes an unseen passage the vehicle must take, it finds nothing and the whole share is waited for
+  // before the next world is tried: 0.5 s of a 5 s budget on stunnel_1.0, the worst replan of the run, where the
+  // successful solves took 11-125 ms. Each failure there since the last success halves the share (down to 0.1 s):
+  // in stunnel_0.5's 2 m corridor, whose next leg the margin closes until the vehicle looks into it, hardly a try
+  // succeeds, and 0.5 s went to each of 20 requests.
+  struct Tier {
+    bool preferred;       // on the map with the unknown margin
+    bool continued;       // with seen surfaces continued into hidden space
+    const char* what;     // for the log
+    std::deque<double> solve_s{};  // the latest successful solves, s
+    int failures = 0;              // failed searches since the last success
+    double share(double left) const {
+      double share = left / 10;
+      if (solve_s.size() >= 3) {
+        std::vector<double> sorted(solve_s.begin(), solve_s.end());
+        std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+        share = std::min(share, std::max(0.1, 3.0 * sorted[sorted.size() / 2]));
+      }
+      return std::max(std::min(share, 0.1), std::ldexp(share, -std::min(failures, 30)));
     }
-    share = std::max(std::min(share, 0.1), std::ldexp(share, -std::min(preferred_failures_, 30)));
-    return share;
-  }
-  void notePreferredSolve(double seconds) {
-    preferred_failures_ = 0;
-    preferred_solve_s_.push_back(seconds);
-    if (preferred_solve_s_.size() > 15) preferred_solve_s_.pop_front();
-  }
+    void solved(double seconds) {
+      failures = 0;
+      solve_s.push_back(seconds);
+      if (solve_s.size() > 15) solve_s.pop_front();
+    }
+    void failed() { ++failures; }
+  };
 
   // One solve on a snapshot of the world; nullopt when the request was answered as failed already (no world). On the
   // preferred world a start that is not free there is not searched from: unsolved, with *start_in_margin set.
   std::optional<planner::PlanResult> attempt(const msg::PlanRequest& request, planner::Planner& algorithm, std::stop_token stop,
-                                             bool preferred, double time_limit_s, bool* start_in_margin = nullptr) {
+                                             bool preferred, double continuation_m, double time_limit_s, bool* start_blocked = nullptr) {
+    const bool tier = start_blocked != nullptr;  // a world tried before the plain map
     std::unique_ptr<planner::CollisionWorld> world;
     try {
       world = world_source_.snapshot(nodes::fromMsg(request.start()).position, nodes::fromMsg(request.goal()).position, request.goal_radius(),
-                                     preferred);
+                                     preferred, continuation_m);
     } catch (const std::exception& e) {
       fail(request, std::string("cannot build the world: ") + e.what());
       return std::nullopt;
@@ -252,8 +280,8 @@ class PlannerComponent : public runtime::Component {
     // The preferred world blocks unseen space next to seen surfaces (unknown_margin_m): a vehicle rounding the seen
     // corner of a wall stands in it, deeper than the reach (bugtrap_0.6: the request failed "start ... is in
     // collision" ten times and the mission ended). Not solved there, so the plain map is tried.
-    if (preferred && !world->isFree(problem.start.position)) {
-      if (start_in_margin) *start_in_margin = true;
+    if (tier && !world->isFree(problem.start.position)) {
+      *start_blocked = true;
       planner::PlanResult not_there;
       not_there.planner = algorithm.name();
       return not_there;
@@ -273,6 +301,7 @@ class PlannerComponent : public runtime::Component {
   const nodes::WorldKind kind_;
   const bool kinodynamic_;
   const std::map<std::string, std::vector<std::string>> planner_options_;
+  const double unknown_margin_m_, hidden_continuation_m_;  // the parameters, or their defaults for the scenario
   nodes::WorldSource world_source_;
   bus::Publisher<msg::Path> paths_;
   std::map<std::uint64_t, std::uint32_t> last_request_;  // requester (publication handle) -> its last request id
@@ -282,8 +311,9 @@ class PlannerComponent : public runtime::Component {
     std::int64_t since_ns = 0;  // clock time it came
   };
   std::map<std::uint64_t, Deferred> deferred_;  // requests waiting for the world, by requester (serveDeferred)
-  std::deque<double> preferred_solve_s_;  // the latest successful solves on the preferred world, s (the worker's)
-  int preferred_failures_ = 0;            // failed tries on the preferred world since its last success (the worker's)
+  // The worlds tried before the plain map (the worker's).
+  Tier margin_tier_{true, true, "keeping clear of unseen space next to seen surfaces"};
+  Tier continuation_tier_{false, true, "with seen surfaces continued out of sight"};
   std::optional<runtime::Timer> deferred_timer_;  // polls while a request waits
   runtime::Worker worker_{"planner"};  // after what its jobs use: stopped and joined before they go
   bus::Subscription requests_;

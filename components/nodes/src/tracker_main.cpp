@@ -10,6 +10,7 @@
 // seconds (it drove into an obstacle that way).
 
 #include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/map_scale.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include <ddsnav/runtime/component.hpp>
 #include <ddsnav/runtime/pending_work.hpp>
@@ -40,7 +41,7 @@ class TrackerComponent : public runtime::Component {
   struct Params {
     std::string scenario, planner;
     nodes::WorldParameters world;  // world, unknown_space: the planner's, to smooth and check against
-    double unknown_margin_m;       // the planner's preference, smoothed on first
+    std::optional<double> unknown_margin_m;  // the planner's preference, smoothed on first (default: nodes::defaultUnknownMargin)
     double control_rate_hz, time_budget_s;
     std::int64_t seed, max_plan_attempts;
     double plan_retry_delay_s;
@@ -56,11 +57,12 @@ class TrackerComponent : public runtime::Component {
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
           planner(p.declare<std::string>("planner", "gart-lazy", {.doc = "planner asked for in each request (docs/planners.md)"})),
           world(p),
-          unknown_margin_m(p.declare<double>(
-              "unknown_margin_m", 1.0,
+          unknown_margin_m(p.declareOptional<double>(
+              "unknown_margin_m",
               {.min = 0, .max = 100, .unit = "m",
                .doc = "2-D map and fused worlds, optimistic: smooth first keeping never-observed space this close to a seen surface blocked, "
-                      "as the planner plans (its unknown_margin_m), then on the plain map (docs/tracking.md); 0: off"})),
+                      "as the planner plans (its unknown_margin_m), then on the plain map (docs/tracking.md); 0: off; default min(1 m, 2 x the "
+                      "robot radius)"})),
           control_rate_hz(p.declare<double>("control_rate_hz", 20.0, {.above = 0, .max = 1000, .unit = "Hz", .doc = "controller rate"})),
           time_budget_s(p.declare<double>("time_budget_s", 5.0, {.above = 0, .unit = "s", .doc = "time budget of each plan request"})),
           seed(p.declare<std::int64_t>("seed", 1, {.doc = "seed of the first request (the n-th asks seed + n - 1)"})),
@@ -118,7 +120,8 @@ class TrackerComponent : public runtime::Component {
         commands_(publisher(runtime::topics::cmd_vel)),
         statuses_(publisher(runtime::topics::tracking)),
         // The same world the planner plans on (world parameter of both), seen from the vehicle's position.
-        world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m, /*preferred_on_demand=*/true),
+        world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m.value_or(nodes::defaultUnknownMargin(scenario_)),
+                      /*preferred_on_demand=*/true),
         mission_(missionConfig()),
         replan_gate_(params_.replan),
         tracker_config_(trackerConfig()),

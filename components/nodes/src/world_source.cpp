@@ -259,19 +259,36 @@ std::size_t WorldSource::droppedMaps() const {
 }
 
 std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Vec3& robot_position, const std::optional<planner::Vec3>& goal,
-                                                              double goal_radius, bool preferred) const {
+                                                              double goal_radius, bool preferred, double hidden_continuation_m) const {
   const auto& s = scenario_;
-  std::shared_ptr<const planner::CollisionWorld> map_world;
+  std::shared_ptr<const planner::CollisionWorld> map_world, knows_unobserved;
   std::vector<planner::EllipsoidObstacle> ellipses;
   {
     std::lock_guard lock(mutex_);
     if (kind_ == WorldKind::Scenario) return planner::makeScenarioWorld(s);
     if (!availableLocked()) return nullptr;
     map_world = preferred && !preferred_on_demand_ && preferred_map_world_ ? preferred_map_world_ : map_world_;
+    if (!preferred_on_demand_) knows_unobserved = preferred_map_world_;
     if (kind_ != WorldKind::Map) ellipses = toEllipsoidObstacles(*obstacles_);
   }
-  if (preferred && preferred_on_demand_)
-    if (auto built = preferredOnDemand()) map_world = std::move(built);
+  if (preferred_on_demand_ && (preferred || hidden_continuation_m > 0.0))
+    if (auto built = preferredOnDemand()) {
+      knows_unobserved = built;
+      if (preferred) map_world = std::move(built);
+    }
+  // Seen surfaces continued into the space hidden from the robot (the preferred map is the one that knows which
+  // cells were observed); none near the robot or in the goal region, which a plan must be able to start and end in.
+  if (hidden_continuation_m > 0.0 && knows_unobserved && map_world) {
+    auto continued = planner::occludedSurfaceContinuation(*knows_unobserved, robot_position, hidden_continuation_m);
+    const double near_robot = 2.0 * s.robot_radius + continued.cell_size;
+    const double goal_reach = std::isfinite(goal_radius) ? std::clamp(goal_radius, 0.0, 1e5) + s.robot_radius + continued.cell_size : 0.0;
+    std::erase_if(continued.cells, [&](const planner::Vec3& c) {
+      return (c - planner::Vec3(robot_position.x(), robot_position.y(), 0.0)).norm() <= near_robot ||
+             (goal && (c - planner::Vec3(goal->x(), goal->y(), 0.0)).norm() <= goal_reach);
+    });
+    if (!continued.cells.empty())
+      map_world = planner::makeBlockedCellsWorld(std::move(map_world), std::move(continued.cells), continued.cell_size);
+  }
   // The map's world is shared and immutable: a Map snapshot is a view of it (its own validity-check
   // count and check resolution), a Fused one pairs it with this snapshot's obstacles.
   auto viewed = [&](std::unique_ptr<planner::CollisionWorld> world) -> std::unique_ptr<planner::CollisionWorld> {

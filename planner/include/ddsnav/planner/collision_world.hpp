@@ -134,6 +134,26 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
                                                  double robot_radius, const std::vector<std::uint8_t>& octree_binary,
                                                  const OctoMapWorldOptions& options);
 
+// Where seen surfaces probably go on, out of sight (docs/world-model.md, "Seen surfaces that go on out of sight"). A
+// 2-D scanner sees the near face of a wall up to where something in front hides it; optimistic planning then
+// takes the hidden stretch as open and plans through it (bugtrap_0.6: the box's side wall behind the neck, the
+// vehicle driven 15 m the wrong way before it saw it). For every observed occupied cell that ends a straight run of
+// them (the principal axis of those within 0.5 m, 9x longer than wide, none beyond it along the axis) and is in
+// sight from `viewpoint`, the cells on along that axis that were never observed and are hidden from the viewpoint
+// (an observed occupied cell lies between) are returned, up to max_length_m; the first observed cell, or the first
+// one in plain sight, ends the run. (An end out of sight may be a true end seen earlier from elsewhere.) Empty unless `world` is a 2-D makeOctoMapWorld built knowing its unobserved cells (unknown_margin_m > 0
+// or unknown_is_occupied). At most 2^20 cells.
+struct OccludedContinuation {
+  std::vector<Vec3> cells;  // cell centres (z = 0)
+  double cell_size = 0.0;   // m, the map's resolution
+};
+OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, const Vec3& viewpoint, double max_length_m);
+
+// `base` with the given cells (squares of cell_size centred on the points, in the x-y plane; z ignored) blocked as
+// well: a robot overlapping one is not free, and its clearance counts them. For occludedSurfaceContinuation's cells.
+std::unique_ptr<CollisionWorld> makeBlockedCellsWorld(std::shared_ptr<const CollisionWorld> base, std::vector<Vec3> cells,
+                                                      double cell_size);
+
 }  // namespace ddsnav::planner
 
 namespace ddsnav::planner {

@@ -28,4 +28,15 @@ struct MapScale {
 // The rule above; `sensor_range` is the simulator's range for the scenario (sim::defaultMaxRange).
 MapScale mapScaleFor(const planner::Scenario& scenario, double sensor_range);
 
+// The world model's lengths that follow the robot's size when left unset (docs/world-model.md, "Lengths that
+// follow the robot"). They were set on the paper's 110 m worlds (robot radius 0.5 m) and kept there; a world
+// ten times smaller (stunnel_small_0.5: a 0.5 m corridor, radius 0.1 m) must not be read with the same metres —
+// a 1 m unseen margin closes every corridor in it, and a 6 m scanner never sees a 10 m wall whole, so every wall
+// became a chain of ellipses that closed the corridor. None grows past its value on the paper's worlds.
+//
+//   structure_extent_m     = min(10 m, 25 r)   perception: a longer cluster is structure, left to the map
+//   unknown_margin_m       = min(1 m, 2 r)     planner and tracker: unseen space this close to a seen surface
+double defaultStructureExtent(const planner::Scenario& scenario);
+double defaultUnknownMargin(const planner::Scenario& scenario);
+
 }  // namespace ddsnav::nodes

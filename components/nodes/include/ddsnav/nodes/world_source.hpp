@@ -75,9 +75,13 @@ class WorldSource {
   // `goal` (3-D sensor view only): the ball of goal_radius + the robot radius around it is never blocked as
   // unseen (planner::SensorView::exempt_center).
   // `preferred`: on the map built with the preferred unknown margin, when there is one (hasPreferredWorld).
+  // `hidden_continuation_m` > 0 (2-D, with a preferred world, which knows the map's unobserved cells): seen surfaces
+  // also go on that far into space hidden from robot_position (planner::occludedSurfaceContinuation), except
+  // within two robot radii of it and in the goal region.
   std::unique_ptr<planner::CollisionWorld> snapshot(const planner::Vec3& robot_position,
                                                     const std::optional<planner::Vec3>& goal = std::nullopt,
-                                                    double goal_radius = 0.0, bool preferred = false) const;
+                                                    double goal_radius = 0.0, bool preferred = false,
+                                                    double hidden_continuation_m = 0.0) const;
   // With preferred_on_demand: builds the preferred world of the newest map now, on the map worker, so that the
   // snapshot that asks for it soon (the tracker's, for the path a request it just sent will bring) finds it
   // built. Nothing otherwise.
