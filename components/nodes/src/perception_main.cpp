@@ -168,6 +168,7 @@ class PerceptionComponent : public runtime::Component {
       const auto& tracked = obstacle_tracker_.update(detections, origin);  // forgets what is out of reach
       const bool planar = tracked.empty() ? nodes::isPlanarCloud(points) : tracked.front().dimensions == 2;
       if (!detector_.structure().empty()) obstacle_tracker_.markStructure(detector_.structure(), planar ? 2 : 3);
+      obstacle_tracker_.markStructureChains(detector_.params().structure_extent);
       const auto published = obstacle_tracker_.discreteObstacles(origin, static_cast<std::size_t>(params_.max_obstacles));
       cloud_ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());
       cloud_cpu_ms_.push_back(threadCpuMs() - started_cpu);

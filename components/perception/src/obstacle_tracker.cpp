@@ -48,6 +48,11 @@ class CellMap {
     }
   }
   bool contains(const CellKey& key) { return find(key) != nullptr; }
+  std::size_t size() const { return size_; }
+  void clear() {
+    slots_.clear();
+    size_ = mask_ = 0;
+  }
   // The value stored for key, inserting `value` when key is new (never overwrites, like emplace).
   Value& emplace(const CellKey& key, const Value& value) {
     if (2 * (size_ + 1) > slots_.size()) grow();
@@ -240,6 +245,16 @@ struct ObstacleTracker::Evidence {
   CellGrid nearby;         // association cell -> first node of the voxels in it (a list)
   CellMap<bool> coarse;    // kCoarseCell cells holding any track voxel
   static constexpr double kCoarseCell = 1.0;  // m
+  // markStructure: the association cells where a scan showed structure (a chain of tracks touching one is
+  // structure). Bounded: at kMaxStructureCells the memory starts again (a 110 x 110 m terrain fills ~75 000).
+  CellMap<bool> structure_cells;
+  static constexpr std::size_t kMaxStructureCells = std::size_t{1} << 20;
+  std::vector<std::uint32_t> changed;  // tracks created, grown or refitted in the last update
+  // markStructureChains' scratch: the tracks of one chain, a visit stamp per track, the cells scanned.
+  std::vector<std::uint32_t> chain;
+  std::vector<std::uint32_t> chain_stamp;
+  std::uint32_t chain_epoch = 0;
+  CellMap<bool> chain_cells;
   EuclideanClusterer clusterer;
   // Scratch buffers of one update, kept across scans.
   std::vector<SupportPoint> pending;
@@ -414,6 +429,7 @@ const std::vector<ObstacleEllipsoid>& ObstacleTracker::associate(std::span<const
 
   // Refit the tracks whose evidence grew or left their ellipse (only those: the list, not a scan
   // over every track), then the deferred refresh-only ones that are due, oldest first.
+  ev.changed.assign(ev.must_refit.begin(), ev.must_refit.end());
   for (std::uint32_t t : ev.must_refit) refit(t);
   ev.must_refit.clear();
   std::size_t budget = params_.max_deferred_refits;
@@ -444,21 +460,24 @@ const std::vector<ObstacleEllipsoid>& ObstacleTracker::refitDeferred() {
 
 std::size_t ObstacleTracker::markStructure(std::span<const Eigen::Vector3f> voxels, int dims) {
   auto& ev = *evidence_;
-  if ((dims != 2 && dims != 3) || ev.tracks.empty()) return 0;
+  if (dims != 2 && dims != 3) return 0;
   const double tol = params_.association_distance;
   std::size_t marked = 0;
   // One visit per association cell of the structure (a surface scan puts dozens of voxels in each); the
   // tracks listed in it and its neighbours (within ~1-2 association distances: a sparse far-range glimpse of
-  // the same surface rarely lands in the very voxel cells a later scan hits) become structure.
+  // the same surface rarely lands in the very voxel cells a later scan hits) become structure. Every cell is
+  // remembered for markStructureChains.
   CellMap<bool> visited;
   std::array<std::uint32_t, 27> heads;
   for (Eigen::Vector3f v : voxels) {
     if (dims == 2) v.z() = 0.0f;
     CellKey coarse, cell;
-    // Most structure lies where no track is: one probe of the coarse grid skips it.
-    if (!cellOf(v, Evidence::kCoarseCell, dims, coarse) || !ev.coarse.contains(coarse)) continue;
     if (!cellOf(v, tol, dims, cell) || visited.contains(cell)) continue;
     visited.emplace(cell, true);
+    if (ev.structure_cells.size() >= Evidence::kMaxStructureCells) ev.structure_cells.clear();
+    ev.structure_cells.emplace(cell, true);
+    // Most structure lies where no track is: one probe of the coarse grid skips it.
+    if (!cellOf(v, Evidence::kCoarseCell, dims, coarse) || !ev.coarse.contains(coarse)) continue;
     const int n = ev.nearby.neighbourhood(cell, heads);
     for (int k = 0; k < n; ++k)
       for (std::uint32_t node = heads[k]; node != kNone; node = ev.nodes[node].next_nearby) {
@@ -468,6 +487,68 @@ std::size_t ObstacleTracker::markStructure(std::span<const Eigen::Vector3f> voxe
         track.structure = true;
         ++marked;
       }
+  }
+  return marked;
+}
+
+std::size_t ObstacleTracker::markStructureChains(double extent) {
+  auto& ev = *evidence_;
+  if (!(extent > 0.0) || ev.changed.empty()) return 0;
+  const double tol = params_.association_distance;
+  const float limit2 = static_cast<float>(extent * extent);
+  ev.chain_stamp.resize(ev.tracks.size(), 0);
+  if (++ev.chain_epoch == 0) {  // wrapped: every old stamp could look current
+    std::fill(ev.chain_stamp.begin(), ev.chain_stamp.end(), 0);
+    ev.chain_epoch = 1;
+  }
+  const std::uint32_t epoch = ev.chain_epoch;
+  ev.chain_cells.clear();
+  std::array<std::uint32_t, 27> heads;
+  std::size_t marked = 0;
+  for (const std::uint32_t start : ev.changed) {
+    if (start >= ev.tracks.size() || ev.tracks[start].structure || ev.chain_stamp[start] == epoch) continue;
+    // Breadth first over the tracks whose voxels lie in or next to each other's association cells (the
+    // clustering's connectivity, as markStructure's neighbourhood), never through a structure track.
+    ev.chain.assign(1, start);
+    ev.chain_stamp[start] = epoch;
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
+    bool structure = false;
+    for (std::size_t k = 0; k < ev.chain.size(); ++k) {
+      const auto& track = ev.tracks[ev.chain[k]];
+      const int dims = track.dims;
+      for (const SupportPoint& voxel : track.voxels) {
+        Eigen::Vector3f p = voxel.position;
+        if (dims == 2) p.z() = 0.0f;
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+        CellKey cell;
+        if (!cellOf(p, tol, dims, cell) || ev.chain_cells.contains(cell)) continue;
+        ev.chain_cells.emplace(cell, true);
+        const int n = ev.nearby.neighbourhood(cell, heads);
+        for (int j = 0; j < n; ++j)
+          for (std::uint32_t node = heads[j]; node != kNone; node = ev.nodes[node].next_nearby) {
+            const std::uint32_t t = ev.nodes[node].track;
+            if (t == kNone || ev.chain_stamp[t] == epoch) continue;
+            if (ev.tracks[t].structure) {
+              structure = true;  // touches a track already known as structure
+              continue;
+            }
+            ev.chain_stamp[t] = epoch;
+            ev.chain.push_back(t);
+          }
+        if (!structure && ev.structure_cells.size() > 0) {
+          for (int dx = -1; dx <= 1 && !structure; ++dx)
+            for (int dy = -1; dy <= 1 && !structure; ++dy)
+              for (int dz = dims == 3 ? -1 : 0; dz <= (dims == 3 ? 1 : 0) && !structure; ++dz)
+                structure = ev.structure_cells.contains(CellKey{cell.x + dx, cell.y + dy, cell.z + dz, dims});
+        }
+      }
+    }
+    if (!structure && (hi - lo).squaredNorm() <= limit2) continue;
+    for (const std::uint32_t t : ev.chain) {
+      ev.tracks[t].structure = true;
+      ++marked;
+    }
   }
   return marked;
 }

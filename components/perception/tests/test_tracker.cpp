@@ -105,6 +105,49 @@ TEST(Tracker, AWallSeenPieceByPieceStaysAChainOfBoundedTracks) {
   EXPECT_GE(owned.size(), cells.size());
 }
 
+// A wall face seen only in glimpses (a doorway's side, the far part of a face at a grazing angle): every scan's
+// cluster is short, so the detector never calls it structure; the chain of its tracks does once it spans more than
+// the extent, and only then.
+TEST(TrackerStructure, AChainOfGlimpsesLongerThanTheExtentIsStructure) {
+  ObstacleTracker tracker;
+  const Eigen::Vector3f sensor(-2, 0, 0);
+  for (float y = 0.0f; y < 12.0f; y += 1.0f) {
+    tracker.update(std::vector{detectionOf(segment({0, y, 0}, {0, y + 0.9f, 0}, 0.01f), sensor)});  // 0.1 m apart
+    const bool longer = y + 0.9f > 10.0f;
+    const std::size_t marked = tracker.markStructureChains(10.0);
+    if (!longer) {
+      EXPECT_EQ(marked, 0u) << "at y = " << y;
+      EXPECT_EQ(tracker.discreteObstacles(sensor.cast<double>(), 1000).size(), tracker.obstacles().size());
+    }
+  }
+  EXPECT_GE(tracker.obstacles().size(), 8u);
+  EXPECT_TRUE(tracker.discreteObstacles(sensor.cast<double>(), 1000).empty());
+  // A later glimpse of the face belongs to the structure at once; an obstacle 1 m off the face stays one.
+  tracker.update(std::vector{detectionOf(segment({0, 12.0f, 0}, {0, 12.5f, 0}), sensor), detectionOf(segment({-1.0f, 5, 0}, {-1.0f, 5.3f, 0}), sensor)});
+  tracker.markStructureChains(10.0);
+  const auto left = tracker.discreteObstacles(sensor.cast<double>(), 1000);
+  ASSERT_EQ(left.size(), 1u);
+  EXPECT_NEAR(tracker.obstacles()[left[0]].center.x(), -1.0, 0.05);
+}
+
+TEST(TrackerStructure, AGlimpseWhereStructureWasSeenIsStructure) {
+  ObstacleTracker tracker;
+  const Eigen::Vector3f sensor(-2, 0, 0);
+  // A scan showed the wall x = 0, y in [0, 10] as one long cluster (structure: it never reaches the tracker).
+  const auto wall = segment({0, 0, 0}, {0, 10, 0});
+  EXPECT_EQ(tracker.markStructure(wall, 2), 0u);  // no track yet
+  // Later glimpses: one of its end (a corner's leg) and a post 2 m away.
+  tracker.update(std::vector{detectionOf(segment({0.1f, 10.0f, 0}, {0.4f, 10.0f, 0}), sensor), detectionOf(segment({-2.0f, 4, 0}, {-2.0f, 4.2f, 0}), sensor)});
+  EXPECT_EQ(tracker.markStructureChains(10.0), 1u);
+  const auto left = tracker.discreteObstacles(sensor.cast<double>(), 1000);
+  ASSERT_EQ(left.size(), 1u);
+  EXPECT_NEAR(tracker.obstacles()[left[0]].center.x(), -2.0, 0.05);
+  // Chains off: nothing changes.
+  ObstacleTracker other;
+  other.update(std::vector{detectionOf(segment({0, 0, 0}, {0, 0.9f, 0}), sensor)});
+  EXPECT_EQ(other.markStructureChains(0.0), 0u);
+}
+
 TEST(Tracker, IgnoresBadDetectionsAndMixedDimensions) {
   ObstacleTracker tracker;
   const Eigen::Vector3f sensor(0, 0, 0);

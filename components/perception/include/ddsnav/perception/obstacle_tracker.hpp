@@ -120,6 +120,15 @@ class ObstacleTracker {
   // forgotten) but are no obstacles any more: discreteObstacles() leaves them out. Returns how many
   // tracks were newly marked.
   std::size_t markStructure(std::span<const Eigen::Vector3f> voxels, int dimensions);
+  // Structure judged on the evidence of every scan, not one: a wall seen only at grazing angles (a doorway's
+  // face beside the vehicle, the far part of a face) reaches the tracker as a string of short glimpses, none
+  // long enough for the detector's structure_extent, and their ellipses closed a 1.6 m doorway for a 1 m robot.
+  // Marks as structure every chain of tracks — tracks whose voxels lie in or next to each other's association
+  // cells, the clustering's connectivity — that holds a track created, grown or refitted in the last update
+  // and either spans more than `extent` (box diagonal, as the detector's structure_extent) or touches structure
+  // (a structure track, or a cell where markStructure saw structure). Chains never run through structure
+  // tracks. Returns how many tracks were newly marked; `extent` <= 0: none.
+  std::size_t markStructureChains(double extent);
   bool isStructure(std::size_t index) const;
   // What perception publishes: indices into obstacles() of the tracks not marked as structure, in
   // creation order; when there are more than max_count, the max_count whose centres are nearest to
