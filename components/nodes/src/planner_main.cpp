@@ -11,6 +11,7 @@
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/map_scale.hpp"
 #include "ddsnav/nodes/validate.hpp"
+#include "ddsnav/nodes/world_tier.hpp"
 #include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
@@ -215,34 +216,12 @@ class PlannerComponent : public runtime::Component {
     }
   }
 
-  // A world tried before the plain map, and what its recent searches took. Its share of a request's budget: a
-  // tenth of what is left, and once a few solves there have succeeded, at most 3 x their median (at least 0.1 s).
-  // Where it closes an unseen passage the vehicle must take, it finds nothing and the whole share is waited for
-  // before the next world is tried: 0.5 s of a 5 s budget on stunnel_1.0, the worst replan of the run, where the
-  // successful solves took 11-125 ms. Each failure there since the last success halves the share (down to 0.1 s):
-  // in stunnel_0.5's 2 m corridor, whose next leg the margin closes until the vehicle looks into it, hardly a try
-  // succeeds, and 0.5 s went to each of 20 requests.
-  struct Tier {
-    bool preferred;       // on the map with the unknown margin
-    bool continued;       // with seen surfaces continued into hidden space
-    const char* what;     // for the log
-    std::deque<double> solve_s{};  // the latest successful solves, s
-    int failures = 0;              // failed searches since the last success
-    double share(double left) const {
-      double share = left / 10;
-      if (solve_s.size() >= 3) {
-        std::vector<double> sorted(solve_s.begin(), solve_s.end());
-        std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-        share = std::min(share, std::max(0.1, 3.0 * sorted[sorted.size() / 2]));
-      }
-      return std::max(std::min(share, 0.1), std::ldexp(share, -std::min(failures, 30)));
-    }
-    void solved(double seconds) {
-      failures = 0;
-      solve_s.push_back(seconds);
-      if (solve_s.size() > 15) solve_s.pop_front();
-    }
-    void failed() { ++failures; }
+  // A world tried before the plain map, with its share of the budget (nodes::WorldTier).
+  struct Tier : nodes::WorldTier {
+    Tier(bool preferred, bool continued, const char* what) : preferred(preferred), continued(continued), what(what) {}
+    bool preferred;    // on the map with the unknown margin
+    bool continued;    // with seen surfaces continued into hidden space
+    const char* what;  // for the log
   };
 
   // One solve on a snapshot of the world; nullopt when the request was answered as failed already (no world). On the
