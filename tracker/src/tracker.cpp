@@ -30,6 +30,8 @@ TrajectoryTracker::TrajectoryTracker(Trajectory trajectory, const VehicleLimits&
     throw std::invalid_argument("tracker: lookahead_time must be >= 0 and replan_horizon > 0");
   if (!(config_.replan_horizon_distance >= 0) || !std::isfinite(config_.replan_horizon_distance))
     throw std::invalid_argument("tracker: replan_horizon_distance must be a finite number of metres >= 0");
+  if (!(config_.catch_up_decel >= 0) || !std::isfinite(config_.catch_up_decel))
+    throw std::invalid_argument("tracker: catch_up_decel must be a finite number of m/s^2 >= 0 (0: no cap)");
 }
 
 TrajectorySample TrajectoryTracker::sampleAtArcLength(double s) const {
@@ -176,10 +178,30 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
   else
     cmd = purePursuit(state, proj);
 
+  if (!reference_done) cmd.v = std::min(cmd.v, brakingCap(proj));
   cmd.v = std::clamp(cmd.v, 0.0, limits_.v_max);
   cmd.omega = std::clamp(cmd.omega, -limits_.omega_max, limits_.omega_max);
   cmd.vz = trajectory_->dimensions == 3 ? std::clamp(cmd.vz, -limits_.vz_max, limits_.vz_max) : 0.0;
   return cmd;
+}
+
+double TrajectoryTracker::brakingCap(const Projection& proj) const {
+  const double a = config_.catch_up_decel;
+  if (!(a > 0)) return std::numeric_limits<double>::infinity();
+  const auto& samples = trajectory_->samples;
+  // From the reference on (a stop it has already made, a turn in place at the start, is behind it: counting those
+  // would hold the vehicle there for good) and ahead of the vehicle; samples farther than the stopping distance
+  // from v_max cannot lower the cap below v_max.
+  const auto from_reference = std::lower_bound(samples.begin(), samples.end(), status_.reference_time,
+                                               [](const TrajectorySample& sample, double time) { return sample.time < time; });
+  const double reach = limits_.v_max * limits_.v_max / (2 * a);
+  double cap = std::numeric_limits<double>::infinity();
+  for (auto j = std::max(from_reference, samples.begin() + static_cast<std::ptrdiff_t>(proj.segment) + 1); j < samples.end(); ++j) {
+    const double ahead = j->arc_length - proj.arc_length;
+    if (ahead > reach) break;
+    cap = std::min(cap, std::sqrt(j->speed * j->speed + 2 * a * std::max(0.0, ahead)));
+  }
+  return cap;
 }
 
 double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {

@@ -288,3 +288,43 @@ TEST(BrakeAlong, StopsOnThePathWithinTheBrakingDistance) {
   EXPECT_THROW(brakeAlong(t, from, -1.0, decel), std::invalid_argument);
   EXPECT_THROW(brakeAlong(t, from, 1.0, 0.0), std::invalid_argument);
 }
+
+// A vehicle behind its reference (a late switch: the reference ran max_lead ahead while it stood) must not catch up
+// faster than it can still brake for where the reference stops: stunnel_1.0, a catch-up at 2.4 m/s toward a stop
+// 2.3 m ahead next to a wall, overshot it by 0.5 m into the wall.
+static double overshootAfterALateStart(double catch_up_decel, bool* capped) {
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto traj = smoothPath(pathOf({{1, 5, 0}, {7, 5, 0}}), *world, *sc.vehicle);
+  TrackerConfig cfg;
+  cfg.catch_up_decel = catch_up_decel;
+  TrajectoryTracker tracker(traj, *sc.vehicle, cfg);
+  VehicleConfig vc;
+  vc.limits = *sc.vehicle;
+  vc.noise = VehicleNoise::none();
+  VehicleState start;
+  start.position = {1, 5, 0};
+  UnicycleVehicle vehicle(vc, start);
+  for (int i = 0; i < 40; ++i) tracker.update(vehicle.state(), 0.05);  // standing: the reference runs ahead
+  *capped = true;
+  double farthest = 0.0;
+  for (int i = 0; i < 400 && !tracker.status().goal_reached; ++i) {
+    const auto cmd = tracker.update(vehicle.state(), 0.05);
+    const double to_end = traj.samples.back().position.x() - vehicle.state().position.x();
+    if (cmd.v > std::sqrt(2 * 1.0 * std::max(0.0, to_end)) + 1e-9) *capped = false;
+    vehicle.step(cmd, 0.05);
+    farthest = std::max(farthest, vehicle.state().position.x());
+  }
+  return farthest - traj.samples.back().position.x();
+}
+
+TEST(Tracker, CatchingUpNeverOutrunsTheBrakingDistanceToTheNextStop) {
+  bool capped = false;
+  const double overshoot = overshootAfterALateStart(1.0, &capped);
+  EXPECT_TRUE(capped);
+  EXPECT_LT(overshoot, 0.05);
+  bool uncapped_within = true;
+  const double uncapped = overshootAfterALateStart(0.0, &uncapped_within);
+  EXPECT_FALSE(uncapped_within);  // without the cap the command exceeds it (the test can fail)
+  std::printf("overshoot past the stop: %.3f m with the cap, %.3f m without\n", overshoot, uncapped);
+}

@@ -16,7 +16,7 @@ double WorldTier::share(double left) const {
     share = std::min(share, typical);
     floor = std::min(floor, typical);
   }
-  return std::max(std::min(share, floor), std::ldexp(share, -std::min(failures_, 30)));
+  return std::max(std::min(share, floor), std::ldexp(share, -2 * std::min(failures_, 30)));
 }
 
 void WorldTier::solved(double seconds) {

@@ -5,14 +5,13 @@
 namespace ddsnav::nodes {
 namespace {
 
-TEST(WorldTier, ATenthOfTheBudgetHalvedPerFailureDownToATenthOfASecond) {
+TEST(WorldTier, ATenthOfTheBudgetQuarteredPerFailureDownToATenthOfASecond) {
   WorldTier tier;
   EXPECT_DOUBLE_EQ(tier.share(5.0), 0.5);
   tier.failed();
-  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.25);
+  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.125);
   tier.failed();
-  tier.failed();
-  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.1);  // 0.0625 without the floor
+  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.1);  // 0.03125 without the floor
   for (int i = 0; i < 100; ++i) tier.failed();
   EXPECT_DOUBLE_EQ(tier.share(5.0), 0.1);
   EXPECT_DOUBLE_EQ(tier.share(0.5), 0.05);  // never more than a tenth of what is left
@@ -39,7 +38,7 @@ TEST(WorldTier, SlowSolvesKeepTheirRoom) {
   for (double s : {0.11, 0.125, 0.09}) tier.solved(s);
   EXPECT_NEAR(tier.share(5.0), 0.33, 1e-12);  // 3 x the 110 ms median
   tier.failed();
-  EXPECT_NEAR(tier.share(5.0), 0.165, 1e-12);
+  EXPECT_NEAR(tier.share(5.0), 0.1, 1e-12);
   for (int i = 0; i < 10; ++i) tier.failed();
   EXPECT_DOUBLE_EQ(tier.share(5.0), 0.1);  // down to 0.1 s when 3 x the median is more
 }

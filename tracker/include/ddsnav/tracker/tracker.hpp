@@ -35,6 +35,12 @@ struct TrackerConfig {
   double lookahead_min = 0.6;    // m, pure pursuit
   double lookahead_time = 0.4;   // s of reference speed added to the pure pursuit lookahead
   double goal_tolerance = 0.1;   // m: goal reached when the reference is finished and the vehicle this close
+  // m/s^2: the speed command never exceeds what still slows to the reference's speed wherever it slows ahead,
+  // braking at this rate: v^2 <= v_j^2 + 2 a (s_j - s) for the samples j ahead of the vehicle's arc position s.
+  // A vehicle behind its reference (a late switch to a new trajectory) was told to catch up at 2.4 m/s toward a
+  // stop 2.3 m ahead next to a wall, and overshot it by 0.5 m into the wall (stunnel_1.0). The smoother's own
+  // rate (SmootherConfig::max_accel): the reference obeys it, so the cap only bites on catching up. 0: no cap.
+  double catch_up_decel = 1.0;
   double replan_deviation = 1.0;      // m of cross-track error that asks for a new plan
   double replan_horizon = std::numeric_limits<double>::infinity();  // s of the remaining trajectory checked
   // m of the remaining trajectory (arc length from the reference) checked as well, whichever of the two
@@ -105,6 +111,9 @@ class TrajectoryTracker {
     double signed_distance = 0.0;
   };
   Projection project(const Vec3& position) const;
+  // The speed from which the vehicle, braking at catch_up_decel, still reaches every sample ahead of its arc
+  // position at no more than that sample's speed (infinity without a cap).
+  double brakingCap(const Projection& proj) const;
   VehicleCommand feedforwardFeedback(const VehicleState& state, const TrajectorySample& ref) const;
   VehicleCommand purePursuit(const VehicleState& state, const Projection& proj) const;
   VehicleCommand approachGoal(const VehicleState& state) const;
