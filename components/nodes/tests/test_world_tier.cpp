@@ -5,16 +5,16 @@
 namespace ddsnav::nodes {
 namespace {
 
-TEST(WorldTier, ATenthOfTheBudgetQuarteredPerFailureDownToATenthOfASecond) {
+TEST(WorldTier, ATenthOfTheBudgetCutByEightPerFailureDownTo50Ms) {
   WorldTier tier;
   EXPECT_DOUBLE_EQ(tier.share(5.0), 0.5);
   tier.failed();
-  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.125);
+  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.0625);
   tier.failed();
-  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.1);  // 0.03125 without the floor
+  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.05);  // 0.0078 without the floor
   for (int i = 0; i < 100; ++i) tier.failed();
-  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.1);
-  EXPECT_DOUBLE_EQ(tier.share(0.5), 0.05);  // never more than a tenth of what is left
+  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.05);
+  EXPECT_DOUBLE_EQ(tier.share(0.3), 0.03);  // never more than a tenth of what is left
 }
 
 TEST(WorldTier, FastSolvesBoundTheShare) {

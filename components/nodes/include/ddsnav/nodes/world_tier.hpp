@@ -2,15 +2,16 @@
 // A world the planner tries before the plain map (the unknown margin, the hidden continuation; docs/world-model.md)
 // and its share of a request's budget, from what its recent searches took.
 //
-// The share: a tenth of what is left, quartered for each failure since the last success (down to 0.1 s); once solves
-// there have succeeded, at most 3 x their median (at least 20 ms), also after failures. Where such a world closes
-// an unseen passage the vehicle must take, it finds nothing and the whole share is waited for before the next
-// world is tried: 0.5 s of a 5 s budget on stunnel_1.0, the worst replan of that run, where the successful solves
-// took 11-125 ms; in stunnel_0.5's 2 m corridor, whose next leg the margin closes until the vehicle looks into it,
-// most tries fail, and 0.1 s went to each of 15 of 25 requests (the successes took 2-29 ms) and 0.5 s to the first
-// failure after each success: most of those replans' scan -> trajectory latency (p99 313-560 ms); halved per
-// failure, the first replans of the mission, before any success, still waited 0.25 and 0.12 s. A search that
-// would have succeeded after 3 x the median is cut off and the next world answers.
+// The share: a tenth of what is left, an eighth of that for each failure since the last success (down to 50 ms);
+// once solves there have succeeded, at most 3 x their median (at least 20 ms), also after failures, and down to
+// that (at most 0.1 s). Where such a world closes an unseen passage the vehicle must take, it finds nothing and the
+// whole share is waited for before the next world is tried: 0.5 s of a 5 s budget on stunnel_1.0, the worst replan
+// of that run, where the successful solves took 11-125 ms; in stunnel_0.5's 2 m corridor, whose next leg the margin
+// closes until the vehicle looks into it, most tries fail, and 0.1 s went to each of 15 of 25 requests (the
+// successes took 2-29 ms) and 0.5 s to the first failure after each success: most of those replans' scan ->
+// trajectory latency (p99 313-560 ms). Halved, then quartered per failure, the first replans of a mission, before
+// any success, still waited 0.25 / 0.125 s (p99 164-191 ms). A search that would have succeeded later is cut off
+// and the next world answers.
 
 #include <deque>
 
