@@ -322,7 +322,11 @@ int main(int argc, char** argv) {
         row["error"] = std::string("summary.json: ") + e.what();
       }
     } else {
-      row["error"] = "no summary.json (see " + (run_dir / "launch.log").string() + ")";
+      // The launch's last error line says why (a refused --set, a component that failed to start).
+      std::string why, line;
+      for (std::ifstream log(run_dir / "launch.log"); std::getline(log, line);)
+        if (line.find("[error]") != std::string::npos) why = line.substr(line.find("[error]") + 8);
+      row["error"] = "no summary.json" + (why.empty() ? "" : ": " + why) + " (see " + (run_dir / "launch.log").string() + ")";
     }
     row["summary"] = summary;
     try {
@@ -364,8 +368,10 @@ int main(int argc, char** argv) {
     if (!keep) fs::remove(recording);
     if (summary.is_object() && summary.contains("sim_time_to_goal_s") && oracle.solved)
       row["time_ratio"] = summary.at("sim_time_to_goal_s").get<double>() / oracle.duration_s;
-    spdlog::info("{}: {} in {:.0f} s of wall time", scenario.name, summary.value("goal_reached", false) ? "goal reached" : "goal NOT reached",
-                 row["wall_s"].get<double>());
+    // No summary (the launch refused its arguments, or a component failed before the monitor wrote one): said, not thrown.
+    const bool reached = summary.is_object() && summary.value("goal_reached", false);
+    spdlog::info("{}: {} in {:.0f} s of wall time{}", scenario.name, reached ? "goal reached" : "goal NOT reached", row["wall_s"].get<double>(),
+                 row.contains("error") ? " — " + row["error"].get<std::string>() : std::string());
     results.push_back(row);
     std::ofstream(fs::path(out_dir) / "results.json") << results.dump(2) << "\n";
   }
