@@ -23,6 +23,8 @@
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
+#include <utility>
+#include <vector>
 
 namespace ddsnav::planner {
 namespace {
@@ -188,7 +190,9 @@ class OctoMapWorld final : public CollisionWorld {
     };
     const auto observed = [&](std::int64_t x, std::int64_t y) {
       const Brick* b = findBrick(x >> 3, y >> 3, 0);
-      return b != nullptr && ((b->known[bitOf({x, y, 0}) >> 6] >> (bitOf({x, y, 0}) & 63)) & 1u) != 0;
+      if (b == nullptr) return false;
+      const std::uint32_t bit = bitOf({x, y, 0});
+      return ((b->known[bit >> 6] >> (bit & 63)) & 1u) != 0;
     };
     // In cells; a viewpoint outside the bounds is taken at the nearest point inside (the walks stay bounded).
     const double vx = std::clamp(viewpoint.x(), bmin_.x(), bmax_.x()) * factor_, vy = std::clamp(viewpoint.y(), bmin_.y(), bmax_.y()) * factor_;
@@ -220,6 +224,7 @@ class OctoMapWorld final : public CollisionWorld {
     const std::int64_t w = std::max<std::int64_t>(2, static_cast<std::int64_t>(std::floor(0.5 * factor_ + 1e-9)));
     const std::int64_t steps = static_cast<std::int64_t>(std::floor(max_length * factor_ + 1e-9));
     std::unordered_set<std::uint64_t> taken;
+    std::vector<std::pair<double, double>> neighbours;
     for (const Brick& brick : bricks_) {
       std::array<std::uint64_t, 8> seen_occupied{};
       for (int i = 0; i < 8; ++i) seen_occupied[i] = brick.occupied[i] & brick.known[i];
@@ -230,12 +235,13 @@ class OctoMapWorld final : public CollisionWorld {
           for (std::int64_t dx = -1; dx <= 1; ++dx)
             if ((dx != 0 || dy != 0) && !observed(c.x + dx, c.y + dy)) against_unseen = true;
         if (!against_unseen) return;
-        double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+        // The observed occupied cells within the disc, as offsets from c (one pass; the extent below reuses them).
+        neighbours.clear();
         for (std::int64_t dy = -w; dy <= w; ++dy)
           for (std::int64_t dx = -w; dx <= w; ++dx)
-            if (dx * dx + dy * dy <= w * w && observedOccupied(c.x + dx, c.y + dy)) {
-              n += 1, sx += double(dx), sy += double(dy), sxx += double(dx * dx), syy += double(dy * dy), sxy += double(dx * dy);
-            }
+            if (dx * dx + dy * dy <= w * w && observedOccupied(c.x + dx, c.y + dy)) neighbours.emplace_back(double(dx), double(dy));
+        double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+        for (const auto& [dx, dy] : neighbours) n += 1, sx += dx, sy += dy, sxx += dx * dx, syy += dy * dy, sxy += dx * dy;
         if (n < double(w) + 1) return;  // too few to tell a direction
         const double mx = sx / n, my = sy / n;
         const double cxx = sxx / n - mx * mx, cyy = syy / n - my * my, cxy = sxy / n - mx * my;
@@ -247,12 +253,10 @@ class OctoMapWorld final : public CollisionWorld {
         const double norm = std::hypot(ax, ay);
         ax /= norm, ay /= norm;
         double lo = 0, hi = 0;  // the extent of the neighbours along the axis, in cells from c
-        for (std::int64_t dy = -w; dy <= w; ++dy)
-          for (std::int64_t dx = -w; dx <= w; ++dx)
-            if (dx * dx + dy * dy <= w * w && observedOccupied(c.x + dx, c.y + dy)) {
-              const double t = double(dx) * ax + double(dy) * ay;
-              lo = std::min(lo, t), hi = std::max(hi, t);
-            }
+        for (const auto& [dx, dy] : neighbours) {
+          const double t = dx * ax + dy * ay;
+          lo = std::min(lo, t), hi = std::max(hi, t);
+        }
         double sign = 0;
         if (hi <= 0.5 && lo <= -0.5 * double(w)) sign = 1;        // c ends the surface toward +axis
         else if (lo >= -0.5 && hi >= 0.5 * double(w)) sign = -1;  // toward -axis

@@ -258,6 +258,15 @@ std::size_t WorldSource::droppedMaps() const {
   return dropped_maps_;
 }
 
+planner::OccludedContinuation WorldSource::continuation(const std::shared_ptr<const planner::CollisionWorld>& map,
+                                                       const planner::Vec3& at, double length_m) const {
+  std::lock_guard lock(continuation_mutex_);
+  auto& last = last_continuation_;
+  if (last.map != map || last.at != at || last.length_m != length_m)
+    last = {map, at, length_m, planner::occludedSurfaceContinuation(*map, at, length_m)};
+  return last.result;
+}
+
 std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Vec3& robot_position, const std::optional<planner::Vec3>& goal,
                                                               double goal_radius, bool preferred, double hidden_continuation_m) const {
   const auto& s = scenario_;
@@ -279,7 +288,7 @@ std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Ve
   // Seen surfaces continued into the space hidden from the robot (the preferred map is the one that knows which
   // cells were observed); none near the robot or in the goal region, which a plan must be able to start and end in.
   if (hidden_continuation_m > 0.0 && knows_unobserved && map_world) {
-    auto continued = planner::occludedSurfaceContinuation(*knows_unobserved, robot_position, hidden_continuation_m);
+    auto continued = continuation(knows_unobserved, robot_position, hidden_continuation_m);
     const double near_robot = 2.0 * s.robot_radius + continued.cell_size;
     const double goal_reach = std::isfinite(goal_radius) ? std::clamp(goal_radius, 0.0, 1e5) + s.robot_radius + continued.cell_size : 0.0;
     std::erase_if(continued.cells, [&](const planner::Vec3& c) {

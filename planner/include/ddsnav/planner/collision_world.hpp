@@ -141,8 +141,9 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
 // them (the principal axis of those within 0.5 m, 9x longer than wide, none beyond it along the axis) and is in
 // sight from `viewpoint`, the cells on along that axis that were never observed and are hidden from the viewpoint
 // (an observed occupied cell lies between) are returned, up to max_length_m; the first observed cell, or the first
-// one in plain sight, ends the run. (An end out of sight may be a true end seen earlier from elsewhere.) Empty unless `world` is a 2-D makeOctoMapWorld built knowing its unobserved cells (unknown_margin_m > 0
-// or unknown_is_occupied). At most 2^20 cells.
+// one in plain sight, ends the run. (An end out of sight may be a true end seen earlier from elsewhere.) Empty unless
+// `world` is a 2-D makeOctoMapWorld built knowing its unobserved cells (unknown_margin_m > 0 or unknown_is_occupied).
+// At most 2^20 cells.
 struct OccludedContinuation {
   std::vector<Vec3> cells;  // cell centres (z = 0)
   double cell_size = 0.0;   // m, the map's resolution

@@ -110,6 +110,10 @@ class WorldSource {
   // On demand: the preferred world of the newest map, built now unless it was already; nullptr without one.
   std::shared_ptr<const planner::CollisionWorld> preferredOnDemand() const;
   bool availableLocked() const;
+  // occludedSurfaceContinuation of `map` seen from `at`, reused while neither changes: the planner's worlds with and
+  // without the unknown margin both ask for it in one request.
+  planner::OccludedContinuation continuation(const std::shared_ptr<const planner::CollisionWorld>& map, const planner::Vec3& at,
+                                             double length_m) const;
 
   WorldKind kind_;
   const planner::Scenario& scenario_;
@@ -131,6 +135,14 @@ class WorldSource {
   std::shared_ptr<const msg::OccupancyMap> preferred_source_;  // on demand: the newest good map
   mutable std::shared_ptr<const msg::OccupancyMap> preferred_built_from_;
   mutable std::mutex preferred_build_mutex_;  // one on-demand build at a time; taken before mutex_, never while holding it
+  struct LastContinuation {
+    std::shared_ptr<const planner::CollisionWorld> map;  // held: a freed map's address could come back
+    planner::Vec3 at = planner::Vec3::Zero();
+    double length_m = 0.0;
+    planner::OccludedContinuation result;
+  };
+  mutable LastContinuation last_continuation_;  // continuation()'s; under continuation_mutex_
+  mutable std::mutex continuation_mutex_;
   std::optional<msg::ObstacleArray> obstacles_;
   std::optional<std::int64_t> first_obstacles_ns_;  // component clock
   std::size_t dropped_obstacles_ = 0, dropped_maps_ = 0;
