@@ -39,7 +39,8 @@ struct TrackerConfig {
   // braking at this rate: v^2 <= v_j^2 + 2 a (s_j - s) for the samples j ahead of the vehicle's arc position s.
   // A vehicle behind its reference (a late switch to a new trajectory) was told to catch up at 2.4 m/s toward a
   // stop 2.3 m ahead next to a wall, and overshot it by 0.5 m into the wall (stunnel_1.0). The smoother's own
-  // rate (SmootherConfig::max_accel): the reference obeys it, so the cap only bites on catching up. 0: no cap.
+  // rate (SmootherConfig::max_accel): the reference obeys it, so the cap only bites on catching up. 0: no cap (the
+  // tracker component's default in 3-D, where the missions took longer with it: docs/tracking.md).
   double catch_up_decel = 1.0;
   double replan_deviation = 1.0;      // m of cross-track error that asks for a new plan
   double replan_horizon = std::numeric_limits<double>::infinity();  // s of the remaining trajectory checked
