@@ -44,6 +44,13 @@ struct Cell {
 // to iterate it; this gives the same leaves (the tests compare against OcTree::search) several times faster.
 // Throws std::runtime_error naming what is wrong.
 class BinaryOcTreeReader {
+  // std::popcount compiles to a libgcc call without -mpopcnt (a tenth of the reading time, measured): a table.
+  static constexpr std::array<std::uint8_t, 256> kBitsInByte = [] {
+    std::array<std::uint8_t, 256> t{};
+    for (unsigned i = 0; i < 256; ++i) t[i] = static_cast<std::uint8_t>((i & 1u) + t[i >> 1]);
+    return t;
+  }();
+
  public:
   // With free_leaves false, only occupied leaves reach `leaf` (all that an optimistic world uses).
   BinaryOcTreeReader(const std::vector<std::uint8_t>& bytes, bool free_leaves) : bytes_(bytes), free_leaves_(free_leaves) {}
@@ -114,7 +121,7 @@ class BinaryOcTreeReader {
     const unsigned present = low | high, inner = low & high;
     unsigned leaves = high & ~low;  // occupied
     if (free_leaves_) leaves |= low & ~high;
-    nodes_ += std::popcount(present);
+    nodes_ += kBitsInByte[present & 0xffu] + kBitsInByte[present >> 8];
     for (unsigned m = leaves; m != 0; m &= m - 1) {  // leaves first, in child order, as OctoMap reads them
       const unsigned i = static_cast<unsigned>(std::countr_zero(m)) / 2;
       std::uint16_t c[3];
@@ -198,8 +205,14 @@ class OctoMapWorld final : public CollisionWorld {
     const double vx = std::clamp(viewpoint.x(), bmin_.x(), bmax_.x()) * factor_, vy = std::clamp(viewpoint.y(), bmin_.y(), bmax_.y()) * factor_;
     // Whether the straight line from the centre of cell (x, y) to the viewpoint crosses an observed occupied cell:
     // the cells a grid walk (Amanatides and Woo) visits between them, except the cell's own neighbours (the surface
-    // being continued ends next to it, and a line that only grazes that end does not hide the cell).
-    const auto hidden = [&](std::int64_t x, std::int64_t y) {
+    // being continued ends next to it, and a line that only grazes that end does not hide the cell). With the
+    // surface's line given, the ray is three cells wide (the cells beside the walk count too, except those of
+    // that surface): a face a scanner samples every other cell from afar still hides what is behind it.
+    struct SurfaceLine {
+      double ox, oy, ax, ay;  // a point on it (cell units) and its unit direction
+      double distance(std::int64_t x, std::int64_t y) const { return std::abs((double(x) + 0.5 - ox) * ay - (double(y) + 0.5 - oy) * ax); }
+    };
+    const auto hidden = [&](std::int64_t x, std::int64_t y, const SurfaceLine* surface) {
       const double ox = double(x) + 0.5, oy = double(y) + 0.5;
       const double dx = vx - ox, dy = vy - oy;
       const std::int64_t end_x = static_cast<std::int64_t>(std::floor(vx)), end_y = static_cast<std::int64_t>(std::floor(vy));
@@ -215,16 +228,24 @@ class OctoMapWorld final : public CollisionWorld {
           cy += step_y;
           t_y += t_dy;
         }
-        if (std::max(std::abs(cx - x), std::abs(cy - y)) > 1 && observedOccupied(cx, cy)) return true;
+        const std::int64_t own = std::max(std::abs(cx - x), std::abs(cy - y));
+        if (own > 1 && observedOccupied(cx, cy)) return true;
+        if (surface == nullptr || own <= 2) continue;
+        for (std::int64_t ny = cy - 1; ny <= cy + 1; ++ny)
+          for (std::int64_t nx = cx - 1; nx <= cx + 1; ++nx)
+            if ((nx != cx || ny != cy) && observedOccupied(nx, ny) && surface->distance(nx, ny) > 1.5) return true;
       }
       return false;
     };
-    // The seen surface's direction at a cell: the principal axis of the observed occupied cells within half a
-    // metre (at least 2 cells); an end of it is a cell beyond which (along that axis) none of them lies.
-    const std::int64_t w = std::max<std::int64_t>(2, static_cast<std::int64_t>(std::floor(0.5 * factor_ + 1e-9)));
+    // The seen surface's direction at a cell: the principal axis of the observed occupied cells within a metre (at
+    // least 2 cells; a scanner samples a wall 40 m away every 0.3 m or so, too few within half a metre to tell a
+    // line), or two when fewer than 4 lie within one; an end of it is a cell beyond which (along that axis) none
+    // of them lies.
+    const std::int64_t w = std::max<std::int64_t>(2, static_cast<std::int64_t>(std::floor(1.0 * factor_ + 1e-9)));
     const std::int64_t steps = static_cast<std::int64_t>(std::floor(max_length * factor_ + 1e-9));
     std::unordered_set<std::uint64_t> taken;
     std::vector<std::pair<double, double>> neighbours;
+    std::vector<double> spans;
     for (const Brick& brick : bricks_) {
       std::array<std::uint64_t, 8> seen_occupied{};
       for (int i = 0; i < 8; ++i) seen_occupied[i] = brick.occupied[i] & brick.known[i];
@@ -236,13 +257,19 @@ class OctoMapWorld final : public CollisionWorld {
             if ((dx != 0 || dy != 0) && !observed(c.x + dx, c.y + dy)) against_unseen = true;
         if (!against_unseen) return;
         // The observed occupied cells within the disc, as offsets from c (one pass; the extent below reuses them).
-        neighbours.clear();
-        for (std::int64_t dy = -w; dy <= w; ++dy)
-          for (std::int64_t dx = -w; dx <= w; ++dx)
-            if (dx * dx + dy * dy <= w * w && observedOccupied(c.x + dx, c.y + dy)) neighbours.emplace_back(double(dx), double(dy));
+        // A face sampled more sparsely still (a wall 60 m away) is read in a disc twice as wide.
+        std::int64_t r = w;
+        for (;;) {
+          neighbours.clear();
+          for (std::int64_t dy = -r; dy <= r; ++dy)
+            for (std::int64_t dx = -r; dx <= r; ++dx)
+              if (dx * dx + dy * dy <= r * r && observedOccupied(c.x + dx, c.y + dy)) neighbours.emplace_back(double(dx), double(dy));
+          if (neighbours.size() >= 4 || r > w) break;
+          r = 2 * w;
+        }
         double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
         for (const auto& [dx, dy] : neighbours) n += 1, sx += dx, sy += dy, sxx += dx * dx, syy += dy * dy, sxy += dx * dy;
-        if (n < double(w) + 1) return;  // too few to tell a direction
+        if (n < 4) return;  // too few to tell a direction
         const double mx = sx / n, my = sy / n;
         const double cxx = sxx / n - mx * mx, cyy = syy / n - my * my, cxy = sxy / n - mx * my;
         const double half_trace = 0.5 * (cxx + cyy), root = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
@@ -252,20 +279,35 @@ class OctoMapWorld final : public CollisionWorld {
         if (std::abs(ax) + std::abs(ay) < 1e-12) ax = cxx >= cyy ? 1.0 : 0.0, ay = cxx >= cyy ? 0.0 : 1.0;
         const double norm = std::hypot(ax, ay);
         ax /= norm, ay /= norm;
-        double lo = 0, hi = 0;  // the extent of the neighbours along the axis, in cells from c
-        for (const auto& [dx, dy] : neighbours) {
-          const double t = dx * ax + dy * ay;
-          lo = std::min(lo, t), hi = std::max(hi, t);
-        }
-        double sign = 0;
-        if (hi <= 0.5 && lo <= -0.5 * double(w)) sign = 1;        // c ends the surface toward +axis
-        else if (lo >= -0.5 && hi >= 0.5 * double(w)) sign = -1;  // toward -axis
+        // c ends the surface toward `direction` (+1 or -1 along the axis) when the surface reaches at least half the
+        // disc behind it and nothing of it lies beyond within 2.5 of its sample spacings behind (2 cells at least):
+        // the far side of a gap a scanner could not see into may lie within the disc.
+        const auto ends = [&](double direction) {
+          double beyond = kInf, behind = 0.0;
+          std::int64_t slots = 0, last_slot = std::numeric_limits<std::int64_t>::min();
+          spans.clear();
+          for (const auto& [dx, dy] : neighbours) spans.push_back(direction * (dx * ax + dy * ay));
+          std::sort(spans.begin(), spans.end());
+          for (const double t : spans) {
+            if (t > 0.5) {
+              beyond = std::min(beyond, t);
+            } else if (t < -0.5) {
+              behind = std::max(behind, -t);
+              const auto slot = static_cast<std::int64_t>(std::lround(t));  // the cells of one sample, counted once
+              if (slot != last_slot) ++slots, last_slot = slot;
+            }
+          }
+          if (slots == 0 || behind < 0.5 * double(r)) return false;
+          return beyond > std::max(2.0, 2.5 * behind / double(slots));
+        };
+        const double sign = ends(1.0) ? 1.0 : ends(-1.0) ? -1.0 : 0.0;
         if (sign == 0) return;
         // The end itself must be in sight: a true end seen earlier from elsewhere is hidden now too, and beyond it
         // lies as much unobserved space as beyond an end the view is cut at.
-        if (hidden(c.x, c.y)) return;
+        if (hidden(c.x, c.y, nullptr)) return;
         // On along the axis through never-observed cells hidden from the viewpoint; the first observed cell or
         // the first one in plain sight (merely not hit by a ray yet) ends it.
+        const SurfaceLine line{double(c.x) + 0.5, double(c.y) + 0.5, ax, ay};
         std::int64_t last_x = c.x, last_y = c.y;
         for (std::int64_t k = 1; k <= 2 * steps; ++k) {
           const double t = 0.5 * double(k) * sign;  // half-cell steps: no cell of the line is jumped over
@@ -273,7 +315,7 @@ class OctoMapWorld final : public CollisionWorld {
           const std::int64_t y = static_cast<std::int64_t>(std::floor(double(c.y) + 0.5 + t * ay));
           if (x == last_x && y == last_y) continue;
           last_x = x, last_y = y;
-          if (observed(x, y) || !hidden(x, y)) break;
+          if (observed(x, y) || !hidden(x, y, &line)) break;
           if (out.cells.size() >= kMaxContinuationCells) return;
           if (taken.insert((std::uint64_t(x + 4 * kCellLimit) << 32) | std::uint64_t(y + 4 * kCellLimit)).second)
             out.cells.emplace_back((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_, 0.0);
@@ -512,7 +554,10 @@ class OctoMapWorld final : public CollisionWorld {
       occ_lo_ = {std::min(occ_lo_.x, lo.x), std::min(occ_lo_.y, lo.y), std::min(occ_lo_.z, lo.z)};
       occ_hi_ = {std::max(occ_hi_.x, hi.x), std::max(occ_hi_.y, hi.y), std::max(occ_hi_.z, hi.z)};
     }
-    if (solid_below_surface_) loadColumnTops();
+    if (solid_below_surface_) {
+      loadColumnTops();
+      if (!free_leaves) loadFreeUnderMargin(bytes, free_lo, free_hi);
+    }
   }
 
   // 2-D: every never-observed cell within unknown_margin_m of an observed occupied cell becomes occupied (its
@@ -592,6 +637,7 @@ class OctoMapWorld final : public CollisionWorld {
     // Every column takes the highest top within surface_margin_m (a square window: a separable max filter).
     const int radius = static_cast<int>(std::min<std::int64_t>(margin_cells >> column_shift_, 1 << 20));
     if (radius > 0) {
+      column_own_top_ = column_top_;
       std::vector<std::int32_t> line, out;
       for (std::int64_t y = 0; y < column_ny; ++y) {  // rows
         line.assign(column_top_.begin() + y * column_nx_, column_top_.begin() + (y + 1) * column_nx_);
@@ -630,9 +676,118 @@ class OctoMapWorld final : public CollisionWorld {
   // column has none, or without solid_below_surface.
   double depthBelowSurface(const Cell& c, const Vec3& p) const {
     if (column_top_.empty() || c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return 0.0;
-    const std::int32_t top = column_top_[columnIndex(c.x, c.y)];
+    const std::size_t i = columnIndex(c.x, c.y);
+    const std::int32_t top = column_top_[i];
     if (top == kNoColumnTop || c.z > top) return 0.0;
+    // Above the column's own surface, under a neighbour's within the margin: space observed free stays free, when
+    // the robot's radius below it was observed free too (unsampled skin right under a path is what the margin is for).
+    if (!column_own_top_.empty() && c.z > column_own_top_[i] && freeBelow(c)) return 0.0;
     return std::max(0.0, (static_cast<double>(top) + 1.0) * resolution_ - p.z());
+  }
+  // c and the cells under it down to the robot radius (one at least) were observed free.
+  bool freeBelow(const Cell& c) const {
+    const std::int64_t depth = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(radius_ * factor_ - 1e-9)));
+    for (std::int64_t k = 0; k <= depth; ++k)
+      if (!observedFree({c.x, c.y, c.z - k})) return false;
+    return true;
+  }
+  bool observedFree(const Cell& c) const {
+    const Brick* b = findBrick(c.x >> 3, c.y >> 3, c.z >> 3);
+    if (b == nullptr) return false;
+    const std::uint32_t bit = bitOf(c);
+    return (((b->known[bit >> 6] & ~b->occupied[bit >> 6]) >> (bit & 63)) & 1u) != 0;
+  }
+
+  // The free leaves' voxels where the surface margin would block (above a column's own surface, under its
+  // dilated top) become known, so that the margin yields to space observed free (depthBelowSurface). Only
+  // there: the free leaves of a 3-D map fill the whole observed volume. A second pass over the bytes; leaves are
+  // checked against 16 x 16-column blocks first (the highest dilated top of each), then column by column.
+  // Stops, leaving the margin as it is, before the bricks reach 90 % of max_bricks.
+  void loadFreeUnderMargin(const std::vector<std::uint8_t>& bytes, const Cell& free_lo, const Cell& free_hi) {
+    if (column_own_top_.empty()) return;
+    const std::int64_t ny = static_cast<std::int64_t>(column_top_.size()) / column_nx_;
+    // Per block of 8 x 8 column cells, the z span of its margin zones (small enough to stay in cache: most
+    // leaves are rejected there, before the column arrays are read).
+    constexpr int kBlock = 3;  // log2 of the block's width in column cells
+    const std::int64_t bnx = ((column_nx_ - 1) >> kBlock) + 1, bny = ((ny - 1) >> kBlock) + 1;
+    std::vector<std::int32_t> block_top(static_cast<std::size_t>(bnx * bny), kNoColumnTop);
+    std::vector<std::int32_t> block_bottom(static_cast<std::size_t>(bnx * bny), std::numeric_limits<std::int32_t>::max());
+    for (std::int64_t y = 0; y < ny; ++y)
+      for (std::int64_t x = 0; x < column_nx_; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y * column_nx_ + x);
+        if (column_top_[i] == kNoColumnTop || column_top_[i] == column_own_top_[i]) continue;  // no margin here
+        const std::size_t b = static_cast<std::size_t>((y >> kBlock) * bnx + (x >> kBlock));
+        block_top[b] = std::max(block_top[b], column_top_[i]);
+        block_bottom[b] = std::min(block_bottom[b], column_own_top_[i] == kNoColumnTop ? kNoColumnTop : column_own_top_[i] + 1);
+      }
+    const std::int32_t highest = *std::max_element(block_top.begin(), block_top.end());
+    if (highest == kNoColumnTop) return;
+    const std::size_t brick_budget = max_bricks_ - max_bricks_ / 10;
+    bool stopped = false;
+    std::uint64_t last_key = ~std::uint64_t(0);
+    std::size_t last_brick = 0;
+    BinaryOcTreeReader reader(bytes, /*free_leaves=*/true);
+    reader.read([](double) {}, [&](const std::uint16_t* corner, unsigned depth, bool occupied) {
+      if (occupied || stopped || std::int64_t(corner[2]) - kCellLimit > highest) return;
+      if (depth == 16 && column_shift_ == 0) {  // most leaves: one voxel (by the ground), checked and set directly
+        const Cell c{std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit, std::int64_t(corner[2]) - kCellLimit};
+        if (!inRange(c, free_lo, free_hi) || c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return;
+        const std::size_t b = static_cast<std::size_t>(((c.y - column_lo_.y) >> kBlock) * bnx + ((c.x - column_lo_.x) >> kBlock));
+        if (c.z > block_top[b] || c.z < block_bottom[b]) return;
+        const std::size_t i = columnIndex(c.x, c.y);
+        const std::int32_t top = column_top_[i], own = column_own_top_[i];
+        if (top == own || c.z > top || (own != kNoColumnTop && c.z <= own)) return;
+        const std::uint64_t key = pack(c.x >> 3, c.y >> 3, c.z >> 3);
+        if (key != last_key) {
+          if (bricks_.size() >= brick_budget) {
+            stopped = true;
+            return;
+          }
+          last_brick = static_cast<std::size_t>(&brickFor(c.x >> 3, c.y >> 3, c.z >> 3) - bricks_.data());
+          last_key = key;
+        }
+        const std::uint32_t bit = bitOf(c);
+        bricks_[last_brick].known[bit >> 6] |= std::uint64_t(1) << (bit & 63);
+        return;
+      }
+      const std::int64_t size = std::int64_t(1) << (16 - depth);
+      Cell lo = {std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit, std::int64_t(corner[2]) - kCellLimit};
+      Cell hi = {lo.x + size - 1, lo.y + size - 1, lo.z + size - 1};
+      lo = {std::max({lo.x, free_lo.x, column_lo_.x}), std::max({lo.y, free_lo.y, column_lo_.y}), std::max(lo.z, free_lo.z)};
+      hi = {std::min({hi.x, free_hi.x, column_hi_.x}), std::min({hi.y, free_hi.y, column_hi_.y}), std::min(hi.z, free_hi.z)};
+      if (lo.x > hi.x || lo.y > hi.y || lo.z > hi.z) return;
+      if (lo.z > highest) return;
+      const std::int64_t gx0 = (lo.x - column_lo_.x) >> column_shift_, gx1 = (hi.x - column_lo_.x) >> column_shift_;
+      const std::int64_t gy0 = (lo.y - column_lo_.y) >> column_shift_, gy1 = (hi.y - column_lo_.y) >> column_shift_;
+      if (gx0 == gx1 && gy0 == gy1) {  // most leaves: one column cell (the finest voxels by the ground)
+        const std::size_t i = static_cast<std::size_t>(gy0 * column_nx_ + gx0);
+        const std::int32_t top = column_top_[i], own = column_own_top_[i];
+        if (top == own || lo.z > top || (own != kNoColumnTop && hi.z <= own)) return;
+      }
+      for (std::int64_t by = gy0 >> kBlock; by <= (gy1 >> kBlock); ++by)
+        for (std::int64_t bx = gx0 >> kBlock; bx <= (gx1 >> kBlock); ++bx) {
+          if (block_top[static_cast<std::size_t>(by * bnx + bx)] < lo.z || block_bottom[static_cast<std::size_t>(by * bnx + bx)] > hi.z) continue;  // no margin zone of the block meets the leaf
+          for (std::int64_t gy = std::max(gy0, by << kBlock); gy <= std::min(gy1, ((by + 1) << kBlock) - 1); ++gy)
+            for (std::int64_t gx = std::max(gx0, bx << kBlock); gx <= std::min(gx1, ((bx + 1) << kBlock) - 1); ++gx) {
+              const std::size_t i = static_cast<std::size_t>(gy * column_nx_ + gx);
+              const std::int32_t top = column_top_[i], own = column_own_top_[i];
+              if (top == kNoColumnTop || top == own) continue;
+              const std::int64_t z0 = std::max<std::int64_t>(lo.z, own == kNoColumnTop ? lo.z : std::int64_t(own) + 1);
+              const std::int64_t z1 = std::min<std::int64_t>(hi.z, top);
+              if (z0 > z1) continue;
+              if (bricks_.size() >= brick_budget) {
+                stopped = true;
+                return;
+              }
+              // The column cell's voxels (2^shift wide when columns are merged), clipped to the leaf.
+              const std::int64_t x0 = std::max(lo.x, column_lo_.x + (gx << column_shift_));
+              const std::int64_t x1 = std::min(hi.x, column_lo_.x + ((gx + 1) << column_shift_) - 1);
+              const std::int64_t y0 = std::max(lo.y, column_lo_.y + (gy << column_shift_));
+              const std::int64_t y1 = std::min(hi.y, column_lo_.y + ((gy + 1) << column_shift_) - 1);
+              fillBox({x0, y0, z0}, {x1, y1, z1}, /*occupied=*/false);
+            }
+        }
+    });
   }
 
   // Marks the voxels [lo, hi] known (and occupied), a brick at a time.
@@ -778,6 +933,7 @@ class OctoMapWorld final : public CollisionWorld {
   double unknown_margin_;  // m; 2-D: never-observed cells this close to an occupied one are blocked
   static constexpr std::int32_t kNoColumnTop = std::numeric_limits<std::int32_t>::min();
   std::vector<std::int32_t> column_top_;  // solid_below_surface: highest occupied cell z per column cell
+  std::vector<std::int32_t> column_own_top_;  // the same before the surface margin widened it (empty without one)
   std::int64_t column_nx_ = 0;
   Cell column_lo_{}, column_hi_{};  // the column grid's cells: the occupied box widened by surface_margin_m
   int column_shift_ = 0;

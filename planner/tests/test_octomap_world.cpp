@@ -401,6 +401,58 @@ TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForc
   EXPECT_THROW(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), bad), std::invalid_argument);
 }
 
+// Space observed free is not blocked by the margin: a point above its own column's surface, under a neighbour's
+// within the margin, is free when its voxel and the robot radius under it (a voxel at least) were observed free,
+// and blocked as before otherwise. Below its own column's surface it stays solid, free or not (a lidar sees a
+// hill's skin, not its inside).
+TEST(OctoMapWorld, SurfaceMarginYieldsToSpaceObservedFreeAsABruteForceScanSays) {
+  octomap::OcTree tree(0.1);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f), uz(0.0f, 4.0f);
+  std::vector<octomap::point3d> hits;
+  for (int i = 0; i < 60; ++i) {
+    hits.emplace_back(u(rng), u(rng), uz(rng));
+    tree.updateNode(hits.back(), true);
+  }
+  // Observed free space: random boxes of free voxels (not over the hits).
+  for (int b = 0; b < 40; ++b) {
+    const float x0 = u(rng), y0 = u(rng), z0 = uz(rng);
+    for (float x = x0; x < x0 + 0.8f; x += 0.1f)
+      for (float y = y0; y < y0 + 0.8f; y += 0.1f)
+        for (float z = z0; z < z0 + 1.5f; z += 0.1f) {
+          const octomap::OcTreeNode* n = tree.search(x, y, z);
+          if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
+        }
+  }
+  OctoMapWorldOptions options;
+  options.solid_below_surface = true;
+  options.surface_margin_m = 0.75;  // 8 columns of 0.1 m (rounded up)
+  const auto world = makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options);
+  auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
+  std::uniform_real_distribution<double> q(-4.5, 4.5), qz(-0.5, 4.5);
+  int yielded = 0, blocked = 0;
+  for (int i = 0; i < 40000; ++i) {
+    const Vec3 p(q(rng), q(rng), qz(rng));
+    const octomap::OcTreeNode* node = tree.search(p.x(), p.y(), p.z());
+    if (node != nullptr && tree.isNodeOccupied(node)) continue;
+    bool below = false, below_own = false;  // under a top within the margin; under (or next above) its own column's
+    for (const auto& h : hits) {
+      const double top = (std::floor(h.z() / 0.1) + 1) * 0.1;
+      if (p.z() < top && std::labs(cell(h.x()) - cell(p.x())) <= 8 && std::labs(cell(h.y()) - cell(p.y())) <= 8) below = true;
+      if (p.z() - 0.1 < top && cell(h.x()) == cell(p.x()) && cell(h.y()) == cell(p.y())) below_own = true;
+    }
+    // Its voxel and the one under it (the robot radius, at least a voxel) observed free.
+    const octomap::OcTreeNode* under = tree.search(p.x(), p.y(), p.z() - 0.1);
+    const bool observed_free = node != nullptr && under != nullptr && !tree.isNodeOccupied(under);
+    const bool expect_blocked = below && (below_own || !observed_free);
+    yielded += below && !expect_blocked;
+    blocked += expect_blocked;
+    ASSERT_EQ(world->isFree(p), !expect_blocked) << p.transpose() << " below " << below << " own " << below_own << " free " << observed_free;
+  }
+  EXPECT_GT(yielded, 200);  // every case was exercised
+  EXPECT_GT(blocked, 1000);
+}
+
 TEST(OctoMapWorld, SolidBelowSurfaceIsThreeDimensionalOnly) {
   octomap::OcTree tree(0.1);
   tree.updateNode(octomap::point3d(0.55f, 0.55f, 0.05f), true);
@@ -477,15 +529,15 @@ TEST(OctoMapWorld, UnknownMarginBlocksUnseenCellsNearSeenSurfacesAsABruteForceSc
 // A planar scan from the origin of two boxes, hits only (a ray that hits nothing leaves no free cells): a long wall
 // whose face is x = 3 (y from -2 to 4), and in front of it a short wall along y = 0.5 .. 0.7 from x = 1 to the long
 // one, which hides the face from y = 0.5 to y = 2.1 (rays of slope 0.5 to 0.7 end on the short wall's end face).
-octomap::OcTree occludedWallScan() {
+octomap::OcTree occludedWallScan(int beams = 1440) {
   struct Box {
     Eigen::Vector2d lo, hi;
   };
   const Box boxes[] = {{{3.0, -2.0}, {3.3, 4.0}}, {{1.0, 0.5}, {3.0, 0.7}}};
   octomap::OcTree tree(0.1);
   octomap::Pointcloud cloud;
-  for (int i = 0; i < 1440; ++i) {
-    const double a = i * 2.0 * M_PI / 1440.0;
+  for (int i = 0; i < beams; ++i) {
+    const double a = i * 2.0 * M_PI / beams;
     const Eigen::Vector2d d(std::cos(a), std::sin(a));
     double best = std::numeric_limits<double>::infinity();
     for (const Box& b : boxes) {  // slab test
@@ -542,6 +594,30 @@ TEST(OctoMapWorld, ASeenSurfaceGoesOnWhereSomethingInFrontHidesIt) {
   // From above the short wall the stretch is in plain sight, and the long wall's lower end, a true end seen from
   // the origin, is hidden behind the short wall: an end out of sight is not continued, nothing is.
   for (const Vec3& c : occludedSurfaceContinuation(*map, Vec3(2.0, 1.3, 0.0), 5.0).cells) ADD_FAILURE() << c.transpose();
+}
+
+// The same walls seen by a coarse scanner (4 degrees between beams): the face is sampled every 0.2 m or so, not
+// in every cell, and rays from the hidden stretch slip between the short wall's samples. The stretch is
+// continued all the same (a scanner's view of a wall 38 m away, bugtrap_0.6, was not continued at all).
+TEST(OctoMapWorld, ASparselySampledSurfaceGoesOnWhereSomethingInFrontHidesIt) {
+  const octomap::OcTree tree = occludedWallScan(90);
+  OctoMapWorldOptions knows_unobserved;
+  knows_unobserved.unknown_margin_m = 0.05;
+  const std::shared_ptr<const CollisionWorld> map =
+      makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.2, toBytes(tree), knows_unobserved);
+  const auto continued = occludedSurfaceContinuation(*map, Vec3::Zero(), 5.0);
+  int hidden_stretch = 0;
+  for (const Vec3& c : continued.cells) {
+    EXPECT_GT(c.x(), 2.9) << c.transpose();  // the face or a cell in front of it (sparse samples tilt the axis)
+    EXPECT_LT(c.x(), 3.15) << c.transpose();
+    EXPECT_GT(c.y(), 0.5) << c.transpose();
+    EXPECT_LT(c.y(), 2.3) << c.transpose();
+    hidden_stretch += c.y() > 0.9 && c.y() < 1.8;
+  }
+  EXPECT_GE(hidden_stretch, 9);
+  const auto with = makeBlockedCellsWorld(map, continued.cells, continued.cell_size);
+  EXPECT_TRUE(map->isFree(Vec3(3.1, 1.3, 0.0)));
+  EXPECT_FALSE(with->isFree(Vec3(3.1, 1.3, 0.0)));
 }
 
 TEST(BlockedCellsWorld, FreeAndClearanceAsABruteForceScanSays) {

@@ -98,6 +98,11 @@ double freeAlong(const planner::CollisionWorld& world, const Vec3& position, con
 
 }  // namespace
 
+double restStartRoom(double robot_radius, std::int64_t failed_plans) {
+  const double base = std::max(1.0, 4.0 * (std::isfinite(robot_radius) ? std::max(robot_radius, 0.0) : 0.0));
+  return base * static_cast<double>(std::int64_t(1) << std::clamp<std::int64_t>(failed_plans, 0, 3));
+}
+
 double restStartHeading(const planner::CollisionWorld& world, const Vec3& position, double heading, double min_free) {
   const auto direction = [](double angle) { return Vec3(std::cos(angle), std::sin(angle), 0.0); };
   if (freeAlong(world, position, direction(heading), min_free) >= min_free) return heading;

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <numbers>
 
 namespace ddsnav::tracker {
@@ -207,6 +208,31 @@ TEST(RestStartHeading, KeepsAFreeHeadingAndTurnsOutOfACornerTheShortWay) {
   // Facing down into the floor at the corner: up, the way out (a half turn), or back along the corridor (a
   // quarter turn): the least turn wins.
   EXPECT_NEAR(std::abs(restStartHeading(*world, Vec3(11.7, 15, 0), -pi / 2, 2.0)), 0.0, 1e-9);
+}
+
+// The room asked for grows with each failed plan: a heading with a few metres free ahead that the planner's tree
+// could not grow from is given up for one with more room (a pocket below a wall, short of another).
+TEST(RestStartHeading, AsksForMoreRoomAfterEachFailedPlan) {
+  EXPECT_DOUBLE_EQ(restStartRoom(0.5, 0), 2.0);
+  EXPECT_DOUBLE_EQ(restStartRoom(0.5, 1), 4.0);
+  EXPECT_DOUBLE_EQ(restStartRoom(0.5, 2), 8.0);
+  EXPECT_DOUBLE_EQ(restStartRoom(0.5, 9), 16.0);  // at most 8 times
+  EXPECT_DOUBLE_EQ(restStartRoom(0.1, 0), 1.0);   // at least a metre
+  EXPECT_DOUBLE_EQ(restStartRoom(std::numeric_limits<double>::quiet_NaN(), -3), 1.0);
+  // A pocket: a wall 1.5 m above the vehicle (y = 53.2) and one 3.4 m ahead (x = 78); heading 20 deg, 2.9 m of
+  // room for the robot.
+  const auto sc = scenario2d(110, 0.5,
+                             "  - {type: box, min: [56, 53.2], max: [78, 54.2]}\n"
+                             "  - {type: box, min: [78, 32], max: [80, 54.2]}\n");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const double heading = 20.0 * std::numbers::pi / 180.0;
+  const Vec3 at(74.6, 51.7, 0);
+  EXPECT_DOUBLE_EQ(restStartHeading(*world, at, heading, restStartRoom(0.5, 0)), heading);
+  const double after_one = restStartHeading(*world, at, heading, restStartRoom(0.5, 1));
+  EXPECT_NE(after_one, heading);
+  // 4 m free along it: away from both walls.
+  const Vec3 dir(std::cos(after_one), std::sin(after_one), 0);
+  for (double t = 0; t <= 4.0; t += 0.25) EXPECT_TRUE(world->isFree(at + t * dir)) << t;
 }
 
 }  // namespace

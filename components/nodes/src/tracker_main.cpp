@@ -261,13 +261,14 @@ class TrackerComponent : public runtime::Component {
   double restStartHeading(const tracker::VehicleState& from) {
     const auto world = currentWorld(from.position);
     if (!world) return from.heading;
-    // Room for a few of the planner's shortest useful edges, and at least a metre.
-    const double min_free = std::max(1.0, 4.0 * scenario_.robot_radius);
+    // Room for a few of the planner's shortest useful edges, and at least a metre; more after each plan that
+    // failed since the last trajectory (tracker::restStartRoom).
+    const double min_free = tracker::restStartRoom(scenario_.robot_radius, mission_.attempts() - 1);
     const double heading = tracker::restStartHeading(*world, from.position, from.heading, min_free);
     if (heading != from.heading)
-      spdlog::info("at rest with less than {:.1f} m free ahead: the plan starts at heading {:.0f} deg, the vehicle turns in place from "
-                   "{:.0f} deg first",
-                   min_free, heading * 180 / std::numbers::pi, from.heading * 180 / std::numbers::pi);
+      spdlog::info("at rest with less than {:.1f} m free ahead ({} failed plans before): the plan starts at heading {:.0f} deg, the vehicle "
+                   "turns in place from {:.0f} deg first",
+                   min_free, std::max<std::int64_t>(0, mission_.attempts() - 1), heading * 180 / std::numbers::pi, from.heading * 180 / std::numbers::pi);
     return heading;
   }
 

@@ -99,8 +99,8 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
 //
 // Work and memory are bounded: leaves are clipped to where they can matter (occupied ones to the bounds
 // widened by robot_radius + outside_bounds_margin_m — clearance and obstaclesNear are exact up to that
-// distance outside the bounds, and see nothing beyond it; free ones, used only by unknown_is_occupied, to
-// the bounds widened by the radius + 2 voxels), and a map that needs more than max_bricks 8x8x8-voxel
+// distance outside the bounds, and see nothing beyond it; free ones — used by unknown_is_occupied and the 2-D
+// unknown margin, and in 3-D where surface_margin_m would block — to the bounds widened by the radius + 2 voxels), and a map that needs more than max_bricks 8x8x8-voxel
 // bricks there is refused (std::runtime_error naming the limit). Each brick takes ~180 bytes with its
 // hash slots, so the default cap holds the world under ~100 MB; a mapper's map of a shipped scenario
 // needs a few thousand bricks (occupied surfaces only), a coarse hostile leaf filling the bounds may not.
@@ -118,7 +118,10 @@ struct OctoMapWorldOptions {
   // distance (a square window), i.e. observed terrain is widened by it below its top. A lidar samples a steep
   // flank only along its rings (2 deg apart: 0.7 m at 20 m), so the skin under a path that skims the flank is
   // often unsampled until the vehicle is a few metres away; the margin makes the sampled skin uphill of the path
-  // block it from afar. 0: each column only by its own voxels.
+  // block it from afar. It yields to space observed free: a point above its own column's surface is not blocked by a
+  // neighbour's when its voxel and the robot radius under it (a voxel at least) were observed free — a gap between
+  // walls narrower than twice the margin stays open where the lidar saw through it (the free voxels under the
+  // margin are loaded in a second pass over the octree). 0: each column only by its own voxels.
   double surface_margin_m = 0.0;
   // 2-D only: a never-observed cell within this distance of an observed occupied cell is blocked. A scanner sees a
   // surface's near side only; the part it has not seen yet continues from the part it has (a circle's far side

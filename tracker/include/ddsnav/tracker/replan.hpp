@@ -77,5 +77,11 @@ class ReplanGate {
 // space. Free space along a direction is counted from where it leaves collision, within the robot radius (a
 // vehicle that stopped touching a wall). Directions are horizontal.
 double restStartHeading(const planner::CollisionWorld& world, const Vec3& position, double heading, double min_free);
+// The room restStartHeading asks for: max(1 m, 4 robot radii) — a few of the planner's shortest useful edges —
+// doubled for each plan that failed before this one since the last trajectory, up to 8 times. Why: the base room
+// is less than one edge of a fast vehicle's tree (GART's UAV: up to 5 m); bugtrap_0.4, a vehicle stopped 1.5 m
+// below a wall and 3.4 m short of another, kept its heading (2.9 m of room ahead) and failed three plans in a row,
+// 0.8 million iterations each, until the mission gave up.
+double restStartRoom(double robot_radius, std::int64_t failed_plans);
 
 }  // namespace ddsnav::tracker
