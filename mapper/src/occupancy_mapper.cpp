@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <sstream>
 #include <stdexcept>
 
@@ -116,6 +117,8 @@ std::string validateConfig(const MapperConfig& c) {
   if (c.dimensions != 2 && c.dimensions != 3)
     return "mapper parameter 'dimensions' must be 2 or 3, got " + std::to_string(c.dimensions);
   if (!std::isfinite(c.slab_z)) return "mapper parameter 'slab_z' must be finite, got " + fmt(c.slab_z);
+  if (!(c.max_clear_gap_rad > 0.0 && c.max_clear_gap_rad <= std::numbers::pi))
+    return "mapper parameter 'max_clear_gap_deg' must be in (0, 180] degrees, got " + fmt(c.max_clear_gap_rad * 180.0 / std::numbers::pi);
   if (!isProbability(c.prob_hit) || c.prob_hit <= 0.5)
     return "mapper parameter 'prob_hit' must be in (0.5, 1), got " + fmt(c.prob_hit);
   if (!isProbability(c.prob_miss) || c.prob_miss >= 0.5)
@@ -144,7 +147,52 @@ struct OccupancyMapper::Impl {
   octomap::OcTree tree;
   detail::FastInserter inserter;
   std::vector<octomap::point3d> cleaned;
+  std::vector<double> bearings, gaps;  // clear_beam_gaps' scratch space
 };
+
+namespace {
+// MapperConfig::clear_beam_gaps: appends to `points` the rays through the gaps of a planar scan's bearings, as
+// points beyond max_range; returns how many. `bearings` and `gaps` are scratch space.
+std::size_t addBeamGapRays(std::vector<octomap::point3d>& points, const octomap::point3d& origin, double max_range,
+                           double max_gap, std::vector<double>& bearings, std::vector<double>& gaps) {
+  bearings.clear();
+  for (const octomap::point3d& p : points) {
+    const double dx = double(p.x()) - origin.x(), dy = double(p.y()) - origin.y();
+    if (dx * dx + dy * dy > 1e-12) bearings.push_back(std::atan2(dy, dx));
+  }
+  if (bearings.size() < 8) return 0;  // too few beams to tell their step
+  std::sort(bearings.begin(), bearings.end());
+  constexpr double kTwoPi = 2.0 * std::numbers::pi;
+  auto gapAfter = [&](std::size_t i) {
+    return i + 1 < bearings.size() ? bearings[i + 1] - bearings[i] : bearings.front() + kTwoPi - bearings.back();
+  };
+  // The scanner's angular step: the 10th percentile of the gaps between distinct bearings (most neighbours are
+  // one step apart; gaps where beams returned nothing are several).
+  gaps.clear();
+  for (std::size_t i = 0; i < bearings.size(); ++i)
+    if (const double g = gapAfter(i); g > 1e-6) gaps.push_back(g);
+  if (gaps.size() < 8) return 0;
+  const std::size_t tenth = gaps.size() / 10;
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(tenth), gaps.end());
+  const double step = gaps[tenth];
+  if (!(step > 1e-6)) return 0;
+  // Beyond max_range: the inserter clears each such ray up to max_range and marks no occupied cell (OctoMap's rule).
+  const double reach = 2.0 * max_range;
+  const std::size_t limit = points.size();  // at most as many rays as the scan had points
+  std::size_t added = 0;
+  for (std::size_t i = 0; i < bearings.size() && added < limit; ++i) {
+    const double g = gapAfter(i);
+    if (!(g > 1.5 * step) || g > max_gap) continue;
+    const auto rays = static_cast<std::size_t>(std::floor(g / step - 0.5));
+    for (std::size_t k = 1; k <= rays && added < limit; ++k, ++added) {
+      const double a = bearings[i] + g * double(k) / double(rays + 1);
+      points.emplace_back(static_cast<float>(origin.x() + reach * std::cos(a)), static_cast<float>(origin.y() + reach * std::sin(a)),
+                          origin.z());
+    }
+  }
+  return added;
+}
+}  // namespace
 
 OccupancyMapper::OccupancyMapper(const MapperConfig& config) : config_(config) {
   if (std::string error = validateConfig(config); !error.empty()) throw std::invalid_argument(error);
@@ -207,6 +255,9 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
     return result;
   }
 
+  if (config_.clear_beam_gaps && config_.dimensions == 2)
+    result.gap_rays = addBeamGapRays(cleaned, origin, scan.max_range, config_.max_clear_gap_rad, impl_->bearings, impl_->gaps);
+
   if (config_.method == InsertMethod::kFast) {
     const detail::InsertCounts counts = impl_->inserter.insert(tree, cleaned, origin, scan.max_range,
                                                                config_.discretize, config_.threads, config_.pipeline);
@@ -230,6 +281,7 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return result;
 }
+
 
 void OccupancyMapper::finish() const { impl_->inserter.finish(); }
 

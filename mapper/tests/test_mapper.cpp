@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
+#include <cmath>
+#include <limits>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -273,6 +275,53 @@ TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
   EXPECT_EQ(from_file.getNumLeafNodes(), read.getNumLeafNodes());
   std::remove(path.c_str());
   EXPECT_THROW(mapper.writeBt("/nonexistent-dir/x.bt"), std::runtime_error);
+}
+
+// A 2-D scan down a corridor that opens onto nothing within range: the beams along it return nothing. With
+// clear_beam_gaps the space they crossed is free (to max_range, no occupied end); without, it stays unknown. A gap
+// wider than max_clear_gap_rad (a blind sector behind the scanner) stays unknown either way.
+TEST(Mapper, BeamsThatReturnNothingClearTheGapsBetweenReturns) {
+  Scan scan;
+  scan.origin = {0.0f, 0.0f, 0.0f};
+  scan.max_range = 30.0;
+  // A 270-degree scanner, 0.5 degrees a beam, walls y = +-1.2 for x in [3, 20] and a wall x = -6 behind; beams
+  // within 3.4 degrees of +x pass the corridor's end and return nothing, and so do those toward the blind sector.
+  for (int i = -270; i <= 270; ++i) {
+    const double a = i * 0.5 * M_PI / 180.0;
+    const double c = std::cos(a), sn = std::sin(a);
+    double t = std::numeric_limits<double>::infinity();
+    if (std::abs(sn) > 1e-9) {
+      const double tw = 1.2 / std::abs(sn);
+      if (c * tw >= 3.0 && c * tw <= 20.0) t = tw;
+    }
+    if (c < -1e-9) t = std::min(t, 6.0 / -c);
+    if (t <= scan.max_range) scan.points.push_back({static_cast<float>(t * c), static_cast<float>(t * sn), 0.0f});
+  }
+  MapperConfig config;
+  config.dimensions = 2;
+  config.resolution = 0.1;
+  OccupancyMapper plain(config);
+  ASSERT_TRUE(plain.insert(scan).inserted);
+  config.clear_beam_gaps = true;
+  OccupancyMapper clearing(config);
+  const InsertResult result = clearing.insert(scan);
+  ASSERT_TRUE(result.inserted);
+  EXPECT_GE(result.gap_rays, 10u);  // the corridor's 6.8-degree gap, 0.5 degrees a ray
+  EXPECT_LE(result.gap_rays, 16u);  // the blind sector is not filled
+  const auto state = [](const octomap::OcTree& tree, double x, double y) {
+    const octomap::OcTreeNode* n = tree.search(x, y, 0.0);
+    return n == nullptr ? '?' : tree.isNodeOccupied(n) ? '#' : '.';
+  };
+  for (const double x : {10.0, 19.0, 25.0, 29.0}) {
+    EXPECT_EQ(state(plain.octree(), x, 0.05), '?') << x;
+    EXPECT_EQ(state(clearing.octree(), x, 0.05), '.') << x;
+  }
+  EXPECT_EQ(state(clearing.octree(), 31.0, 0.05), '?');       // beyond max_range
+  EXPECT_EQ(state(clearing.octree(), -1.0, -3.0), state(plain.octree(), -1.0, -3.0));  // the blind sector
+  for (const Point3f& p : scan.points) EXPECT_EQ(state(clearing.octree(), p.x, p.y), '#') << p.x << " " << p.y;  // hits stay hits
+  // The flag is 2-D only, and a bad gap limit is refused.
+  config.max_clear_gap_rad = 0.0;
+  EXPECT_THROW(OccupancyMapper{config}, std::invalid_argument);
 }
 
 }  // namespace

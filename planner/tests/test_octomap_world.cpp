@@ -559,6 +559,27 @@ octomap::OcTree occludedWallScan(int beams = 1440) {
   return tree;
 }
 
+// The unknown margin is for unseen space beyond a surface, not for the holes a fan of beams leaves between its
+// rays: a never-observed cell with observed free space on both sides of it (within 2 cells, along a row, a column
+// or a diagonal) stays free; one with unobserved space on a side is blocked.
+TEST(OctoMapWorld, UnknownMarginLeavesHolesBetweenBeamsFree) {
+  octomap::OcTree tree(0.1);
+  for (double x = 0.05; x < 2.0; x += 0.1) tree.updateNode(x, 0.05, 0.05, true);  // a wall's face along y = 0
+  // Free rows at y = 0.25 and 0.45 (beams), the row between them (y = 0.35) never observed; nothing above 0.5.
+  for (double x = 0.05; x < 2.0; x += 0.1) {
+    tree.updateNode(x, 0.25, 0.05, false);
+    tree.updateNode(x, 0.45, 0.05, false);
+  }
+  OctoMapWorldOptions options;
+  options.unknown_margin_m = 0.8;
+  const auto world = makeOctoMapWorld(2, Vec3(-3, -3, 0), Vec3(3, 3, 0), 0.0, toBytes(tree), options);
+  EXPECT_TRUE(world->isFree(Vec3(1.0, 0.35, 0)));   // the hole between the two rows
+  EXPECT_TRUE(world->isFree(Vec3(1.0, 0.25, 0)));   // observed free
+  EXPECT_FALSE(world->isFree(Vec3(1.0, 0.65, 0)));  // unobserved beyond the last row, within the margin
+  EXPECT_FALSE(world->isFree(Vec3(1.0, 0.15, 0)));  // unobserved, between the face and the first row (one side)
+  EXPECT_FALSE(world->isFree(Vec3(2.3, 0.05, 0)));  // beyond the face's end
+}
+
 TEST(OctoMapWorld, ASeenSurfaceGoesOnWhereSomethingInFrontHidesIt) {
   const octomap::OcTree tree = occludedWallScan();
   OctoMapWorldOptions knows_unobserved;

@@ -15,6 +15,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const int dimensions = (data[0] & 1) ? 3 : 2;
   OctoMapWorldOptions options;
   options.unknown_is_occupied = (data[0] & 2) != 0;
+  // The components' defaults too: in 3-D solid below the surface with a 1 m margin (its second pass over the
+  // free leaves), in 2-D a 1 m unknown margin.
+  options.solid_below_surface = (data[0] & 4) != 0;
+  options.surface_margin_m = (data[0] & 8) != 0 ? 1.0 : 0.0;
+  options.unknown_margin_m = (data[0] & 16) != 0 ? 1.0 : 0.0;
   const std::vector<std::uint8_t> octree(data + 1, data + size);
   // The shipped 2-D demo yard and 3-D terrain: the bounds a planner clips the map to.
   static const Scenario yard = loadScenario(DDSNAV_SOURCE_DIR "/configs/scenarios/demo_2d.yaml");

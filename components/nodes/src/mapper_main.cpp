@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <numbers>
 
 using namespace ddsnav;
 
@@ -49,6 +50,14 @@ class MapperComponent : public runtime::Component {
       config.occupancy_threshold = p.declare<double>("occupancy_threshold", d.occupancy_threshold, {.doc = "occupied above this probability"});
       config.clamping_min = p.declare<double>("clamping_min", d.clamping_min, {.doc = "lower clamping bound of a leaf's probability"});
       config.clamping_max = p.declare<double>("clamping_max", d.clamping_max, {.doc = "upper clamping bound of a leaf's probability"});
+      config.clear_beam_gaps = p.declare<bool>(
+          "clear_beam_gaps", true,
+          {.doc = "2-D: clear the space of beams that returned nothing, in gaps of the scan's bearings up to max_clear_gap_deg "
+                  "wide, to max_range (a corridor seen end-on onto open space was never observed free: docs/world-model.md)"});
+      config.max_clear_gap_rad = p.declare<double>("max_clear_gap_deg", 20.0,
+                                                   {.above = 0, .max = 180, .unit = "deg",
+                                                    .doc = "widest gap between returns cleared (a wider one, a blind sector, stays unknown)"}) *
+                                 std::numbers::pi / 180.0;
       config.threads = static_cast<int>(p.declare<std::int64_t>(
           "threads", 2,
           {.min = 1, .max = 64,

@@ -64,6 +64,15 @@ struct MapperConfig {
   // the same as without pipelining. Uses one more thread than `threads` (the tree thread).
   bool pipeline = false;
   std::size_t max_points = 4'000'000;  // larger scans are rejected, not truncated
+  // 2-D: a beam that returns nothing leaves no point, so the space it crossed stayed unknown — a 2.4 m corridor
+  // looked down end-on, onto open space, was never observed free, and the planner's unknown margin closed it
+  // (docs/world-model.md, "Beams that return nothing"). With this on, every gap in the scan's bearings wider than
+  // 1.5 of its angular step (the 10th percentile of the gaps between neighbouring bearings) and at most
+  // max_clear_gap_rad is filled with rays at that step, cleared to max_range and ending in no occupied cell. A
+  // wider gap (a field of view's blind sector, or open space on a side) stays unknown. Off by default: the tree
+  // then is exactly OctoMap's insertPointCloud of the points.
+  bool clear_beam_gaps = false;
+  double max_clear_gap_rad = 0.35;  // 20 degrees
 };
 
 // Empty when the config is valid, else one message naming the parameter and what was expected.
@@ -74,6 +83,7 @@ struct InsertResult {
   std::string message;        // why it was rejected, or what was cleaned (empty when nothing to say)
   std::size_t points_used = 0;
   std::size_t dropped_non_finite = 0;
+  std::size_t gap_rays = 0;        // rays added through the gaps between returns (clear_beam_gaps)
   std::size_t free_cells = 0;      // distinct voxels updated as free (kFast only)
   std::size_t occupied_cells = 0;  // distinct voxels updated as occupied (kFast only)
   double seconds = 0.0;
