@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace ddsnav::mapper {
 namespace {
@@ -142,52 +144,66 @@ void applySensorModel(octomap::OcTree& tree, const MapperConfig& c) {
   tree.setClampingThresMax(c.clamping_max);
 }
 
+namespace {
+constexpr std::size_t kGapRayClasses = 4;  // gap rays cleared to max_range, / 2, / 4, / 8
+}  // namespace
+
 struct OccupancyMapper::Impl {
   explicit Impl(double resolution) : tree(resolution) {}
   octomap::OcTree tree;
   detail::FastInserter inserter;
   std::vector<octomap::point3d> cleaned;
-  std::vector<double> bearings, gaps;  // clear_beam_gaps' scratch space
+  std::vector<std::pair<double, double>> beams;  // clear_beam_gaps' scratch space
+  std::vector<double> gaps;
+  std::array<std::vector<octomap::point3d>, kGapRayClasses> gap_rays;
 };
 
 namespace {
-// MapperConfig::clear_beam_gaps: appends to `points` the rays through the gaps of a planar scan's bearings, as
-// points beyond max_range; returns how many. `bearings` and `gaps` are scratch space.
-std::size_t addBeamGapRays(std::vector<octomap::point3d>& points, const octomap::point3d& origin, double max_range,
-                           double max_gap, std::vector<double>& bearings, std::vector<double>& gaps) {
-  bearings.clear();
+// MapperConfig::clear_beam_gaps: the rays through the gaps of a planar scan's bearings, by the length they are
+// cleared to (class k: max_range / 2^k), as points beyond it; returns how many. `beams` and `gaps` are scratch space.
+std::size_t addBeamGapRays(const std::vector<octomap::point3d>& points, const octomap::point3d& origin, double max_range,
+                           double max_gap, std::vector<std::pair<double, double>>& beams, std::vector<double>& gaps,
+                           std::array<std::vector<octomap::point3d>, kGapRayClasses>& rays_by_class) {
+  for (auto& c : rays_by_class) c.clear();
+  beams.clear();  // (bearing, range)
   for (const octomap::point3d& p : points) {
     const double dx = double(p.x()) - origin.x(), dy = double(p.y()) - origin.y();
-    if (dx * dx + dy * dy > 1e-12) bearings.push_back(std::atan2(dy, dx));
+    if (dx * dx + dy * dy > 1e-12) beams.emplace_back(std::atan2(dy, dx), std::sqrt(dx * dx + dy * dy));
   }
-  if (bearings.size() < 8) return 0;  // too few beams to tell their step
-  std::sort(bearings.begin(), bearings.end());
+  if (beams.size() < 8) return 0;  // too few beams to tell their step
+  std::sort(beams.begin(), beams.end());
   constexpr double kTwoPi = 2.0 * std::numbers::pi;
   auto gapAfter = [&](std::size_t i) {
-    return i + 1 < bearings.size() ? bearings[i + 1] - bearings[i] : bearings.front() + kTwoPi - bearings.back();
+    return i + 1 < beams.size() ? beams[i + 1].first - beams[i].first : beams.front().first + kTwoPi - beams.back().first;
   };
   // The scanner's angular step: the 10th percentile of the gaps between distinct bearings (most neighbours are
   // one step apart; gaps where beams returned nothing are several).
   gaps.clear();
-  for (std::size_t i = 0; i < bearings.size(); ++i)
+  for (std::size_t i = 0; i < beams.size(); ++i)
     if (const double g = gapAfter(i); g > 1e-6) gaps.push_back(g);
   if (gaps.size() < 8) return 0;
   const std::size_t tenth = gaps.size() / 10;
   std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(tenth), gaps.end());
   const double step = gaps[tenth];
   if (!(step > 1e-6)) return 0;
-  // Beyond max_range: the inserter clears each such ray up to max_range and marks no occupied cell (OctoMap's rule).
-  const double reach = 2.0 * max_range;
+  // A ray is cleared to twice the farther of the returns bounding its gap, as far as max_range (far enough to see
+  // past what the neighbours hit, without a 66 m ray for every gap by a near wall): rounded up to max_range / 2^k,
+  // one insertion per such class, the points beyond it (the inserter clears such a ray to its max_range and marks
+  // no occupied cell, OctoMap's rule).
   const std::size_t limit = points.size();  // at most as many rays as the scan had points
   std::size_t added = 0;
-  for (std::size_t i = 0; i < bearings.size() && added < limit; ++i) {
+  for (std::size_t i = 0; i < beams.size() && added < limit; ++i) {
     const double g = gapAfter(i);
     if (!(g > 1.5 * step) || g > max_gap) continue;
+    const double wanted = 2.0 * std::max(beams[i].second, beams[(i + 1) % beams.size()].second);
+    std::size_t k = 0;
+    while (k + 1 < kGapRayClasses && max_range / double(std::size_t(1) << (k + 1)) >= wanted) ++k;
+    const double reach = 2.0 * max_range / double(std::size_t(1) << k);
     const auto rays = static_cast<std::size_t>(std::floor(g / step - 0.5));
-    for (std::size_t k = 1; k <= rays && added < limit; ++k, ++added) {
-      const double a = bearings[i] + g * double(k) / double(rays + 1);
-      points.emplace_back(static_cast<float>(origin.x() + reach * std::cos(a)), static_cast<float>(origin.y() + reach * std::sin(a)),
-                          origin.z());
+    for (std::size_t r = 1; r <= rays && added < limit; ++r, ++added) {
+      const double a = beams[i].first + g * double(r) / double(rays + 1);
+      rays_by_class[k].emplace_back(static_cast<float>(origin.x() + reach * std::cos(a)),
+                                    static_cast<float>(origin.y() + reach * std::sin(a)), origin.z());
     }
   }
   return added;
@@ -256,7 +272,7 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   }
 
   if (config_.clear_beam_gaps && config_.dimensions == 2)
-    result.gap_rays = addBeamGapRays(cleaned, origin, scan.max_range, config_.max_clear_gap_rad, impl_->bearings, impl_->gaps);
+    result.gap_rays = addBeamGapRays(cleaned, origin, scan.max_range, config_.max_clear_gap_rad, impl_->beams, impl_->gaps, impl_->gap_rays);
 
   if (config_.method == InsertMethod::kFast) {
     const detail::InsertCounts counts = impl_->inserter.insert(tree, cleaned, origin, scan.max_range,
@@ -268,12 +284,28 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
     result.seconds_tree = counts.seconds_tree;
     result.seconds_wait = counts.seconds_wait;
     result.walk_threads = counts.walk_threads;
+    for (std::size_t k = 0; k < kGapRayClasses && result.gap_rays > 0; ++k) {
+      if (impl_->gap_rays[k].empty()) continue;
+      const detail::InsertCounts more = impl_->inserter.insert(tree, impl_->gap_rays[k], origin, scan.max_range / double(std::size_t(1) << k),
+                                                               config_.discretize, config_.threads, config_.pipeline);
+      result.free_cells += more.free_cells;
+      result.seconds_rays += more.seconds_rays;
+      result.seconds_merge += more.seconds_merge;
+      result.seconds_tree += more.seconds_tree;
+      result.seconds_wait += more.seconds_wait;
+    }
   } else {
     finish();
     octomap::Pointcloud cloud;
     cloud.reserve(cleaned.size());
     for (const octomap::point3d& p : cleaned) cloud.push_back(p);
     tree.insertPointCloud(cloud, origin, scan.max_range, /*lazy_eval=*/false, config_.discretize);
+    for (std::size_t k = 0; k < kGapRayClasses && result.gap_rays > 0; ++k) {
+      if (impl_->gap_rays[k].empty()) continue;
+      octomap::Pointcloud rays;
+      for (const octomap::point3d& p : impl_->gap_rays[k]) rays.push_back(p);
+      tree.insertPointCloud(rays, origin, scan.max_range / double(std::size_t(1) << k), /*lazy_eval=*/false, config_.discretize);
+    }
   }
   result.inserted = true;
   // kOctoMap does not report its cell counts; assume it changed something.
