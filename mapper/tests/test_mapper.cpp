@@ -319,6 +319,13 @@ TEST(Mapper, BeamsThatReturnNothingClearTheGapsBetweenReturns) {
   EXPECT_EQ(state(clearing.octree(), 31.0, 0.05), '?');       // beyond max_range
   EXPECT_EQ(state(clearing.octree(), -1.0, -3.0), state(plain.octree(), -1.0, -3.0));  // the blind sector
   for (const Point3f& p : scan.points) EXPECT_EQ(state(clearing.octree(), p.x, p.y), '#') << p.x << " " << p.y;  // hits stay hits
+  // Returns the sensor could not measure (one, or two in a row, dropped as non-finite) are no gap to clear: a ray
+  // there would cross the wall their neighbours hit.
+  Scan holed = scan;
+  holed.points.erase(holed.points.begin() + 200, holed.points.begin() + 202);
+  holed.points.erase(holed.points.begin() + 100);
+  OccupancyMapper holed_mapper(config);
+  EXPECT_EQ(holed_mapper.insert(holed).gap_rays, result.gap_rays);
   // The flag is 2-D only, and a bad gap limit is refused.
   config.max_clear_gap_rad = 0.0;
   EXPECT_THROW(OccupancyMapper{config}, std::invalid_argument);

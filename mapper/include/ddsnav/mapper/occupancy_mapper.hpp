@@ -67,7 +67,7 @@ struct MapperConfig {
   // 2-D: a beam that returns nothing leaves no point, so the space it crossed stayed unknown — a 2.4 m corridor
   // looked down end-on, onto open space, was never observed free, and the planner's unknown margin closed it
   // (docs/world-model.md, "Beams that return nothing"). With this on, every gap in the scan's bearings wider than
-  // 1.5 of its angular step (the 10th percentile of the gaps between neighbouring bearings) and at most
+  // 3.5 of its angular step (three beams missing: fewer are invalid returns) (the 10th percentile of the gaps between neighbouring bearings) and at most
   // max_clear_gap_rad is filled with rays at that step, ending in no occupied cell and cleared to twice the farther
   // of the returns bounding the gap (rounded up to max_range / 2^k, at most max_range). A
   // wider gap (a field of view's blind sector, or open space on a side) stays unknown. Off by default: the tree
