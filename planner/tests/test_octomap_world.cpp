@@ -360,6 +360,14 @@ TEST(OctoMapWorld, SolidBelowSurfaceBlocksWhatLiesUnderTheHighestOccupiedVoxelOf
   EXPECT_TRUE(solid_radius->isFree(Vec3(0.5, 0.5, 2.5)));
 }
 
+// A 3-D world of `tree` in [-6, 6]^3, solid below the surface with a 0.75 m margin (8 columns of 0.1 m, rounded up).
+std::unique_ptr<CollisionWorld> marginWorld(const octomap::OcTree& tree) {
+  OctoMapWorldOptions options;
+  options.solid_below_surface = true;
+  options.surface_margin_m = 0.75;
+  return makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options);
+}
+
 TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForceScanSays) {
   // Scattered surface voxels at random heights: with surface_margin_m a point is blocked by the depth rule
   // exactly when some occupied voxel whose column lies within the margin (a square window of whole columns)
@@ -372,10 +380,7 @@ TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForc
     hits.emplace_back(u(rng), u(rng), uz(rng));
     tree.updateNode(hits.back(), true);
   }
-  OctoMapWorldOptions options;
-  options.solid_below_surface = true;
-  options.surface_margin_m = 0.75;  // 8 columns of 0.1 m (rounded up)
-  const auto world = makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options);
+  const auto world = marginWorld(tree);
   auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
   std::uniform_real_distribution<double> q(-4.5, 4.5), qz(-0.5, 4.5);
   int blocked = 0, checked = 0;
@@ -394,7 +399,8 @@ TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForc
   }
   EXPECT_GT(blocked, 1000);  // both answers were exercised
   EXPECT_GT(checked - blocked, 1000);
-  OctoMapWorldOptions bad = options;
+  OctoMapWorldOptions bad;
+  bad.solid_below_surface = true;
   bad.surface_margin_m = -1.0;
   EXPECT_THROW(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), bad), std::invalid_argument);
   bad.surface_margin_m = std::numeric_limits<double>::quiet_NaN();
@@ -424,10 +430,7 @@ TEST(OctoMapWorld, SurfaceMarginYieldsToSpaceObservedFreeAsABruteForceScanSays) 
           if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
         }
   }
-  OctoMapWorldOptions options;
-  options.solid_below_surface = true;
-  options.surface_margin_m = 0.75;  // 8 columns of 0.1 m (rounded up)
-  const auto world = makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options);
+  const auto world = marginWorld(tree);
   auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
   std::uniform_real_distribution<double> q(-4.5, 4.5), qz(-0.5, 4.5);
   int yielded = 0, blocked = 0;
