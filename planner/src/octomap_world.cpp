@@ -582,16 +582,11 @@ class OctoMapWorld final : public CollisionWorld {
     // of the start (the robot's centre line blocked, clearance -0.3 m, from x = 55.5 to 60.5), so the world the
     // planner prefers had no way out but the plain map's, through walls not yet seen.
     constexpr std::int64_t kBeamGap = 2;
-    auto observedFree = [&](std::int64_t x, std::int64_t y) {
-      bool occupied = false, known = false;
-      state(x, y, occupied, known);
-      return known && !occupied;
-    };
     auto betweenBeams = [&](const Cell& n) {
       for (const auto& [ux, uy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{1, -1}}) {
         bool ahead = false, behind = false;
-        for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observedFree(n.x + k * ux, n.y + k * uy);
-        for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observedFree(n.x - k * ux, n.y - k * uy);
+        for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observedFree({n.x + k * ux, n.y + k * uy, 0});
+        for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observedFree({n.x - k * ux, n.y - k * uy, 0});
         if (ahead && behind) return true;
       }
       return false;
@@ -721,7 +716,7 @@ class OctoMapWorld final : public CollisionWorld {
   // The free leaves' voxels where the surface margin would block (above a column's own surface, under its
   // dilated top) become known, so that the margin yields to space observed free (depthBelowSurface). Only
   // there: the free leaves of a 3-D map fill the whole observed volume. A second pass over the bytes; leaves are
-  // checked against 16 x 16-column blocks first (the highest dilated top of each), then column by column.
+  // checked against 8 x 8-column blocks first (the z span of their margin zones), then column by column.
   // Stops, leaving the margin as it is, before the bricks reach 90 % of max_bricks.
   void loadFreeUnderMargin(const std::vector<std::uint8_t>& bytes, const Cell& free_lo, const Cell& free_hi) {
     if (column_own_top_.empty()) return;
@@ -742,6 +737,14 @@ class OctoMapWorld final : public CollisionWorld {
       }
     const std::int32_t highest = *std::max_element(block_top.begin(), block_top.end());
     if (highest == kNoColumnTop) return;
+    // The z span [z0, z1] of column cell i's margin zone met by a leaf spanning [lo_z, hi_z]; empty when z0 > z1.
+    const auto zone = [&](std::size_t i, std::int64_t lo_z, std::int64_t hi_z, std::int64_t& z0, std::int64_t& z1) {
+      const std::int32_t top = column_top_[i], own = column_own_top_[i];
+      z0 = 1, z1 = 0;
+      if (top == kNoColumnTop || top == own) return;  // no margin here
+      z0 = std::max<std::int64_t>(lo_z, own == kNoColumnTop ? lo_z : std::int64_t(own) + 1);
+      z1 = std::min<std::int64_t>(hi_z, top);
+    };
     const std::size_t brick_budget = max_bricks_ - max_bricks_ / 10;
     bool stopped = false;
     std::uint64_t last_key = ~std::uint64_t(0);
@@ -754,9 +757,9 @@ class OctoMapWorld final : public CollisionWorld {
         if (!inRange(c, free_lo, free_hi) || c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return;
         const std::size_t b = static_cast<std::size_t>(((c.y - column_lo_.y) >> kBlock) * bnx + ((c.x - column_lo_.x) >> kBlock));
         if (c.z > block_top[b] || c.z < block_bottom[b]) return;
-        const std::size_t i = columnIndex(c.x, c.y);
-        const std::int32_t top = column_top_[i], own = column_own_top_[i];
-        if (top == own || c.z > top || (own != kNoColumnTop && c.z <= own)) return;
+        std::int64_t z0 = 0, z1 = 0;
+        zone(columnIndex(c.x, c.y), c.z, c.z, z0, z1);
+        if (z0 > z1) return;
         const std::uint64_t key = pack(c.x >> 3, c.y >> 3, c.z >> 3);
         if (key != last_key) {
           if (bricks_.size() >= brick_budget) {
@@ -776,24 +779,15 @@ class OctoMapWorld final : public CollisionWorld {
       lo = {std::max({lo.x, free_lo.x, column_lo_.x}), std::max({lo.y, free_lo.y, column_lo_.y}), std::max(lo.z, free_lo.z)};
       hi = {std::min({hi.x, free_hi.x, column_hi_.x}), std::min({hi.y, free_hi.y, column_hi_.y}), std::min(hi.z, free_hi.z)};
       if (lo.x > hi.x || lo.y > hi.y || lo.z > hi.z) return;
-      if (lo.z > highest) return;
       const std::int64_t gx0 = (lo.x - column_lo_.x) >> column_shift_, gx1 = (hi.x - column_lo_.x) >> column_shift_;
       const std::int64_t gy0 = (lo.y - column_lo_.y) >> column_shift_, gy1 = (hi.y - column_lo_.y) >> column_shift_;
-      if (gx0 == gx1 && gy0 == gy1) {  // most leaves: one column cell (the finest voxels by the ground)
-        const std::size_t i = static_cast<std::size_t>(gy0 * column_nx_ + gx0);
-        const std::int32_t top = column_top_[i], own = column_own_top_[i];
-        if (top == own || lo.z > top || (own != kNoColumnTop && hi.z <= own)) return;
-      }
       for (std::int64_t by = gy0 >> kBlock; by <= (gy1 >> kBlock); ++by)
         for (std::int64_t bx = gx0 >> kBlock; bx <= (gx1 >> kBlock); ++bx) {
           if (block_top[static_cast<std::size_t>(by * bnx + bx)] < lo.z || block_bottom[static_cast<std::size_t>(by * bnx + bx)] > hi.z) continue;  // no margin zone of the block meets the leaf
           for (std::int64_t gy = std::max(gy0, by << kBlock); gy <= std::min(gy1, ((by + 1) << kBlock) - 1); ++gy)
             for (std::int64_t gx = std::max(gx0, bx << kBlock); gx <= std::min(gx1, ((bx + 1) << kBlock) - 1); ++gx) {
-              const std::size_t i = static_cast<std::size_t>(gy * column_nx_ + gx);
-              const std::int32_t top = column_top_[i], own = column_own_top_[i];
-              if (top == kNoColumnTop || top == own) continue;
-              const std::int64_t z0 = std::max<std::int64_t>(lo.z, own == kNoColumnTop ? lo.z : std::int64_t(own) + 1);
-              const std::int64_t z1 = std::min<std::int64_t>(hi.z, top);
+              std::int64_t z0 = 0, z1 = 0;
+              zone(static_cast<std::size_t>(gy * column_nx_ + gx), lo.z, hi.z, z0, z1);
               if (z0 > z1) continue;
               if (bricks_.size() >= brick_budget) {
                 stopped = true;
