@@ -277,39 +277,29 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   if (config_.clear_beam_gaps && config_.dimensions == 2)
     result.gap_rays = addBeamGapRays(cleaned, origin, scan.max_range, config_.max_clear_gap_rad, impl_->beams, impl_->gaps, impl_->gap_rays);
 
-  if (config_.method == InsertMethod::kFast) {
-    const detail::InsertCounts counts = impl_->inserter.insert(tree, cleaned, origin, scan.max_range,
-                                                               config_.discretize, config_.threads, config_.pipeline);
-    result.free_cells = counts.free_cells;
-    result.occupied_cells = counts.occupied_cells;
-    result.seconds_rays = counts.seconds_rays;
-    result.seconds_merge = counts.seconds_merge;
-    result.seconds_tree = counts.seconds_tree;
-    result.seconds_wait = counts.seconds_wait;
-    result.walk_threads = counts.walk_threads;
-    for (std::size_t k = 0; k < kGapRayClasses && result.gap_rays > 0; ++k) {
-      if (impl_->gap_rays[k].empty()) continue;
-      const detail::InsertCounts more = impl_->inserter.insert(tree, impl_->gap_rays[k], origin, scan.max_range / double(std::size_t(1) << k),
-                                                               config_.discretize, config_.threads, config_.pipeline);
-      result.free_cells += more.free_cells;
-      result.seconds_rays += more.seconds_rays;
-      result.seconds_merge += more.seconds_merge;
-      result.seconds_tree += more.seconds_tree;
-      result.seconds_wait += more.seconds_wait;
+  // One insertion of `points` cut at `range`: the scan's points, then each class of gap rays (their own range).
+  const auto insertPoints = [&](const std::vector<octomap::point3d>& points, double range) {
+    if (config_.method == InsertMethod::kFast) {
+      const detail::InsertCounts counts =
+          impl_->inserter.insert(tree, points, origin, range, config_.discretize, config_.threads, config_.pipeline);
+      result.free_cells += counts.free_cells;
+      result.occupied_cells += counts.occupied_cells;
+      result.seconds_rays += counts.seconds_rays;
+      result.seconds_merge += counts.seconds_merge;
+      result.seconds_tree += counts.seconds_tree;
+      result.seconds_wait += counts.seconds_wait;
+      result.walk_threads = std::max(result.walk_threads, counts.walk_threads);
+    } else {
+      finish();
+      octomap::Pointcloud cloud;
+      cloud.reserve(points.size());
+      for (const octomap::point3d& p : points) cloud.push_back(p);
+      tree.insertPointCloud(cloud, origin, range, /*lazy_eval=*/false, config_.discretize);
     }
-  } else {
-    finish();
-    octomap::Pointcloud cloud;
-    cloud.reserve(cleaned.size());
-    for (const octomap::point3d& p : cleaned) cloud.push_back(p);
-    tree.insertPointCloud(cloud, origin, scan.max_range, /*lazy_eval=*/false, config_.discretize);
-    for (std::size_t k = 0; k < kGapRayClasses && result.gap_rays > 0; ++k) {
-      if (impl_->gap_rays[k].empty()) continue;
-      octomap::Pointcloud rays;
-      for (const octomap::point3d& p : impl_->gap_rays[k]) rays.push_back(p);
-      tree.insertPointCloud(rays, origin, scan.max_range / double(std::size_t(1) << k), /*lazy_eval=*/false, config_.discretize);
-    }
-  }
+  };
+  insertPoints(cleaned, scan.max_range);
+  for (std::size_t k = 0; k < kGapRayClasses && result.gap_rays > 0; ++k)
+    if (!impl_->gap_rays[k].empty()) insertPoints(impl_->gap_rays[k], scan.max_range / double(std::size_t(1) << k));
   result.inserted = true;
   // kOctoMap does not report its cell counts; assume it changed something.
   changed_ = changed_ || config_.method == InsertMethod::kOctoMap || result.free_cells + result.occupied_cells > 0;
