@@ -18,6 +18,7 @@
 #include <memory>
 #include <malloc.h>
 #include <iostream>
+#include <iterator>
 #include <random>
 #include <sstream>
 
@@ -93,6 +94,38 @@ int queryMismatches(const octomap::OcTree& a, const octomap::OcTree& b, int poin
 
 }  // namespace
 
+// --world-map: the planner's world from a recorded map, built 5 times each way (the mean per build). The 3-D defaults
+// are solid below the surface with a 1 m margin yielding to space observed free (docs/world-model.md).
+int timeWorldBuilds(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+  octomap::OcTree tree(0.1);
+  std::istringstream stream(std::string(bytes.begin(), bytes.end()));
+  if (!tree.readBinary(stream)) {
+    std::fprintf(stderr, "--world-map %s: not a binary OctoMap (.bt)\n", path.c_str());
+    return 1;
+  }
+  double x0, y0, z0, x1, y1, z1;
+  tree.getMetricMin(x0, y0, z0);
+  tree.getMetricMax(x1, y1, z1);
+  using ddsnav::planner::Vec3;
+  ddsnav::planner::OctoMapWorldOptions solid_below;
+  solid_below.solid_below_surface = true;
+  ddsnav::planner::OctoMapWorldOptions defaults_3d = solid_below;
+  defaults_3d.surface_margin_m = 1.0;
+  std::printf("| world from %s (%zu bytes, %zu nodes) | ms per build |\n|---|---|\n", path.c_str(), bytes.size(), tree.size());
+  for (const auto& [name, options] : {std::pair{"plain (occupied voxels only)", ddsnav::planner::OctoMapWorldOptions{}},
+                                      std::pair{"solid below the surface, no margin", solid_below},
+                                      std::pair{"3-D defaults (solid below, 1 m margin yielding to free space)", defaults_3d}}) {
+    constexpr int kBuilds = 5;
+    const auto started = Clock::now();
+    for (int i = 0; i < kBuilds; ++i)
+      ddsnav::planner::makeOctoMapWorld(3, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
+    std::printf("| %s | %.1f |\n", name, 1000.0 * secondsSince(started) / kBuilds);
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"OctoMap insertion and occupancy queries: OctoMap's own paths vs ddsnav's mapper, same scans"};
   std::vector<std::string> pattern_names{"16x1800", "64x1800"};
@@ -115,7 +148,13 @@ int main(int argc, char** argv) {
   app.add_option("--seeds", seeds, "run city blocks seed .. seed + N - 1 and report the spread")->check(CLI::Range(1, 100));
   app.add_option("--json", json_path, "also write the results as JSON to this file");
   app.add_flag("--profile-ours", profile_ours, "only run our insertion (no OctoMap runs, no checks): for profilers");
+  std::string world_map;
+  app.add_option("--world-map", world_map,
+                 "only time the planner's world built from this .bt (a mission's map.bt, `ddsnav bench-mission --keep-recordings`): "
+                 "plain and with the 3-D defaults, in the map's own box")
+      ->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
+  if (!world_map.empty()) return timeWorldBuilds(world_map);
 
   std::vector<Pattern> patterns;
   try {
