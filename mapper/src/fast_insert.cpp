@@ -598,7 +598,7 @@ std::size_t BrickMap::memoryUsage() const {
 
 InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                          const octomap::point3d& origin, double max_range, bool discretize, int threads,
-                         ScanKeys& keys) {
+                         ScanKeys& keys, const std::vector<octomap::point3d>* surface_cells) {
   const std::vector<octomap::point3d>* cloud = &points;
   std::vector<std::uint64_t>& sort_buffer = keys.sorted;
   if (discretize) {
@@ -651,6 +651,11 @@ InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap:
     counts.seconds_rays = lap();
     for (int t = 1; t < n_threads; ++t) maps[0].mergeFrom(maps[t]);
   }
+  if (surface_cells != nullptr) {
+    octomap::OcTreeKey key;
+    for (const octomap::point3d& p : *surface_cells)
+      if (tree.coordToKeyChecked(p, key)) maps[0].markOccupied(key);
+  }
   if (counts.seconds_rays == 0.0) counts.seconds_rays = lap();
 
   // 2. Occupied wins over free; bricks in Morton order.
@@ -684,11 +689,11 @@ std::size_t ScanKeys::memoryUsage() const {
 
 InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                                   const octomap::point3d& origin, double max_range, bool discretize, int threads,
-                                  bool pipelined) {
+                                  bool pipelined, const std::vector<octomap::point3d>* surface_cells) {
   if (!pipelined) {
     finish();  // a pipelined update may still be running
     ScanKeys& keys = keys_[0];
-    InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys);
+    InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells);
     const auto started = std::chrono::steady_clock::now();
     counts.walk_threads = applyKeys(tree, keys, threads);
     counts.seconds_tree = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -697,7 +702,7 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   // The previous scan's tree update runs on the background thread while this scan's keys are computed
   // into the other buffer (key computation never reads a node).
   ScanKeys& keys = keys_[fill_];
-  InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys);
+  InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells);
   const auto waited = std::chrono::steady_clock::now();
   finish();
   counts.seconds_wait = std::chrono::duration<double>(std::chrono::steady_clock::now() - waited).count();

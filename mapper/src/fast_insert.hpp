@@ -105,8 +105,11 @@ struct ScanKeys {
 // Stage 1 (rays, de-duplication, occupied-wins, Morton sort). Reads only the tree's key arithmetic
 // (resolution and key offset, fixed at construction), never a node, so it may run while stage 2 of
 // an earlier scan changes the tree.
+// `surface_cells` (may be null): points whose voxels are marked occupied as well, with no ray (cells a scan's
+// returns imply but no beam hit: MapperConfig::fill_surfaces_between_returns).
 InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
-                         const octomap::point3d& origin, double max_range, bool discretize, int threads, ScanKeys& keys);
+                         const octomap::point3d& origin, double max_range, bool discretize, int threads, ScanKeys& keys,
+                         const std::vector<octomap::point3d>* surface_cells = nullptr);
 // Stage 2: applies the keys to the tree; returns the number of threads that walked it.
 int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads);
 
@@ -124,7 +127,7 @@ class FastInserter {
   // same as without pipelining: every scan's update is the same, applied in the same order.
   InsertCounts insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                       const octomap::point3d& origin, double max_range, bool discretize, int threads,
-                      bool pipelined = false);
+                      bool pipelined = false, const std::vector<octomap::point3d>* surface_cells = nullptr);
   // Waits until every handed-over tree update is applied; rethrows an exception it raised.
   void finish();
   std::size_t memoryUsage() const;

@@ -119,6 +119,8 @@ std::string validateConfig(const MapperConfig& c) {
   if (c.dimensions != 2 && c.dimensions != 3)
     return "mapper parameter 'dimensions' must be 2 or 3, got " + std::to_string(c.dimensions);
   if (!std::isfinite(c.slab_z)) return "mapper parameter 'slab_z' must be finite, got " + fmt(c.slab_z);
+  if (!(c.max_surface_fill_m >= 0.0 && c.max_surface_fill_m <= 1e4))
+    return "mapper parameter 'max_surface_fill_m' must be in [0, 10000] m (0: the scan's max_range / 8), got " + fmt(c.max_surface_fill_m);
   if (!(c.max_clear_gap_rad > 0.0 && c.max_clear_gap_rad <= std::numbers::pi))
     return "mapper parameter 'max_clear_gap_deg' must be in (0, 180] degrees, got " + fmt(c.max_clear_gap_rad * 180.0 / std::numbers::pi);
   if (!isProbability(c.prob_hit) || c.prob_hit <= 0.5)
@@ -146,6 +148,12 @@ void applySensorModel(octomap::OcTree& tree, const MapperConfig& c) {
 
 namespace {
 constexpr std::size_t kGapRayClasses = 4;  // gap rays cleared to max_range, / 2, / 4, / 8
+
+// The bearing from return i to the next (sorted by bearing, the last one's next is the first, a turn later).
+double bearingGapAfter(const std::vector<std::pair<double, double>>& beams, std::size_t i) {
+  constexpr double kTwoPi = 2.0 * std::numbers::pi;
+  return i + 1 < beams.size() ? beams[i + 1].first - beams[i].first : beams.front().first + kTwoPi - beams.back().first;
+}
 }  // namespace
 
 struct OccupancyMapper::Impl {
@@ -156,44 +164,44 @@ struct OccupancyMapper::Impl {
   std::vector<std::pair<double, double>> beams;  // clear_beam_gaps' scratch space
   std::vector<double> gaps;
   std::array<std::vector<octomap::point3d>, kGapRayClasses> gap_rays;
+  std::vector<octomap::point3d> surface_fill;  // fill_surfaces_between_returns' points
 };
 
 namespace {
-// MapperConfig::clear_beam_gaps: the rays through the gaps of a planar scan's bearings, by the length they are
-// cleared to (class k: max_range / 2^k), as points beyond it; returns how many. `beams` and `gaps` are scratch space.
-std::size_t addBeamGapRays(const std::vector<octomap::point3d>& points, const octomap::point3d& origin, double max_range,
-                           double max_gap, std::vector<std::pair<double, double>>& beams, std::vector<double>& gaps,
-                           std::array<std::vector<octomap::point3d>, kGapRayClasses>& rays_by_class) {
-  for (auto& c : rays_by_class) c.clear();
-  beams.clear();  // (bearing, range)
+// A planar scan's returns as (bearing, range) sorted by bearing, into `beams`; returns the scanner's angular step, the
+// 10th percentile of the gaps between distinct neighbouring bearings (most neighbours are one step apart; gaps where
+// beams returned nothing are several), or 0 when there are too few returns to tell. `gaps` is scratch space.
+double sortedBeams(const std::vector<octomap::point3d>& points, const octomap::point3d& origin,
+                   std::vector<std::pair<double, double>>& beams, std::vector<double>& gaps) {
+  beams.clear();
   for (const octomap::point3d& p : points) {
     const double dx = double(p.x()) - origin.x(), dy = double(p.y()) - origin.y();
     if (dx * dx + dy * dy > 1e-12) beams.emplace_back(std::atan2(dy, dx), std::sqrt(dx * dx + dy * dy));
   }
-  if (beams.size() < 8) return 0;  // too few beams to tell their step
+  if (beams.size() < 8) return 0.0;
   std::sort(beams.begin(), beams.end());
-  constexpr double kTwoPi = 2.0 * std::numbers::pi;
-  auto gapAfter = [&](std::size_t i) {
-    return i + 1 < beams.size() ? beams[i + 1].first - beams[i].first : beams.front().first + kTwoPi - beams.back().first;
-  };
-  // The scanner's angular step: the 10th percentile of the gaps between distinct bearings (most neighbours are
-  // one step apart; gaps where beams returned nothing are several).
   gaps.clear();
   for (std::size_t i = 0; i < beams.size(); ++i)
-    if (const double g = gapAfter(i); g > 1e-6) gaps.push_back(g);
-  if (gaps.size() < 8) return 0;
+    if (const double g = bearingGapAfter(beams, i); g > 1e-6) gaps.push_back(g);
+  if (gaps.size() < 8) return 0.0;
   const std::size_t tenth = gaps.size() / 10;
   std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(tenth), gaps.end());
-  const double step = gaps[tenth];
-  if (!(step > 1e-6)) return 0;
+  return gaps[tenth] > 1e-6 ? gaps[tenth] : 0.0;
+}
+
+// MapperConfig::clear_beam_gaps: the rays through the gaps of a planar scan's bearings (`beams` and `step` from
+// sortedBeams), by the length they are cleared to (class k: max_range / 2^k), as points beyond it; returns how many.
+std::size_t addBeamGapRays(const std::vector<std::pair<double, double>>& beams, double step, const octomap::point3d& origin,
+                           double max_range, double max_gap, std::array<std::vector<octomap::point3d>, kGapRayClasses>& rays_by_class) {
   // A ray is cleared to twice the farther of the returns bounding its gap, as far as max_range (far enough to see
   // past what the neighbours hit, without a 66 m ray for every gap by a near wall): rounded up to max_range / 2^k,
   // one insertion per such class, the points beyond it (the inserter clears such a ray to its max_range and marks
   // no occupied cell, OctoMap's rule).
-  const std::size_t limit = points.size();  // at most as many rays as the scan had points
+  if (!(step > 0.0)) return 0;
+  const std::size_t limit = beams.size();  // at most as many rays as the scan had returns
   std::size_t added = 0;
   for (std::size_t i = 0; i < beams.size() && added < limit; ++i) {
-    const double g = gapAfter(i);
+    const double g = bearingGapAfter(beams, i);
     // Three beams missing at least: one or two are returns the sensor could not measure (NaN, dropped above), and a
     // ray through their gap crosses the surface their neighbours hit (stunnel_small_0.5, 1.4 % of the returns
     // invalid: the corridor's walls were cleared away beam by beam and the mission failed).
@@ -210,6 +218,56 @@ std::size_t addBeamGapRays(const std::vector<octomap::point3d>& points, const oc
     }
   }
   return added;
+}
+
+// MapperConfig::fill_surfaces_between_returns: points every half voxel on the segments between neighbouring returns
+// (`beams` and `step` from sortedBeams) that lie on one straight surface — the return before or after them is on
+// their line, within `tolerance` along its beam — up to max_length long; returns how many (at most `limit`).
+std::size_t addSurfaceFill(const std::vector<std::pair<double, double>>& beams, double step, const octomap::point3d& origin,
+                           double resolution, double tolerance, double max_length, std::size_t limit,
+                           std::vector<octomap::point3d>& out) {
+  out.clear();
+  const std::size_t n = beams.size();
+  if (n < 3 || !(step > 0.0)) return 0;
+  const auto at = [&](std::size_t i) {
+    const auto& [bearing, range] = beams[i % n];
+    return std::pair{origin.x() + range * std::cos(bearing), origin.y() + range * std::sin(bearing)};
+  };
+  // Neighbours: one step apart (a gap of missing beams may hide anything).
+  const auto neighbours = [&](std::size_t i) { return bearingGapAfter(beams, i % n) < 1.5 * step; };
+  // Return i on the segment between its neighbours' returns (i - 1, i + 1): its beam meets that segment within
+  // `tolerance` of its measured range. Measured along the beam, a surface seen at a grazing angle is told from a
+  // return just behind it (through an opening at its end, a few centimetres beyond its line: stunnel_small_0.5's
+  // turn) as clearly as from one just in front, where a distance to the line would take both for the surface.
+  const auto onLine = [&](std::size_t i) {
+    if (!neighbours(i + n - 1) || !neighbours(i)) return false;
+    const auto [ax, ay] = at(i + n - 1);
+    const auto [cx, cy] = at(i + 1);
+    const auto& [bearing, range] = beams[i % n];
+    const double ux = std::cos(bearing), uy = std::sin(bearing);  // the beam's direction
+    const double vx = cx - ax, vy = cy - ay;                      // the segment
+    const double across = ux * vy - uy * vx;
+    if (!(std::abs(across) > 1e-9 * std::hypot(vx, vy))) return false;  // the beam runs along the segment
+    const double wx = ax - origin.x(), wy = ay - origin.y();
+    const double meets = (wx * vy - wy * vx) / across;  // range at which the beam meets the segment's line
+    const double t = (wx * uy - wy * ux) / across;      // where on the segment (0: a, 1: c)
+    return t > 0.0 && t < 1.0 && std::abs(meets - range) <= tolerance;
+  };
+  std::vector<bool> on_line(n);
+  for (std::size_t i = 0; i < n; ++i) on_line[i] = onLine(i);
+  for (std::size_t i = 0; i < n && out.size() < limit; ++i) {
+    if (!neighbours(i) || !(on_line[i] || on_line[(i + 1) % n])) continue;
+    const auto [ax, ay] = at(i);
+    const auto [bx, by] = at(i + 1);
+    const double length = std::hypot(bx - ax, by - ay);
+    if (!(length > 0.5 * resolution) || length > max_length) continue;  // one voxel already, or too far apart
+    const auto points = static_cast<std::size_t>(std::floor(2.0 * length / resolution));
+    for (std::size_t k = 1; k < points && out.size() < limit; ++k) {
+      const double t = double(k) / double(points);
+      out.emplace_back(static_cast<float>(ax + t * (bx - ax)), static_cast<float>(ay + t * (by - ay)), origin.z());
+    }
+  }
+  return out.size();
 }
 }  // namespace
 
@@ -274,14 +332,26 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
     return result;
   }
 
-  if (config_.clear_beam_gaps && config_.dimensions == 2)
-    result.gap_rays = addBeamGapRays(cleaned, origin, scan.max_range, config_.max_clear_gap_rad, impl_->beams, impl_->gaps, impl_->gap_rays);
+  for (auto& rays : impl_->gap_rays) rays.clear();
+  impl_->surface_fill.clear();
+  if (config_.dimensions == 2 && (config_.clear_beam_gaps || config_.fill_surfaces_between_returns)) {
+    const double step = sortedBeams(cleaned, origin, impl_->beams, impl_->gaps);
+    if (config_.clear_beam_gaps)
+      result.gap_rays = addBeamGapRays(impl_->beams, step, origin, scan.max_range, config_.max_clear_gap_rad, impl_->gap_rays);
+    if (config_.fill_surfaces_between_returns) {
+      const double max_length = config_.max_surface_fill_m > 0.0 ? config_.max_surface_fill_m : scan.max_range / 8.0;
+      // At most 8 points per return: a scan's whole fill stays within a few times its own work.
+      result.surface_fill = addSurfaceFill(impl_->beams, step, origin, config_.resolution, 0.5 * config_.resolution, max_length,
+                                           8 * cleaned.size(), impl_->surface_fill);
+    }
+  }
 
-  // One insertion of `points` cut at `range`: the scan's points, then each class of gap rays (their own range).
-  const auto insertPoints = [&](const std::vector<octomap::point3d>& points, double range) {
+  // One insertion of `points` cut at `range`: the scan's points (with the surface fill's voxels marked occupied,
+  // no ray), then each class of gap rays (their own range).
+  const auto insertPoints = [&](const std::vector<octomap::point3d>& points, double range, const std::vector<octomap::point3d>* fill) {
     if (config_.method == InsertMethod::kFast) {
       const detail::InsertCounts counts =
-          impl_->inserter.insert(tree, points, origin, range, config_.discretize, config_.threads, config_.pipeline);
+          impl_->inserter.insert(tree, points, origin, range, config_.discretize, config_.threads, config_.pipeline, fill);
       result.free_cells += counts.free_cells;
       result.occupied_cells += counts.occupied_cells;
       result.seconds_rays += counts.seconds_rays;
@@ -295,11 +365,18 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
       cloud.reserve(points.size());
       for (const octomap::point3d& p : points) cloud.push_back(p);
       tree.insertPointCloud(cloud, origin, range, /*lazy_eval=*/false, config_.discretize);
+      if (fill != nullptr) {
+        octomap::KeySet cells;
+        octomap::OcTreeKey key;
+        for (const octomap::point3d& p : *fill)
+          if (tree.coordToKeyChecked(p, key)) cells.insert(key);
+        for (const octomap::OcTreeKey& k : cells) tree.updateNode(k, true, /*lazy_eval=*/false);
+      }
     }
   };
-  insertPoints(cleaned, scan.max_range);
+  insertPoints(cleaned, scan.max_range, impl_->surface_fill.empty() ? nullptr : &impl_->surface_fill);
   for (std::size_t k = 0; k < kGapRayClasses && result.gap_rays > 0; ++k)
-    if (!impl_->gap_rays[k].empty()) insertPoints(impl_->gap_rays[k], scan.max_range / double(std::size_t(1) << k));
+    if (!impl_->gap_rays[k].empty()) insertPoints(impl_->gap_rays[k], scan.max_range / double(std::size_t(1) << k), nullptr);
   result.inserted = true;
   // kOctoMap does not report its cell counts; assume it changed something.
   changed_ = changed_ || config_.method == InsertMethod::kOctoMap || result.free_cells + result.occupied_cells > 0;

@@ -331,5 +331,59 @@ TEST(Mapper, BeamsThatReturnNothingClearTheGapsBetweenReturns) {
   EXPECT_THROW(OccupancyMapper{config}, std::invalid_argument);
 }
 
+// A 2-D scan of a wall along y = 1.2 (x 3 .. 20) seen at a grazing angle, its hits up to 2 m apart, and below the
+// x axis a block's face along y = -1.25 (x 2 .. 8.75) with a wall x = 9.25 beyond it: one beam goes through the 0.5 m
+// opening between them and hits that wall 5 cm below the face's line. With fill_surfaces_between_returns every cell
+// of the wall's face between its hits is occupied; the opening is not closed.
+TEST(Mapper, FaceSeenAtAGrazingAngleIsFilledBetweenItsHitsButNotAcrossAnOpening) {
+  struct Segment {
+    double x0, y0, x1, y1;
+  };
+  const Segment segments[] = {{3.0, 1.2, 20.0, 1.2}, {2.0, -1.25, 8.75, -1.25}, {9.25, -20.0, 9.25, -1.25}};
+  Scan scan;
+  scan.origin = {0.0f, 0.0f, 0.0f};
+  scan.max_range = 30.0;
+  for (int i = 0; i < 720; ++i) {
+    const double a = i * 0.5 * M_PI / 180.0, c = std::cos(a), sn = std::sin(a);
+    double t = std::numeric_limits<double>::infinity();
+    for (const Segment& g : segments) {
+      const double vx = g.x1 - g.x0, vy = g.y1 - g.y0, across = c * vy - sn * vx;
+      if (std::abs(across) < 1e-12) continue;
+      const double along = (g.x0 * vy - g.y0 * vx) / across, u = (g.x0 * sn - g.y0 * c) / across;
+      if (along > 0.0 && u >= 0.0 && u <= 1.0) t = std::min(t, along);
+    }
+    if (t <= scan.max_range) scan.points.push_back({static_cast<float>(t * c), static_cast<float>(t * sn), 0.0f});
+  }
+  MapperConfig config;
+  config.dimensions = 2;
+  config.resolution = 0.1;
+  OccupancyMapper plain(config);
+  ASSERT_TRUE(plain.insert(scan).inserted);
+  config.fill_surfaces_between_returns = true;
+  OccupancyMapper filling(config);
+  const InsertResult result = filling.insert(scan);
+  ASSERT_TRUE(result.inserted);
+  EXPECT_GT(result.surface_fill, 0u);
+  EXPECT_LE(result.surface_fill, 8 * scan.points.size());
+  const auto occupied = [](const octomap::OcTree& tree, double x, double y) {
+    const octomap::OcTreeNode* n = tree.search(x, y, 0.0);
+    return n != nullptr && tree.isNodeOccupied(n);
+  };
+  int plain_cells = 0;
+  for (double x = 3.25; x < 19.5; x += 0.1) {
+    EXPECT_TRUE(occupied(filling.octree(), x, 1.25)) << x;
+    plain_cells += occupied(plain.octree(), x, 1.25);
+  }
+  EXPECT_LT(plain_cells, 80);  // of 163: the hits alone, farther apart than a cell beyond x = 11
+  for (const double x : {8.85, 8.95, 9.05, 9.15}) {
+    EXPECT_FALSE(occupied(filling.octree(), x, -1.25)) << x;
+    EXPECT_FALSE(occupied(filling.octree(), x, -1.29)) << x;
+  }
+  for (const Point3f& p : scan.points) EXPECT_TRUE(occupied(filling.octree(), p.x, p.y)) << p.x << " " << p.y;
+  // A bad length is refused.
+  config.max_surface_fill_m = -1.0;
+  EXPECT_THROW(OccupancyMapper{config}, std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace ddsnav::mapper

@@ -532,19 +532,22 @@ TEST(OctoMapWorld, UnknownMarginBlocksUnseenCellsNearSeenSurfacesAsABruteForceSc
 // A planar scan from the origin of two boxes, hits only (a ray that hits nothing leaves no free cells): a long wall
 // whose face is x = 3 (y from -2 to 4), and in front of it a short wall along y = 0.5 .. 0.7 from x = 1 to the long
 // one, which hides the face from y = 0.5 to y = 2.1 (rays of slope 0.5 to 0.7 end on the short wall's end face).
-octomap::OcTree occludedWallScan(int beams = 1440) {
-  struct Box {
-    Eigen::Vector2d lo, hi;
-  };
-  const Box boxes[] = {{{3.0, -2.0}, {3.3, 4.0}}, {{1.0, 0.5}, {3.0, 0.7}}};
+struct ScanBox {
+  Eigen::Vector2d lo, hi;
+};
+octomap::OcTree boxesScan(const std::vector<ScanBox>& boxes, int beams, double range);
+octomap::OcTree occludedWallScan(int beams = 1440) { return boxesScan({{{3.0, -2.0}, {3.3, 4.0}}, {{1.0, 0.5}, {3.0, 0.7}}}, beams, 6.0); }
+
+// A planar scan from the origin (`beams` evenly spaced, hits within `range` only) of axis-aligned boxes.
+octomap::OcTree boxesScan(const std::vector<ScanBox>& boxes, int beams, double range) {
   octomap::OcTree tree(0.1);
   octomap::Pointcloud cloud;
   for (int i = 0; i < beams; ++i) {
     const double a = i * 2.0 * M_PI / beams;
     const Eigen::Vector2d d(std::cos(a), std::sin(a));
     double best = std::numeric_limits<double>::infinity();
-    for (const Box& b : boxes) {  // slab test
-      double t0 = 0.0, t1 = 6.0;
+    for (const ScanBox& b : boxes) {  // slab test
+      double t0 = 0.0, t1 = range;
       for (int k = 0; k < 2; ++k) {
         if (std::abs(d[k]) < 1e-12) {
           if (b.lo[k] > 0.0 || b.hi[k] < 0.0) t0 = t1 + 1;
@@ -615,9 +618,17 @@ TEST(OctoMapWorld, ASeenSurfaceGoesOnWhereSomethingInFrontHidesIt) {
   EXPECT_TRUE(occludedSurfaceContinuation(*map, Vec3::Zero(), 0.0).cells.empty());
   EXPECT_THROW(occludedSurfaceContinuation(*map, Vec3::Zero(), -1.0), std::invalid_argument);
   EXPECT_THROW(occludedSurfaceContinuation(*map, Vec3::Zero(), std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
-  // From above the short wall the stretch is in plain sight, and the long wall's lower end, a true end seen from
-  // the origin, is hidden behind the short wall: an end out of sight is not continued, nothing is.
-  for (const Vec3& c : occludedSurfaceContinuation(*map, Vec3(2.0, 1.3, 0.0), 5.0).cells) ADD_FAILURE() << c.transpose();
+  // From above the short wall the stretch is in plain sight: not continued. The long wall's lower end, a true end,
+  // is out of sight behind the short wall from there, and it is continued while the cells beyond it were never
+  // observed (this scan's beams past it hit nothing in range); once they were (the mapper's rays through gaps of
+  // beams that returned nothing clear them: MapperConfig::clear_beam_gaps), nothing is continued.
+  for (const Vec3& c : occludedSurfaceContinuation(*map, Vec3(2.0, 1.3, 0.0), 5.0).cells) EXPECT_LT(c.y(), -2.0) << c.transpose();
+  octomap::OcTree seen_beyond = tree;
+  for (double y = -2.05; y > -4.0; y -= 0.1)
+    for (const double x : {2.95, 3.05, 3.15, 3.25}) seen_beyond.updateNode(x, y, 0.05, false);
+  const std::shared_ptr<const CollisionWorld> seen_map =
+      makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.2, toBytes(seen_beyond), knows_unobserved);
+  for (const Vec3& c : occludedSurfaceContinuation(*seen_map, Vec3(2.0, 1.3, 0.0), 5.0).cells) ADD_FAILURE() << c.transpose();
 }
 
 // The same walls seen by a coarse scanner (4 degrees between beams): the face is sampled every 0.2 m or so, not
@@ -642,6 +653,28 @@ TEST(OctoMapWorld, ASparselySampledSurfaceGoesOnWhereSomethingInFrontHidesIt) {
   const auto with = makeBlockedCellsWorld(map, continued.cells, continued.cell_size);
   EXPECT_TRUE(map->isFree(Vec3(3.1, 1.3, 0.0)));
   EXPECT_FALSE(with->isFree(Vec3(3.1, 1.3, 0.0)));
+}
+
+// A block whose faces no hit of the scan is left on (x 1.0 .. 3.9, y 0.4 .. 0.8), as a scanner leaves a face it
+// hit every few metres at a grazing angle between the hits, in front of a wall's face at x = 4, seen above y = 3.2.
+// No ray from the face below that to the viewpoint meets a hit, but each crosses a metre and more of never-observed
+// space (the block) beyond its first metre: the face is continued down behind the block (bugtrap_0.6: the neck's
+// wall, hit every 2.5-7 m, hid the box's side wall behind it, and no ray to that wall met one of the hits).
+TEST(OctoMapWorld, ASurfaceHiddenBehindAFaceMissedByTheRaysGoesOn) {
+  octomap::OcTree tree = boxesScan({{{4.0, -2.0}, {4.3, 8.0}}, {{1.0, 0.4}, {3.9, 0.8}}}, 1440, 8.0);
+  // The block's hits taken away (observed free instead: OctoMap's deleteNode asserts on pruned trees); its inside
+  // stays never observed.
+  const float free = tree.getClampingThresMinLog();
+  for (double x = 1.05; x < 3.9; x += 0.1) tree.setNodeValue(octomap::point3d(float(x), 0.45f, 0.05f), free);
+  for (double y = 0.55; y < 0.8; y += 0.1) tree.setNodeValue(octomap::point3d(1.05f, float(y), 0.05f), free);
+  OctoMapWorldOptions knows_unobserved;
+  knows_unobserved.unknown_margin_m = 0.05;
+  const std::shared_ptr<const CollisionWorld> map =
+      makeOctoMapWorld(2, Vec3(-8, -8, 0), Vec3(8, 8, 0), 0.2, toBytes(tree), knows_unobserved);
+  int behind_the_block = 0;
+  for (const Vec3& c : occludedSurfaceContinuation(*map, Vec3::Zero(), 5.0).cells)
+    behind_the_block += std::abs(c.x() - 4.05) < 1e-9 && c.y() > 1.0 && c.y() < 3.1;
+  EXPECT_GE(behind_the_block, 18);  // 20 cells
 }
 
 TEST(BlockedCellsWorld, FreeAndClearanceAsABruteForceScanSays) {

@@ -58,6 +58,14 @@ class MapperComponent : public runtime::Component {
                                                    {.above = 0, .max = 180, .unit = "deg",
                                                     .doc = "widest gap between returns cleared (a wider one, a blind sector, stays unknown)"}) *
                                  std::numbers::pi / 180.0;
+      config.fill_surfaces_between_returns = p.declare<bool>(
+          "fill_surfaces_between_returns", true,
+          {.doc = "2-D: mark occupied the segment between neighbouring returns when a third lies on their line (a wall seen at "
+                  "a grazing angle is hit every few metres, and the planner took the stretches between for open space: "
+                  "docs/world-model.md)"});
+      config.max_surface_fill_m = p.declare<double>(
+          "max_surface_fill_m", 0.0,
+          {.min = 0, .max = 1e4, .unit = "m", .doc = "longest segment filled; 0: the scan's max_range / 8"});
       config.threads = static_cast<int>(p.declare<std::int64_t>(
           "threads", 2,
           {.min = 1, .max = 64,

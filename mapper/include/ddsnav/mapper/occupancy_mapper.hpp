@@ -74,6 +74,15 @@ struct MapperConfig {
   // then is exactly OctoMap's insertPointCloud of the points.
   bool clear_beam_gaps = false;
   double max_clear_gap_rad = 0.35;  // 20 degrees
+  // 2-D: a face seen at a grazing angle is hit by neighbouring beams metres apart (a corridor's wall 20 m ahead,
+  // every 2.5-7 m), and a planner takes the unseen stretches between the hits for open space — and plans through
+  // the wall (docs/world-model.md, "Faces seen at a grazing angle"). With this on, the segment between two
+  // neighbouring returns (one angular step apart) is marked occupied, with no ray, when the return before or after
+  // them lies on their line (its range within half the resolution of where its beam meets the line) and it is at most max_surface_fill_m long (0: the scan's
+  // max_range / 8). An opening between two such hits is one no beam saw through: when one does, its return breaks
+  // the line and the fill stops there, and the beams then clear it. Off by default (OctoMap's insertPointCloud).
+  bool fill_surfaces_between_returns = false;
+  double max_surface_fill_m = 0.0;
 };
 
 // Empty when the config is valid, else one message naming the parameter and what was expected.
@@ -85,6 +94,7 @@ struct InsertResult {
   std::size_t points_used = 0;
   std::size_t dropped_non_finite = 0;
   std::size_t gap_rays = 0;        // rays added through the gaps between returns (clear_beam_gaps)
+  std::size_t surface_fill = 0;    // points marked occupied between returns on one surface (fill_surfaces_between_returns)
   std::size_t free_cells = 0;      // distinct voxels updated as free (kFast only)
   std::size_t occupied_cells = 0;  // distinct voxels updated as occupied (kFast only)
   double seconds = 0.0;
