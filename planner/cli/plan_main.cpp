@@ -100,6 +100,9 @@ int main(int argc, char** argv) {
   app.add_option("--time-limit", time_limit, "seconds, > 0");
   app.add_option("--max-iterations", max_iterations, "iteration cap, > 0");
   app.add_flag("--anytime", anytime, "keep improving until a limit instead of stopping at the first solution");
+  double improve_for = std::numeric_limits<double>::infinity();
+  app.add_option("--improve-for", improve_for, "with --anytime: stop this many seconds after the first solution (as the planner component's improve_for_s)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--svg", svg_file, "write a picture of the world, tree and path");
   app.add_flag("--json", json, "print exactly one JSON object on one line");
   app.add_flag("--kinodynamic", kinodynamic, "rrt/rrtstar: grow unicycle edges (needs the scenario's vehicle block)");
@@ -131,6 +134,7 @@ int main(int argc, char** argv) {
     problem.time_limit_s = time_limit;
     problem.max_iterations = max_iterations;
     problem.anytime = anytime;
+    problem.improve_for_s = improve_for;
     problem.tree_metrics = tree_metrics;
     if (kinodynamic && !scenario.vehicle) {
       throw std::invalid_argument("--kinodynamic needs a 'vehicle' block in " + scenario_file);

@@ -54,6 +54,7 @@ bool PlannerRun::nextIteration(bool stop_at_first) {
   if (s.iterations >= problem.max_iterations) return false;
   // The clock is read every iteration: cheap next to one collision check, and the limit stays tight.
   if (clock_.expired()) return false;
+  if (solved() && clock_.elapsed() - s.time_to_first_solution_s > problem.improve_for_s) return false;
   if (problem.stop.stop_requested()) {
     result.stopped = true;
     return false;

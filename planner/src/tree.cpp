@@ -126,6 +126,7 @@ void validateProblem(const PlanProblem& problem, bool needs_vehicle) {
   if (!problem.goal.allFinite()) throw std::invalid_argument("goal has non-finite numbers");
   if (!(problem.goal_radius > 0.0) || !std::isfinite(problem.goal_radius)) throw std::invalid_argument("goal_radius must be positive and finite");
   if (!(problem.time_limit_s > 0.0) || std::isnan(problem.time_limit_s)) throw std::invalid_argument("time limit must be positive");
+  if (!(problem.improve_for_s >= 0.0)) throw std::invalid_argument("improve_for_s must be >= 0");
   if (problem.max_iterations == 0) throw std::invalid_argument("max iterations must be positive");
   if (!inside(w, problem.start.position)) throw std::invalid_argument("start " + describe(problem.start.position, dims) + " is outside the bounds");
   if (!inside(w, problem.goal)) throw std::invalid_argument("goal " + describe(problem.goal, dims) + " is outside the bounds");

@@ -246,6 +246,32 @@ TEST(Planners, RrtStarAnytimeImprovesAndRewires) {
   EXPECT_GT(better.cost, (s.goal - s.start).norm() - s.goal_radius);
 }
 
+// improve_for_s bounds the anytime search by the time since the first solution, not the whole budget: zero is
+// exactly the first solution (same iteration, same path), a short window ends long before the limit and keeps a path
+// no longer than the first one (gart-lazy in a bug trap, whose first solutions are detours).
+TEST(Planners, ImproveForEndsTheAnytimeSearchAfterTheFirstSolution) {
+  const Scenario s = shipped("bugtrap_1.0");
+  const auto world = makeScenarioWorld(s);
+  PlanProblem p = problemFor(s, *world, 2);
+  p.kinodynamic = true;
+  p.time_limit_s = 30.0;
+  const PlanResult first = makePlanner("gart-lazy")->solve(p);
+  ASSERT_TRUE(first.solved);
+  p.anytime = true;
+  p.improve_for_s = 0.0;
+  const PlanResult same = makePlanner("gart-lazy")->solve(p);
+  EXPECT_EQ(same.stats.iterations, first.stats.iterations);
+  EXPECT_EQ(same.cost, first.cost);
+  p.improve_for_s = 0.2;
+  const PlanResult improved = makePlanner("gart-lazy")->solve(p);
+  expectValidPath(s, improved);
+  EXPECT_GT(improved.stats.iterations, first.stats.iterations);
+  EXPECT_LE(improved.cost, first.cost);
+  EXPECT_LT(improved.stats.time_s, 10.0);  // the window, not the 30 s limit (generous for a loaded machine)
+  p.improve_for_s = -1.0;
+  EXPECT_THROW(makePlanner("gart-lazy")->solve(p), std::invalid_argument);
+}
+
 TEST(Planners, UnsolvableProblemEndsUnsolvedAtTheLimit) {
   Scenario s = shipped("demo_2d");
   // Wall the goal in.

@@ -39,6 +39,7 @@ class PlannerComponent : public runtime::Component {
     double max_time_budget_s;
     std::optional<double> unknown_margin_m;       // default: nodes::defaultUnknownMargin
     double hidden_continuation_m;
+    double improve_for_s;
     std::vector<std::string> planner_options;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: bounds, robot radius, vehicle limits"})),
@@ -59,6 +60,11 @@ class PlannerComponent : public runtime::Component {
               {.min = 0, .max = 100, .unit = "m",
                .doc = "2-D map and fused worlds: plan first with seen surfaces continued this far into space hidden from the vehicle "
                       "(where something in front hides them), then without (docs/world-model.md); 0: off"})),
+          improve_for_s(p.declare<double>(
+              "improve_for_s", 0.0,
+              {.min = 0, .max = 60, .unit = "s",
+               .doc = "after the first solution, keep improving the path this long (within the request's budget; a first solution "
+                      "in a bug trap is a 30-50 % detour: docs/planners.md); 0: the first solution"})),
           planner_options(p.declare<std::vector<std::string>>("planner_options", {},
                                                               {.doc = "planner.option=value entries (docs/planners.md, \"Options\")"})) {}
   };
@@ -271,6 +277,8 @@ class PlannerComponent : public runtime::Component {
     problem.kinodynamic = kinodynamic_;
     problem.seed = request.seed();
     problem.time_limit_s = time_limit_s;
+    problem.anytime = params_.improve_for_s > 0.0;
+    problem.improve_for_s = params_.improve_for_s;
     problem.stop = stop;
     return algorithm.solve(problem);
   }
