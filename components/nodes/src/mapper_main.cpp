@@ -58,8 +58,10 @@ class MapperComponent : public runtime::Component {
                                                    {.above = 0, .max = 180, .unit = "deg",
                                                     .doc = "widest gap between returns cleared (a wider one, a blind sector, stays unknown)"}) *
                                  std::numbers::pi / 180.0;
+      // Off by default: alternating runs with and without it shortened no mission and lengthened some (bugtrap_0.6,
+      // rooms_2d; docs/world-model.md, "Faces seen at a grazing angle").
       config.fill_surfaces_between_returns = p.declare<bool>(
-          "fill_surfaces_between_returns", true,
+          "fill_surfaces_between_returns", false,
           {.doc = "2-D: mark occupied the segment between neighbouring returns when a third lies on their line (a wall seen at "
                   "a grazing angle is hit every few metres, and the planner took the stretches between for open space: "
                   "docs/world-model.md)"});
