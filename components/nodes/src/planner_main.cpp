@@ -38,7 +38,7 @@ class PlannerComponent : public runtime::Component {
     std::optional<bool> kinodynamic;
     double max_time_budget_s;
     std::optional<double> unknown_margin_m;       // default: nodes::defaultUnknownMargin
-    double hidden_continuation_m;
+    std::optional<double> hidden_continuation_m;  // default: nodes::defaultHiddenContinuation
     double improve_for_s;
     std::vector<std::string> planner_options;
     explicit Params(runtime::Parameters& p)
@@ -53,13 +53,15 @@ class PlannerComponent : public runtime::Component {
                .doc = "2-D map and fused worlds, optimistic: plan first keeping never-observed space this close to a seen surface blocked "
                       "(its unseen part continues), then, with no path in a tenth of the budget, on the plain map (docs/world-model.md); 0: off; "
                       "default min(1 m, 2 x the robot radius)"})),
-          // Off by default: measured against planning without it, it did not shorten the bug-trap missions and one
-          // stunnel_0.5 run with it grazed a wall (docs/world-model.md, "Seen surfaces that go on out of sight").
-          hidden_continuation_m(p.declare<double>(
-              "hidden_continuation_m", 0.0,
+          // On by default since it stopped the first plans of the bug traps from leaving through the stretches of wall
+          // hidden behind the neck (docs/world-model.md, "Seen surfaces that go on out of sight": bugtrap_0.6 1.07-1.57x
+          // with it against 1.62-2.31x without).
+          hidden_continuation_m(p.declareOptional<double>(
+              "hidden_continuation_m",
               {.min = 0, .max = 100, .unit = "m",
                .doc = "2-D map and fused worlds: plan first with seen surfaces continued this far into space hidden from the vehicle "
-                      "(where something in front hides them), then without (docs/world-model.md); 0: off"})),
+                      "(where something in front hides them), then without (docs/world-model.md); 0: off; default min(5 m, 10 x the "
+                      "robot radius)"})),
           improve_for_s(p.declare<double>(
               "improve_for_s", 0.0,
               {.min = 0, .max = 60, .unit = "s",
@@ -78,7 +80,7 @@ class PlannerComponent : public runtime::Component {
         // "planner.option=value" entries, checked once here against each planner.
         planner_options_(planner::parsePlannerOptions(params_.planner_options)),
         unknown_margin_m_(params_.unknown_margin_m.value_or(nodes::defaultUnknownMargin(scenario_))),
-        hidden_continuation_m_(params_.hidden_continuation_m),
+        hidden_continuation_m_(params_.hidden_continuation_m.value_or(nodes::defaultHiddenContinuation(scenario_))),
         world_source_(ctx, params_.world, scenario_, unknown_margin_m_),
         paths_(publisher(runtime::topics::path)) {
     if (kinodynamic_ && !scenario_.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");

@@ -207,6 +207,19 @@ class TrackerComponent : public runtime::Component {
     if (!d.warning.empty()) spdlog::warn("{}", d.warning);
     switch (d.action) {
       case tracker::MissionAction::RequestPlan: {
+        // Plans that failed twice in a row (unsolved, or not smoothable) while the vehicle flies on: their start ahead
+        // on the trajectory leads nowhere (bugtrap_0.4: at the neck's end, heading into its wall, nine plans from
+        // there failed, 5 s each, and the mission ended "no plan after 10 attempts"). Stop, and plan from rest, where
+        // the vehicle may turn in place first. This request is not sent: the one asked at rest supersedes it.
+        if (mission_.driving() && follower_ && d.reason == "retrying" && mission_.attempts() - 1 >= kFailedAheadBeforeStop) {
+          startBraking(d.from);
+          dropTrajectory();
+          mission_.hold();
+          stopping_for_ = fmt::format("failed_ahead: {} plans in a row from a start ahead on the trajectory failed", mission_.attempts() - 1);
+          stopping_since_ns_ = clock().nowNs();
+          spdlog::warn("stopping: {}", *stopping_for_);
+          return false;
+        }
         tracker::VehicleState from = d.from;
         std::optional<tracker::TrajectorySample> ahead;
         // A retry (or a repeat of a lost request) while the vehicle flies on: like a replan ahead, it starts
@@ -487,6 +500,7 @@ class TrackerComponent : public runtime::Component {
   }
 
   static constexpr double kAtRest = 0.05;  // m/s: the vehicle has stopped
+  static constexpr std::int64_t kFailedAheadBeforeStop = 2;  // failed plans from a start ahead before stopping for one from rest
   static constexpr std::uint32_t kFirstRequestId = 1;  // tracker::Mission numbers its requests from 1
 
   // The clock's speed (simulated seconds per wall second) over the last few seconds, for the mission's

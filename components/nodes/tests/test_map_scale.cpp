@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <tuple>
 
 namespace ddsnav::nodes {
 namespace {
@@ -63,6 +64,18 @@ TEST(MapScale, BoundedForAnyInput) {
   EXPECT_DOUBLE_EQ(huge.resolution, 10.0);
   EXPECT_DOUBLE_EQ(huge.max_range, s.dimensions == 3 ? 3000.0 : 1e4);
   EXPECT_DOUBLE_EQ(mapScaleFor(s, 0.0).max_range, 30.0);  // no sensor range: the former default
+}
+
+// The world model's lengths follow the robot radius below the papers' 0.5 m robot and stop at their values there.
+TEST(MapScale, LengthsFollowTheRobotUpToThePapersValues) {
+  planner::Scenario s;
+  for (const auto& [radius, extent, margin, continuation] :
+       {std::tuple{0.1, 2.5, 0.2, 1.0}, std::tuple{0.4, 10.0, 0.8, 4.0}, std::tuple{0.5, 10.0, 1.0, 5.0}, std::tuple{2.0, 10.0, 1.0, 5.0}}) {
+    s.robot_radius = radius;
+    EXPECT_DOUBLE_EQ(defaultStructureExtent(s), extent) << radius;
+    EXPECT_DOUBLE_EQ(defaultUnknownMargin(s), margin) << radius;
+    EXPECT_DOUBLE_EQ(defaultHiddenContinuation(s), continuation) << radius;
+  }
 }
 
 }  // namespace
