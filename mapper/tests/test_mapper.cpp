@@ -4,6 +4,9 @@
 #include "mapper_test_util.hpp"
 
 #include <gtest/gtest.h>
+
+#include <functional>
+#include <memory>
 #include <octomap/OcTree.h>
 
 #include <cmath>
@@ -280,6 +283,17 @@ TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
 // A 2-D scan down a corridor that opens onto nothing within range: the beams along it return nothing. With
 // clear_beam_gaps the space they crossed is free (to max_range, no occupied end); without, it stays unknown. A gap
 // wider than max_clear_gap_rad (a blind sector behind the scanner) stays unknown either way.
+// A 2-D mapper at 0.1 m, configured further by `configure`, after inserting `scan` (`result`: that insertion's).
+std::unique_ptr<OccupancyMapper> mapped2d(const Scan& scan, const std::function<void(MapperConfig&)>& configure, InsertResult& result) {
+  MapperConfig config;
+  config.dimensions = 2;
+  config.resolution = 0.1;
+  configure(config);
+  auto mapper = std::make_unique<OccupancyMapper>(config);
+  result = mapper->insert(scan);
+  return mapper;
+}
+
 TEST(Mapper, BeamsThatReturnNothingClearTheGapsBetweenReturns) {
   Scan scan;
   scan.origin = {0.0f, 0.0f, 0.0f};
@@ -297,15 +311,16 @@ TEST(Mapper, BeamsThatReturnNothingClearTheGapsBetweenReturns) {
     if (c < -1e-9) t = std::min(t, 6.0 / -c);
     if (t <= scan.max_range) scan.points.push_back({static_cast<float>(t * c), static_cast<float>(t * sn), 0.0f});
   }
+  InsertResult plain_result, result;
+  const auto plain_mapper = mapped2d(scan, [](MapperConfig&) {}, plain_result);
+  const auto clearing_mapper = mapped2d(scan, [](MapperConfig& c) { c.clear_beam_gaps = true; }, result);
+  const OccupancyMapper &plain = *plain_mapper, &clearing = *clearing_mapper;
+  ASSERT_TRUE(plain_result.inserted);
+  ASSERT_TRUE(result.inserted);
   MapperConfig config;
   config.dimensions = 2;
   config.resolution = 0.1;
-  OccupancyMapper plain(config);
-  ASSERT_TRUE(plain.insert(scan).inserted);
   config.clear_beam_gaps = true;
-  OccupancyMapper clearing(config);
-  const InsertResult result = clearing.insert(scan);
-  ASSERT_TRUE(result.inserted);
   EXPECT_GE(result.gap_rays, 10u);  // the corridor's 6.8-degree gap, 0.5 degrees a ray
   EXPECT_LE(result.gap_rays, 16u);  // the blind sector is not filled
   const auto state = [](const octomap::OcTree& tree, double x, double y) {
@@ -354,14 +369,11 @@ TEST(Mapper, FaceSeenAtAGrazingAngleIsFilledBetweenItsHitsButNotAcrossAnOpening)
     }
     if (t <= scan.max_range) scan.points.push_back({static_cast<float>(t * c), static_cast<float>(t * sn), 0.0f});
   }
-  MapperConfig config;
-  config.dimensions = 2;
-  config.resolution = 0.1;
-  OccupancyMapper plain(config);
-  ASSERT_TRUE(plain.insert(scan).inserted);
-  config.fill_surfaces_between_returns = true;
-  OccupancyMapper filling(config);
-  const InsertResult result = filling.insert(scan);
+  InsertResult plain_result, result;
+  const auto plain_mapper = mapped2d(scan, [](MapperConfig&) {}, plain_result);
+  const auto filling_mapper = mapped2d(scan, [](MapperConfig& c) { c.fill_surfaces_between_returns = true; }, result);
+  const OccupancyMapper &plain = *plain_mapper, &filling = *filling_mapper;
+  ASSERT_TRUE(plain_result.inserted);
   ASSERT_TRUE(result.inserted);
   EXPECT_GT(result.surface_fill, 0u);
   EXPECT_LE(result.surface_fill, 8 * scan.points.size());
@@ -381,8 +393,9 @@ TEST(Mapper, FaceSeenAtAGrazingAngleIsFilledBetweenItsHitsButNotAcrossAnOpening)
   }
   for (const Point3f& p : scan.points) EXPECT_TRUE(occupied(filling.octree(), p.x, p.y)) << p.x << " " << p.y;
   // A bad length is refused.
-  config.max_surface_fill_m = -1.0;
-  EXPECT_THROW(OccupancyMapper{config}, std::invalid_argument);
+  InsertResult unused;
+  EXPECT_THROW(mapped2d(scan, [](MapperConfig& c) { c.fill_surfaces_between_returns = true, c.max_surface_fill_m = -1.0; }, unused),
+               std::invalid_argument);
 }
 
 }  // namespace
