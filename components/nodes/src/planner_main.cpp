@@ -54,7 +54,7 @@ class PlannerComponent : public runtime::Component {
                       "(its unseen part continues), then, with no path in a tenth of the budget, on the plain map (docs/world-model.md); 0: off; "
                       "default min(1 m, 2 x the robot radius)"})),
           // On by default since it stopped the first plans of the bug traps from leaving through the stretches of wall
-          // hidden behind the neck (docs/world-model.md, "Seen surfaces that go on out of sight": bugtrap_0.6 1.07-1.57x
+          // hidden behind the neck (docs/world-model.md, "Seen surfaces that go on out of sight": bugtrap_0.6 1.07-1.60x
           // with it against 1.62-2.31x without).
           hidden_continuation_m(p.declareOptional<double>(
               "hidden_continuation_m",

@@ -212,12 +212,8 @@ class TrackerComponent : public runtime::Component {
         // there failed, 5 s each, and the mission ended "no plan after 10 attempts"). Stop, and plan from rest, where
         // the vehicle may turn in place first. This request is not sent: the one asked at rest supersedes it.
         if (mission_.driving() && follower_ && d.reason == "retrying" && mission_.attempts() - 1 >= kFailedAheadBeforeStop) {
-          startBraking(d.from);
-          dropTrajectory();
-          mission_.hold();
-          stopping_for_ = fmt::format("failed_ahead: {} plans in a row from a start ahead on the trajectory failed", mission_.attempts() - 1);
-          stopping_since_ns_ = clock().nowNs();
-          spdlog::warn("stopping: {}", *stopping_for_);
+          stopToPlanAtRest(d.from, fmt::format("failed_ahead: {} plans in a row from a start ahead on the trajectory failed",
+                                                mission_.attempts() - 1));
           return false;
         }
         tracker::VehicleState from = d.from;
@@ -443,12 +439,8 @@ class TrackerComponent : public runtime::Component {
       // flying on toward the block between refusals only makes it worse (bugtrap_1.0: 23 refusals, 74 m short at
       // the timeout). Stop, and plan from rest.
       if (++rest_start_refusals_ >= 2 && follower_) {
-        startBraking(state);
-        dropTrajectory();
-        mission_.hold();
-        stopping_for_ = fmt::format("rest_start: {} plans in a row could only start at rest while the vehicle flies on", rest_start_refusals_);
-        stopping_since_ns_ = clock().nowNs();
-        spdlog::warn("stopping: {}", *stopping_for_);
+        stopToPlanAtRest(state, fmt::format("rest_start: {} plans in a row could only start at rest while the vehicle flies on",
+                                            rest_start_refusals_));
         rest_start_refusals_ = 0;
       }
       return false;
@@ -586,6 +578,17 @@ class TrackerComponent : public runtime::Component {
       }
     }
     if (!braking_) stop();
+  }
+
+  // Brakes along the trajectory, drops it and holds the mission; once the vehicle is at rest the next request is
+  // made from there with `reason` (control).
+  void stopToPlanAtRest(const tracker::VehicleState& state, std::string reason) {
+    startBraking(state);
+    dropTrajectory();
+    mission_.hold();
+    stopping_for_ = std::move(reason);
+    stopping_since_ns_ = clock().nowNs();
+    spdlog::warn("stopping: {}", *stopping_for_);
   }
 
   // `announced`: published when it was ready (a trajectory that waited for its switch point).
