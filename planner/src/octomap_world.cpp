@@ -33,6 +33,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::uint64_t kEmpty = ~0ull;
 constexpr std::int64_t kCellLimit = 32768;  // OctoMap keys are 16 bits: cells -32768 .. 32767 per axis
 constexpr std::size_t kMaxContinuationCells = 1u << 20;  // occludedSurfaceContinuation's output, at most
+constexpr std::size_t kMaxClippedCellsPerEllipse = 1u << 16;  // a larger ellipse is not clipped (kept whole)
 
 struct Cell {
   std::int64_t x, y, z;
@@ -156,6 +157,7 @@ class OctoMapWorld final : public CollisionWorld {
         solid_below_surface_(options.solid_below_surface && dimensions == 3),
         surface_margin_(options.surface_margin_m),
         unknown_margin_(dimensions == 2 ? options.unknown_margin_m : 0.0),
+        keep_observed_free_(options.keep_observed_free),
         outside_margin_(options.outside_bounds_margin_m),
         max_bricks_(options.max_bricks) {
     if (dims_ == 2) bmin_.z() = bmax_.z() = 0.0;
@@ -181,6 +183,49 @@ class OctoMapWorld final : public CollisionWorld {
     if (depth > 0.0) return -depth - radius_;
     const double d = nearestOccupied(p);
     return d == kInf ? kInf : d - radius_;
+  }
+
+  double resolution() const { return resolution_; }
+
+  // See clipToObservedSpace (collision_world.hpp): false (the ellipse stays as it is) unless it is clipped, when the
+  // cells it keeps are appended to `cells`.
+  bool clipEllipse(const EllipsoidObstacle& e, std::vector<Vec3>& cells) const {
+    if (dims_ != 2 || !knowsObservedFree()) return false;
+    const Eigen::Vector2d centre = e.center.head<2>();
+    Eigen::Vector2d major = e.axes.col(0).head<2>();
+    const double a = e.semi_axes.x(), b = e.semi_axes.y();
+    if (!centre.allFinite() || !(major.norm() > 1e-9) || !(a > 0.0 && b > 0.0 && a < 1e4 && b < 1e4)) return false;
+    major.normalize();
+    const Eigen::Vector2d minor(-major.y(), major.x());
+    // The map holds the ellipse's surface: an observed occupied cell within two cells of its centre and of the points
+    // half its major semi-axis either side of it.
+    const auto occupiedNear = [&](const Eigen::Vector2d& p) {
+      const std::int64_t x = cellCoord(p.x()), y = cellCoord(p.y());
+      for (std::int64_t dy = -2; dy <= 2; ++dy)
+        for (std::int64_t dx = -2; dx <= 2; ++dx) {
+          const Brick* brick = findBrick((x + dx) >> 3, (y + dy) >> 3, 0);
+          if (brick == nullptr) continue;
+          const std::uint32_t bit = bitOf({x + dx, y + dy, 0});
+          if ((((brick->occupied[bit >> 6] & brick->known[bit >> 6]) >> (bit & 63)) & 1u) != 0) return true;
+        }
+      return false;
+    };
+    for (const double t : {-0.5, 0.0, 0.5})
+      if (!occupiedNear(centre + t * a * major)) return false;
+    // The cells the ellipse overlaps (centre inside it grown by half a cell's diagonal: a superset) that were not
+    // observed free.
+    const double grow = 0.5 * std::sqrt(2.0) * resolution_, ga = a + grow, gb = b + grow;
+    const double half_x = std::hypot(ga * major.x(), gb * minor.x()), half_y = std::hypot(ga * major.y(), gb * minor.y());
+    const std::int64_t x0 = cellCoord(centre.x() - half_x), x1 = cellCoord(centre.x() + half_x);
+    const std::int64_t y0 = cellCoord(centre.y() - half_y), y1 = cellCoord(centre.y() + half_y);
+    if (double(x1 - x0 + 1) * double(y1 - y0 + 1) > double(kMaxClippedCellsPerEllipse)) return false;
+    for (std::int64_t y = y0; y <= y1; ++y)
+      for (std::int64_t x = x0; x <= x1; ++x) {
+        const Eigen::Vector2d c((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_);
+        const double u = (c - centre).dot(major) / ga, v = (c - centre).dot(minor) / gb;
+        if (u * u + v * v <= 1.0 && !observedFree({x, y, 0})) cells.emplace_back(c.x(), c.y(), 0.0);
+      }
+    return true;
   }
 
   // See occludedSurfaceContinuation (collision_world.hpp).
@@ -500,7 +545,7 @@ class OctoMapWorld final : public CollisionWorld {
   // per brick, not per voxel, and the number of bricks is capped (max_bricks): a coarse leaf — one 63-byte
   // message can hold a leaf 2^14 voxels wide — is never expanded without bound.
   void load(const std::vector<std::uint8_t>& bytes) {
-    const bool free_leaves = unknown_blocked_ || unknown_margin_ > 0.0;
+    const bool free_leaves = knowsObservedFree();
     BinaryOcTreeReader reader(bytes, free_leaves);
     Cell occupied_lo{}, occupied_hi{}, free_lo{}, free_hi{};
     auto region = [&](double margin, Cell& lo, Cell& hi) {
@@ -713,6 +758,8 @@ class OctoMapWorld final : public CollisionWorld {
       if (!observedFree({c.x, c.y, c.z - k})) return false;
     return true;
   }
+  // The free leaves were loaded: a cell in no brick, or with its known bit clear, was never observed.
+  bool knowsObservedFree() const { return unknown_blocked_ || unknown_margin_ > 0.0 || keep_observed_free_; }
   bool observedFree(const Cell& c) const {
     const Brick* b = findBrick(c.x >> 3, c.y >> 3, c.z >> 3);
     if (b == nullptr) return false;
@@ -952,6 +999,7 @@ class OctoMapWorld final : public CollisionWorld {
   bool solid_below_surface_;
   double surface_margin_;  // m; solid_below_surface: a column is as high as the highest one this close
   double unknown_margin_;  // m; 2-D: never-observed cells this close to an occupied one are blocked
+  bool keep_observed_free_;
   static constexpr std::int32_t kNoColumnTop = std::numeric_limits<std::int32_t>::min();
   std::vector<std::int32_t> column_top_;  // solid_below_surface: highest occupied cell z per column cell
   std::vector<std::int32_t> column_own_top_;  // the same before the surface margin widened it (empty without one)
@@ -999,6 +1047,16 @@ OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, co
     throw std::invalid_argument("occludedSurfaceContinuation: max_length_m must be in [0, 1000] m");
   const auto* map = dynamic_cast<const OctoMapWorld*>(&world);
   return map ? map->occludedContinuation(viewpoint, max_length_m) : OccludedContinuation{};
+}
+
+ClippedObstacles clipToObservedSpace(const CollisionWorld& world, const std::vector<EllipsoidObstacle>& ellipses) {
+  ClippedObstacles out;
+  out.clipped.assign(ellipses.size(), false);
+  const auto* map = dynamic_cast<const OctoMapWorld*>(&world);
+  if (map == nullptr) return out;
+  out.cell_size = map->resolution();
+  for (std::size_t i = 0; i < ellipses.size(); ++i) out.clipped[i] = map->clipEllipse(ellipses[i], out.cells);
+  return out;
 }
 
 std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,

@@ -677,6 +677,66 @@ TEST(OctoMapWorld, ASurfaceHiddenBehindAFaceMissedByTheRaysGoesOn) {
   EXPECT_GE(behind_the_block, 18);  // 20 cells
 }
 
+// A doorway 1 m wide at x = 3 between two walls, a wall behind it at x = 5.5 (so the rays through the doorway
+// clear it), and an ellipse fitted to the upper wall's end face that reaches 0.4 m down into the doorway (an ellipse
+// cannot hug the corner of a face and the first samples of the side face beside it).
+TEST(ClipToObservedSpace, AnEllipseOfAMappedSurfaceLosesWhatTheScannerSawFree) {
+  const octomap::OcTree tree =
+      boxesScan({{{3.0, 0.5}, {5.0, 2.0}}, {{3.0, -2.0}, {5.0, -0.5}}, {{5.5, -3.0}, {5.8, 3.0}}}, 1440, 8.0);
+  OctoMapWorldOptions options;
+  options.keep_observed_free = true;
+  const std::shared_ptr<const CollisionWorld> map = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree), options);
+  EllipsoidObstacle end_face;
+  end_face.center = Vec3(3.05, 1.0, 0.0);
+  end_face.semi_axes = Vec3(0.9, 0.15, 0.0);
+  end_face.axes.col(0) = Vec3(0, 1, 0);
+  end_face.axes.col(1) = Vec3(-1, 0, 0);
+  EllipsoidObstacle in_the_open = end_face;  // nothing mapped there: an obstacle the map does not hold
+  in_the_open.center = Vec3(1.5, -1.0, 0.0);
+  EllipsoidObstacle off_its_arc = end_face;  // centre on the face, but its ends (+-0.45 m along x) off it
+  off_its_arc.center = Vec3(3.0, 1.2, 0.0);
+  off_its_arc.axes.col(0) = Vec3(1, 0, 0);
+  off_its_arc.axes.col(1) = Vec3(0, 1, 0);
+
+  const auto clipped = clipToObservedSpace(*map, {end_face, in_the_open, off_its_arc});
+  ASSERT_EQ(clipped.clipped.size(), 3u);
+  EXPECT_TRUE(clipped.clipped[0]);
+  EXPECT_FALSE(clipped.clipped[1]);
+  EXPECT_FALSE(clipped.clipped[2]);
+  EXPECT_DOUBLE_EQ(clipped.cell_size, 0.1);
+  ASSERT_FALSE(clipped.cells.empty());
+  // Every cell is the ellipse's (within it grown by half a cell diagonal) and none was observed free: the doorway
+  // below y = 0.45 keeps none, the wall's unseen inside keeps them all.
+  int inside_the_wall = 0;
+  for (const Vec3& c : clipped.cells) {
+    const double u = (c.y() - 1.0) / (0.9 + 0.0708), v = (c.x() - 3.05) / (0.15 + 0.0708);
+    EXPECT_LE(u * u + v * v, 1.0) << c.transpose();
+    EXPECT_GT(c.y(), 0.45) << c.transpose();
+    inside_the_wall += c.x() > 3.1 && c.y() > 0.65 && c.y() < 1.85;
+  }
+  EXPECT_GE(inside_the_wall, 11);  // x in [3.1, 3.2), y from 0.7 to 1.8
+  // A robot of radius 0.3 in the doorway: blocked by the whole ellipse, free once it is clipped.
+  const Vec3 doorway(3.0, 0.05, 0.0);
+  const auto whole = makeEllipsoidWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, {end_face});
+  EXPECT_FALSE(whole->isFree(doorway));
+  EXPECT_TRUE(map->isFree(doorway));
+  EXPECT_TRUE(makeBlockedCellsWorld(map, clipped.cells, clipped.cell_size)->isFree(doorway));
+  // A map that did not keep its free cells, a 3-D map or another world clips nothing.
+  const auto plain = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree), OctoMapWorldOptions{});
+  EXPECT_EQ(clipToObservedSpace(*plain, {end_face}).clipped, std::vector<bool>{false});
+  EXPECT_EQ(clipToObservedSpace(*whole, {end_face}).clipped, std::vector<bool>{false});
+  const auto volume = makeOctoMapWorld(3, Vec3(-6, -6, -1), Vec3(6, 6, 1), 0.3, toBytes(tree), options);
+  EXPECT_EQ(clipToObservedSpace(*volume, {end_face}).clipped, std::vector<bool>{false});
+  // Hostile shapes stay whole: not finite, degenerate, or wider than the cell cap.
+  EllipsoidObstacle bad = end_face;
+  bad.semi_axes = Vec3(std::nan(""), 0.1, 0.0);
+  EllipsoidObstacle flat = end_face;
+  flat.semi_axes = Vec3(0.9, 0.0, 0.0);
+  EllipsoidObstacle huge = end_face;
+  huge.semi_axes = Vec3(50.0, 50.0, 0.0);
+  EXPECT_EQ(clipToObservedSpace(*map, {bad, flat, huge}).clipped, (std::vector<bool>{false, false, false}));
+}
+
 TEST(BlockedCellsWorld, FreeAndClearanceAsABruteForceScanSays) {
   const octomap::OcTree tree = occludedWallScan();
   const std::shared_ptr<const CollisionWorld> map = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree));

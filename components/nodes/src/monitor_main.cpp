@@ -38,6 +38,7 @@ struct Observations {
   std::size_t cross_track_samples = 0;
   std::optional<msg::OccupancyMap> map;
   std::string failure;  // "component: detail" of the first component that reported LIFECYCLE_FAILED
+  std::map<std::string, std::string> details;  // each component's last non-empty status detail
   std::size_t clouds = 0;
   std::size_t cloud_points = 0;
   std::size_t tracked_obstacles_max = 0;
@@ -53,6 +54,7 @@ nodes::RunObservations toRunObservations(const std::string& scenario, double ela
   run.scenario = scenario;
   run.elapsed_s = elapsed;
   run.failure = seen.failure;
+  run.details = seen.details;
   run.clouds = seen.clouds;
   run.cloud_points = seen.cloud_points;
   run.tracked_obstacles_max = seen.tracked_obstacles_max;
@@ -176,6 +178,10 @@ class MonitorComponent : public runtime::Component {
       // system/status is shared by every pipeline of the domain: a namespaced monitor judges its own
       // (the launcher names them NS/sim, NS/planner, ...).
       if (!this->ctx().ns().empty() && m.name().rfind(this->ctx().ns() + "/", 0) != 0) return;
+      // At most 64 names (a pipeline has a handful of components; a flood of made-up names is not kept).
+      if (m.detail().empty()) seen_.details.erase(bus::printable(m.name()));
+      else if (seen_.details.size() < 64 || seen_.details.contains(bus::printable(m.name())))
+        seen_.details[bus::printable(m.name())] = bus::printable(m.detail());
       if (m.state() == msg::LifecycleState::LIFECYCLE_FAILED && seen_.failure.empty())
         seen_.failure = bus::printable(m.name()) + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
     }));

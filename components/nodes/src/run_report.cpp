@@ -36,6 +36,12 @@ void judgeGoal(RunObservations& run, const planner::Scenario& scenario, bool tra
   std::string why;
   if (!run.infeasible_why.empty()) why = run.infeasible_why + "; ";
   if (!run.failure.empty()) why += "a component failed (" + run.failure + "); ";
+  if (run.requests.empty()) {
+    // What the components said last: a tracker that never asked says what it waited for.
+    std::string said;
+    for (const auto& [name, detail] : run.details) said += (said.empty() ? "" : "; ") + name + ": " + detail;
+    why += "no plan was ever requested" + (said.empty() ? std::string() : " (" + said + ")") + "; ";
+  }
   if (tracker_reported) why += "the tracker reported the goal reached, but ";
   why += goal.why;
   if (timed_out_after_s) why += fmt::format("; timeout_s ({:g} s) passed", *timed_out_after_s);

@@ -640,6 +640,7 @@ class TrackerComponent : public runtime::Component {
     const std::int64_t step_ns = clock().nowNs();
     const double dt = std::clamp(static_cast<double>(step_ns - last_step_ns_) * 1e-9, 0.2 * nominal_dt, 5.0 * nominal_dt);
     last_step_ns_ = step_ns;
+    sayWhatWeWaitFor();
     // Readiness first (so the launcher can start whoever waits for us), then wait up to 20 s for a planner,
     // matched both ways: a Cyclone planner may learn of this Fast DDS writer after the writer matched it, and
     // the first request, sent in between, was lost (then answered only after the answer timeout: 48 s of
@@ -670,6 +671,21 @@ class TrackerComponent : public runtime::Component {
     if (!decision) decision = missionUpdate(state);
     if (!act(*decision)) return;
     drive(*state, dt);
+  }
+
+  // Until the first request the status detail says what the tracker waits for: a run that ends without a plan
+  // request then says why in the monitor's report (not_reached_why). Published when it changes.
+  void sayWhatWeWaitFor() {
+    std::string waiting;
+    if (mission_.requestId() == 0) {
+      if (!planner_seen_) waiting = "waiting for a planner to subscribe to planning/request";
+      else if (!vehicle_) waiting = "waiting for vehicle/state";
+      else if (params_.wait_for_world)
+        if (const std::string missing = world_source_.missing(); !missing.empty()) waiting = "waiting for the planner's world: " + missing;
+    }
+    if (waiting == said_waiting_) return;
+    said_waiting_ = waiting;
+    ctx().setDetail(waiting);
   }
 
   // A finished smoothing: the mission hears whether it gave a trajectory (a result for an older request than
@@ -864,6 +880,7 @@ class TrackerComponent : public runtime::Component {
   std::int64_t last_progress_log_ns_ = 0;
   std::int64_t last_step_ns_ = 0;
   msg::TrackingStatus last_status_;
+  std::string said_waiting_;  // the status detail last published by sayWhatWeWaitFor
   std::chrono::steady_clock::time_point started_;
   bool planner_seen_ = false;
   bool planner_answered_ = false;  // some planning/path came: requests are no longer repeated

@@ -77,6 +77,10 @@ WorldParameters::WorldParameters(runtime::Parameters& params)
           "sensor_view_below", false,
           {.doc = "with sensor_view: below the fan's lower edge too (off: the ground ahead was seen from farther away, and a "
                   "goal below the fan of a vehicle flying high must stay reachable)"})),
+      clip_obstacles_to_map(params.declare<bool>(
+          "clip_obstacles_to_map", true,
+          {.doc = "2-D fused world: an obstacle ellipse whose axis the map holds as occupied cells loses the part the scanner saw "
+                  "free (an ellipse fitted to a wall's end reaches past it into a doorway; docs/world-model.md)"})),
       sensor_vertical_min_deg(params.declareOptional<double>(
           "sensor_vertical_min_deg", {.above = -90, .below = 90, .unit = "deg", .doc = "the lidar fan's lower edge; default: the simulator's sensor for the scenario"})),
       sensor_vertical_max_deg(params.declareOptional<double>(
@@ -101,6 +105,7 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       surface_margin_m_(world.solid_below_surface && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)
                             ? world.surface_margin_m
                             : 0.0),
+      clip_obstacles_(world.clip_obstacles_to_map && scenario.dimensions == 2 && kind_ == WorldKind::Fused),
       clock_(ctx.clock()),
       preferred_on_demand_(preferred_on_demand) {
   if (preferred_unknown_margin_m > 0.0 && scenario.dimensions == 2 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) &&
@@ -167,6 +172,7 @@ planner::OctoMapWorldOptions WorldSource::mapOptions(bool preferred) const {
   options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
   options.solid_below_surface = solid_below_surface_;
   options.surface_margin_m = surface_margin_m_;
+  options.keep_observed_free = clip_obstacles_;
   if (preferred) options.unknown_margin_m = preferred_unknown_margin_m_;
   return options;
 }
@@ -230,6 +236,16 @@ bool WorldSource::available() const {
   return availableLocked();
 }
 
+std::string WorldSource::missing() const {
+  std::lock_guard lock(mutex_);
+  if (availableLocked()) return "";
+  const bool wants_map = kind_ == WorldKind::Map || (kind_ == WorldKind::Fused && obstacles_.has_value());
+  if (!wants_map) return "no perception/obstacles yet";
+  if (kind_ == WorldKind::Fused && unknown_ == planner::UnknownSpace::Optimistic)
+    return fmt::format("no map/octomap yet (planned on the obstacles alone {:g} s after the first ones)", first_map_wait_s_);
+  return "no map/octomap yet";
+}
+
 bool WorldSource::availableLocked() const {
   switch (kind_) {
     case WorldKind::Scenario: return true;
@@ -285,6 +301,23 @@ std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Ve
       knows_unobserved = built;
       if (preferred) map_world = std::move(built);
     }
+  // Perception's ellipses of surfaces the map holds lose what the scanner saw free; their remaining cells join the
+  // map (docs/world-model.md, "Ellipses of mapped surfaces").
+  std::vector<planner::Vec3> extra_cells;
+  double extra_cell_size = 0.0;
+  if (kind_ != WorldKind::Map) {
+    if (const auto cleared = clearFootprint(ellipses, robot_position, s.robot_radius, s.dimensions))
+      spdlog::debug("ignoring {} obstacle ellipse(s) that cover the robot", cleared);
+    if (clip_obstacles_ && map_world) {
+      auto clipped = planner::clipToObservedSpace(*map_world, ellipses);
+      std::vector<planner::EllipsoidObstacle> whole;
+      for (std::size_t i = 0; i < ellipses.size(); ++i)
+        if (!clipped.clipped[i]) whole.push_back(ellipses[i]);
+      ellipses = std::move(whole);
+      extra_cells = std::move(clipped.cells);
+      extra_cell_size = clipped.cell_size;
+    }
+  }
   // Seen surfaces continued into the space hidden from the robot (the preferred map is the one that knows which
   // cells were observed); none near the robot or in the goal region, which a plan must be able to start and end in.
   if (hidden_continuation_m > 0.0 && knows_unobserved && map_world) {
@@ -295,9 +328,13 @@ std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Ve
       return (c - planner::Vec3(robot_position.x(), robot_position.y(), 0.0)).norm() <= near_robot ||
              (goal && (c - planner::Vec3(goal->x(), goal->y(), 0.0)).norm() <= goal_reach);
     });
-    if (!continued.cells.empty())
-      map_world = planner::makeBlockedCellsWorld(std::move(map_world), std::move(continued.cells), continued.cell_size);
+    if (extra_cells.empty()) extra_cell_size = continued.cell_size;
+    // Both are the map's cells (its resolution); a continuation from a map of another resolution is left out.
+    if (continued.cell_size == extra_cell_size)
+      extra_cells.insert(extra_cells.end(), continued.cells.begin(), continued.cells.end());
   }
+  if (!extra_cells.empty() && map_world)
+    map_world = planner::makeBlockedCellsWorld(std::move(map_world), std::move(extra_cells), extra_cell_size);
   // The map's world is shared and immutable: a Map snapshot is a view of it (its own validity-check
   // count and check resolution), a Fused one pairs it with this snapshot's obstacles.
   auto viewed = [&](std::unique_ptr<planner::CollisionWorld> world) -> std::unique_ptr<planner::CollisionWorld> {
@@ -311,8 +348,6 @@ std::unique_ptr<planner::CollisionWorld> WorldSource::snapshot(const planner::Ve
     return planner::makeSensorViewWorld(std::move(world), view);
   };
   if (kind_ == WorldKind::Map) return viewed(std::make_unique<SharedWorld>(std::move(map_world)));
-  if (const auto cleared = clearFootprint(ellipses, robot_position, s.robot_radius, s.dimensions))
-    spdlog::debug("ignoring {} obstacle ellipse(s) that cover the robot", cleared);
   auto obstacles = planner::makeEllipsoidWorld(s.dimensions, s.bounds_min, s.bounds_max, s.robot_radius, std::move(ellipses));
   if (kind_ == WorldKind::Obstacles || !map_world) return obstacles;
   return viewed(planner::makeFusedWorld(std::move(map_world), std::move(obstacles)));

@@ -197,6 +197,7 @@ TEST(RunReport, GoalIsReachedOnlyWhenTheTrueVehicleIsInTheGoalRegion) {
   world.goal = {9, 2.5, 0};
   world.goal_radius = 1.0;
   auto run = reachedRun();
+  run.requests = {{1, 0.0, "start"}};
   nodes::judgeGoal(run, world, true, planner::Vec3{8.5, 2.5, 0}, std::nullopt);
   EXPECT_TRUE(run.goal_reached);
   EXPECT_EQ(run.not_reached_why, "");
@@ -228,10 +229,20 @@ TEST(RunReport, GoalIsReachedOnlyWhenTheTrueVehicleIsInTheGoalRegion) {
   auto failed = failedRun();
   nodes::judgeGoal(failed, world, false, std::nullopt, std::nullopt);
   EXPECT_FALSE(failed.goal_reached);
-  EXPECT_EQ(failed.not_reached_why, "a component failed (planner: start in collision); no vehicle position was received");
+  EXPECT_EQ(failed.not_reached_why,
+            "a component failed (planner: start in collision); no plan was ever requested; no vehicle position was received");
   j = nodes::summaryJson(failed);
   EXPECT_FALSE(j.contains("goal_distance_m"));
   EXPECT_EQ(j.at("not_reached_why"), failed.not_reached_why);
+
+  // A run without a plan request says what the components last said they waited for.
+  auto waited = failedRun();
+  waited.failure.clear();
+  waited.details = {{"tracker", "waiting for the planner's world: no perception/obstacles yet"}};
+  nodes::judgeGoal(waited, world, false, planner::Vec3{1, 2.5, 0}, 200.0);
+  EXPECT_EQ(waited.not_reached_why,
+            "no plan was ever requested (tracker: waiting for the planner's world: no perception/obstacles yet); the vehicle is "
+            "8.00 m from the goal, outside the 1.00 m goal region; timeout_s (200 s) passed");
 }
 
 // Issue 9: the mission numbers of summary.json.

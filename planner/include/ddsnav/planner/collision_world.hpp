@@ -130,6 +130,9 @@ struct OctoMapWorldOptions {
   // unseen passages narrower than twice the margin plus the robot, so the planner uses it as a preference: it
   // plans on the plain map when it finds no path with it. 0: off.
   double unknown_margin_m = 0.0;
+  // Load the free leaves even when nothing above needs them, so that clipToObservedSpace knows which cells were
+  // observed free (2-D; a 3-D map's free leaves fill the whole observed volume and are not kept for it).
+  bool keep_observed_free = false;
   double outside_bounds_margin_m = 5.0;
   std::size_t max_bricks = kOctoMapWorldMaxBricks;
 };
@@ -152,6 +155,21 @@ struct OccludedContinuation {
   double cell_size = 0.0;   // m, the map's resolution
 };
 OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, const Vec3& viewpoint, double max_length_m);
+
+// Perception's ellipses against what a 2-D map has seen (docs/world-model.md, "Ellipses of mapped surfaces"). An
+// ellipse whose axis the map holds as observed occupied cells — within two cells of its centre and of the points half
+// its major semi-axis either side — bounds a piece of surface the map has mapped too; the part of it the scanner's
+// rays crossed (cells observed free) holds nothing, so it is clipped: replaced by the cells it overlaps that were not
+// observed free (its surface and what lies hidden behind it). An ellipse the map does not hold yet (an obstacle that
+// just appeared, a curved one whose centre lies off its arc) stays whole. Nothing is clipped unless `world` is a 2-D
+// makeOctoMapWorld that loaded its free leaves (keep_observed_free, unknown_margin_m > 0 or unknown_is_occupied), nor
+// an ellipse wider than 2^16 cells.
+struct ClippedObstacles {
+  std::vector<Vec3> cells;      // the clipped ellipses' remaining cells (centres, z = 0)
+  double cell_size = 0.0;       // m, the map's resolution
+  std::vector<bool> clipped;    // per ellipse: true when its cells replace it
+};
+ClippedObstacles clipToObservedSpace(const CollisionWorld& world, const std::vector<EllipsoidObstacle>& ellipses);
 
 // `base` with the given cells (squares of cell_size centred on the points, in the x-y plane; z ignored) blocked as
 // well: a robot overlapping one is not free, and its clearance counts them. For occludedSurfaceContinuation's cells.

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -67,6 +68,8 @@ struct RunObservations {
   std::vector<PlanRequestSeen> requests;
   std::size_t tracked_obstacles_max = 0;  // the largest perception/obstacles array heard
   std::string failure;    // "component: detail" of the first component that failed; empty when none did
+  // Each component's last non-empty status detail (system/status), e.g. what a tracker still waits for.
+  std::map<std::string, std::string> details;
   std::size_t clouds = 0;
   std::size_t cloud_points = 0;
   // Perception's last obstacle array; nullopt when none arrived (reported as 0 obstacles).

@@ -38,6 +38,7 @@ struct WorldParameters {
   // vehicle (planner::SensorView); the fan's edges and reach default to the simulator's sensor for the scenario.
   bool sensor_view = true;
   bool sensor_view_below = false;  // `sensor_view_below`: also below the fan's lower edge
+  bool clip_obstacles_to_map = true;  // `clip_obstacles_to_map`: planner::clipToObservedSpace (2-D fused world)
   std::optional<double> sensor_vertical_min_deg, sensor_vertical_max_deg, sensor_view_range_m;
   WorldParameters() = default;
   explicit WorldParameters(runtime::Parameters& params);
@@ -68,6 +69,8 @@ class WorldSource {
   // fusedWorldReady: the obstacles and the first map, or, optimistically, the obstacles alone once the
   // first map is first_map_wait_s late).
   bool available() const;
+  // Why it is not available yet, for a status line ("no perception/obstacles yet", ...); empty when it is.
+  std::string missing() const;
   // A snapshot of the newest world, seen from a robot at `robot_position`: obstacle ellipses that would
   // cover the robot there are left out (see clearFootprint). nullptr when not available(). Inputs are
   // checked on arrival, so this throws only for a world the scenario itself cannot hold; callers still
@@ -121,6 +124,7 @@ class WorldSource {
   double first_map_wait_s_;
   bool solid_below_surface_;
   double surface_margin_m_;
+  bool clip_obstacles_;  // 2-D fused: ellipses of mapped surfaces clipped to the space not observed free
   std::optional<planner::SensorView> view_;  // set when the sensor view applies (3-D, map or fused, enabled)
   const runtime::Clock& clock_;
   mutable std::mutex mutex_;
