@@ -197,8 +197,10 @@ class OctoMapWorld final : public CollisionWorld {
     if (!centre.allFinite() || !(major.norm() > 1e-9) || !(a > 0.0 && b > 0.0 && a < 1e4 && b < 1e4)) return false;
     major.normalize();
     const Eigen::Vector2d minor(-major.y(), major.x());
-    // The map holds the ellipse's surface: an observed occupied cell within two cells of its centre and of the points
-    // half its major semi-axis either side of it.
+    // The map holds the ellipse's surface: an observed occupied cell within two cells of its centre and of one of the
+    // points half its major semi-axis either side of it (not both: a track that has just grown along a wall has its new
+    // end in cells the map marks a scan or two later, and an ellipse that flips between clipped and whole from one
+    // snapshot to the next makes the planner's path blocked in the tracker's world).
     const auto occupiedNear = [&](const Eigen::Vector2d& p) {
       const std::int64_t x = cellCoord(p.x()), y = cellCoord(p.y());
       for (std::int64_t dy = -2; dy <= 2; ++dy)
@@ -210,8 +212,7 @@ class OctoMapWorld final : public CollisionWorld {
         }
       return false;
     };
-    for (const double t : {-0.5, 0.0, 0.5})
-      if (!occupiedNear(centre + t * a * major)) return false;
+    if (!occupiedNear(centre) || !(occupiedNear(centre - 0.5 * a * major) || occupiedNear(centre + 0.5 * a * major))) return false;
     // The cells the ellipse overlaps (centre inside it grown by half a cell's diagonal: a superset) that were not
     // observed free.
     const double grow = 0.5 * std::sqrt(2.0) * resolution_, ga = a + grow, gb = b + grow;

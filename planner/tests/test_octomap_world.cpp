@@ -693,7 +693,7 @@ TEST(ClipToObservedSpace, AnEllipseOfAMappedSurfaceLosesWhatTheScannerSawFree) {
   end_face.axes.col(1) = Vec3(-1, 0, 0);
   EllipsoidObstacle in_the_open = end_face;  // nothing mapped there: an obstacle the map does not hold
   in_the_open.center = Vec3(1.5, -1.0, 0.0);
-  EllipsoidObstacle off_its_arc = end_face;  // centre on the face, but its ends (+-0.45 m along x) off it
+  EllipsoidObstacle off_its_arc = end_face;  // centre on the face, but both points half its semi-axis out (+-0.45 m along x) off it
   off_its_arc.center = Vec3(3.0, 1.2, 0.0);
   off_its_arc.axes.col(0) = Vec3(1, 0, 0);
   off_its_arc.axes.col(1) = Vec3(0, 1, 0);

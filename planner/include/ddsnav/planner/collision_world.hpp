@@ -157,8 +157,8 @@ struct OccludedContinuation {
 OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, const Vec3& viewpoint, double max_length_m);
 
 // Perception's ellipses against what a 2-D map has seen (docs/world-model.md, "Ellipses of mapped surfaces"). An
-// ellipse whose axis the map holds as observed occupied cells — within two cells of its centre and of the points half
-// its major semi-axis either side — bounds a piece of surface the map has mapped too; the part of it the scanner's
+// ellipse whose axis the map holds as observed occupied cells — within two cells of its centre and of one of the points
+// half its major semi-axis either side — bounds a piece of surface the map has mapped too; the part of it the scanner's
 // rays crossed (cells observed free) holds nothing, so it is clipped: replaced by the cells it overlaps that were not
 // observed free (its surface and what lies hidden behind it). An ellipse the map does not hold yet (an obstacle that
 // just appeared, a curved one whose centre lies off its arc) stays whole. Nothing is clipped unless `world` is a 2-D
