@@ -1,6 +1,6 @@
 // Issue 9's missions on simulated time: `ddsnav launch configs/launch/demo.yaml --set speed=4` on a 3-D and a
 // 2-D world other than the yard must reach the goal (judged by the monitor on the true vehicle position) with a
-// positive true clearance, within a bounded wall time. Domains 140 and 141 (the mission helper's 240-244 lie
+// positive true clearance, within a bounded wall time. Domains 140, 141 and 142 (the mission helper's 240-244 lie
 // beyond DDS's 0..232).
 //
 // History: both needed issue 9 part B (the fused world model and replanning that converges); before it landed
@@ -103,4 +103,42 @@ TEST(Mission, Terrain3dReachesTheGoalOnSimulatedTime) {
 TEST(Mission, ClutteredField2dReachesTheGoalOnSimulatedTime) {
   std::string log;
   expectReached(runMission(141, "gart_cluttered_2d.yaml", 200, log), log);
+}
+
+// Issue 9, bad input: a run that ends without a single plan request says why. Without perception the tracker's fused
+// world never exists (no obstacles, no map: the mapper is left out too), so the tracker never asks; the monitor's
+// report names what it waited for instead of only the timeout (a CI run once ended with plan_requests 0 and no reason).
+TEST(Mission, ARunWithoutAPlanRequestSaysWhatTheTrackerWaitedFor) {
+  harness::Harness h(142);
+  const fs::path dir = fs::temp_directory_path() / ("ddsnav_no_perception_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string scenario = std::string(DDSNAV_SOURCE_DIR) + "/configs/scenarios/demo_2d.yaml";
+  {
+    std::ofstream launch(dir / "launch.yaml");
+    launch << "name: no_perception\ndds: fastdds\nshutdown_timeout_s: 5\nprocesses:\n"
+           << "  - {name: monitor, command: ddsnav-monitor, required: true, params: {scenario: \"" << scenario << "\", out_dir: \""
+           << (dir / "out").string() << "\", timeout_s: \"12\", clock: topic}}\n"
+           << "  - {name: sim, command: ddsnav-sim, params: {scenario: \"" << scenario << "\", speed: \"4\"}}\n"
+           << "  - {name: planner, command: ddsnav-planner, dds: cyclonedds, params: {scenario: \"" << scenario
+           << "\", world: fused, clock: topic}}\n"
+           << "  - {name: tracker, command: ddsnav-tracker, after: [planner, sim, monitor], params: {scenario: \"" << scenario
+           << "\", world: fused, clock: topic}}\n";
+  }
+  h.start({.name = "launcher", .command = "ddsnav-launch", .args = {(dir / "launch.yaml").string(), "--domain", "142"}});
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(90 * timeFactor());
+  while (h.running("launcher") && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(200ms);
+  const bool ended = !h.running("launcher");
+  h.stop("launcher");
+  ASSERT_TRUE(ended) << h.log("launcher");
+  std::ifstream file(dir / "out" / "summary.json");
+  const auto summary = nlohmann::json::parse(file, nullptr, /*allow_exceptions=*/false);
+  fs::remove_all(dir);
+  ASSERT_TRUE(summary.is_object()) << h.log("launcher");
+  EXPECT_FALSE(summary.value("goal_reached", true)) << summary.dump(2);
+  EXPECT_EQ(summary.value("plan_requests", -1), 0) << summary.dump(2);
+  EXPECT_NE(summary.value("not_reached_why", std::string())
+                .find("no plan was ever requested (tracker: waiting for the planner's world: no perception/obstacles yet)"),
+            std::string::npos)
+      << summary.dump(2);
 }

@@ -37,9 +37,11 @@ void judgeGoal(RunObservations& run, const planner::Scenario& scenario, bool tra
   if (!run.infeasible_why.empty()) why = run.infeasible_why + "; ";
   if (!run.failure.empty()) why += "a component failed (" + run.failure + "); ";
   if (run.requests.empty()) {
-    // What the components said last: a tracker that never asked says what it waited for.
+    // What the components said they were waiting for (a tracker that never asked names it); other details (a
+    // queue's drop count, say) are no reason.
     std::string said;
-    for (const auto& [name, detail] : run.details) said += (said.empty() ? "" : "; ") + name + ": " + detail;
+    for (const auto& [name, detail] : run.details)
+      if (detail.starts_with("waiting for")) said += (said.empty() ? "" : "; ") + name + ": " + detail;
     why += "no plan was ever requested" + (said.empty() ? std::string() : " (" + said + ")") + "; ";
   }
   if (tracker_reported) why += "the tracker reported the goal reached, but ";

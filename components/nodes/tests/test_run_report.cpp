@@ -238,7 +238,7 @@ TEST(RunReport, GoalIsReachedOnlyWhenTheTrueVehicleIsInTheGoalRegion) {
   // A run without a plan request says what the components last said they waited for.
   auto waited = failedRun();
   waited.failure.clear();
-  waited.details = {{"tracker", "waiting for the planner's world: no perception/obstacles yet"}};
+  waited.details = {{"tracker", "waiting for the planner's world: no perception/obstacles yet"}, {"sim", "dropped 3 of 9"}};
   nodes::judgeGoal(waited, world, false, planner::Vec3{1, 2.5, 0}, 200.0);
   EXPECT_EQ(waited.not_reached_why,
             "no plan was ever requested (tracker: waiting for the planner's world: no perception/obstacles yet); the vehicle is "

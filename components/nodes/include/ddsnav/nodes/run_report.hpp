@@ -68,7 +68,8 @@ struct RunObservations {
   std::vector<PlanRequestSeen> requests;
   std::size_t tracked_obstacles_max = 0;  // the largest perception/obstacles array heard
   std::string failure;    // "component: detail" of the first component that failed; empty when none did
-  // Each component's last non-empty status detail (system/status), e.g. what a tracker still waits for.
+  // Each component's last non-empty status detail (system/status); those starting "waiting for" (what a tracker
+  // still waits for before its first request) are named in not_reached_why when no plan was ever requested.
   std::map<std::string, std::string> details;
   std::size_t clouds = 0;
   std::size_t cloud_points = 0;
