@@ -201,10 +201,9 @@ class OctoMapWorld final : public CollisionWorld {
     // points half its major semi-axis either side of it (not both: a track that has just grown along a wall has its new
     // end in cells the map marks a scan or two later, and an ellipse that flips between clipped and whole from one
     // snapshot to the next makes the planner's path blocked in the tracker's world).
-    const auto occupiedNear = [&](const Eigen::Vector2d& p) {
-      const std::int64_t x = cellCoord(p.x()), y = cellCoord(p.y());
-      for (std::int64_t dy = -2; dy <= 2; ++dy)
-        for (std::int64_t dx = -2; dx <= 2; ++dx) {
+    const auto occupiedWithin = [&](std::int64_t x, std::int64_t y, std::int64_t cells) {
+      for (std::int64_t dy = -cells; dy <= cells; ++dy)
+        for (std::int64_t dx = -cells; dx <= cells; ++dx) {
           const Brick* brick = findBrick((x + dx) >> 3, (y + dy) >> 3, 0);
           if (brick == nullptr) continue;
           const std::uint32_t bit = bitOf({x + dx, y + dy, 0});
@@ -212,9 +211,12 @@ class OctoMapWorld final : public CollisionWorld {
         }
       return false;
     };
+    const auto occupiedNear = [&](const Eigen::Vector2d& p) { return occupiedWithin(cellCoord(p.x()), cellCoord(p.y()), 2); };
     if (!occupiedNear(centre) || !(occupiedNear(centre - 0.5 * a * major) || occupiedNear(centre + 0.5 * a * major))) return false;
     // The cells the ellipse overlaps (centre inside it grown by half a cell's diagonal: a superset) that were not
-    // observed free.
+    // observed free, or border an observed occupied one: a ray that crossed a cell beside the surface it ended on may
+    // have missed the part of the cell the surface cuts (gart_cluttered_2d: a circle's rim grazed by 0.04 m with
+    // those cells clipped too).
     const double grow = 0.5 * std::sqrt(2.0) * resolution_, ga = a + grow, gb = b + grow;
     const double half_x = std::hypot(ga * major.x(), gb * minor.x()), half_y = std::hypot(ga * major.y(), gb * minor.y());
     const std::int64_t x0 = cellCoord(centre.x() - half_x), x1 = cellCoord(centre.x() + half_x);
@@ -224,7 +226,7 @@ class OctoMapWorld final : public CollisionWorld {
       for (std::int64_t x = x0; x <= x1; ++x) {
         const Eigen::Vector2d c((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_);
         const double u = (c - centre).dot(major) / ga, v = (c - centre).dot(minor) / gb;
-        if (u * u + v * v <= 1.0 && !observedFree({x, y, 0})) cells.emplace_back(c.x(), c.y(), 0.0);
+        if (u * u + v * v <= 1.0 && (!observedFree({x, y, 0}) || occupiedWithin(x, y, 1))) cells.emplace_back(c.x(), c.y(), 0.0);
       }
     return true;
   }

@@ -160,7 +160,7 @@ OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, co
 // ellipse whose axis the map holds as observed occupied cells — within two cells of its centre and of one of the points
 // half its major semi-axis either side — bounds a piece of surface the map has mapped too; the part of it the scanner's
 // rays crossed (cells observed free) holds nothing, so it is clipped: replaced by the cells it overlaps that were not
-// observed free (its surface and what lies hidden behind it). An ellipse the map does not hold yet (an obstacle that
+// observed free (its surface and what lies hidden behind it) or that border an observed occupied cell. An ellipse the map does not hold yet (an obstacle that
 // just appeared, a curved one whose centre lies off its arc) stays whole. Nothing is clipped unless `world` is a 2-D
 // makeOctoMapWorld that loaded its free leaves (keep_observed_free, unknown_margin_m > 0 or unknown_is_occupied), nor
 // an ellipse wider than 2^16 cells.
