@@ -203,12 +203,8 @@ class OctoMapWorld final : public CollisionWorld {
     // snapshot to the next makes the planner's path blocked in the tracker's world).
     const auto occupiedWithin = [&](std::int64_t x, std::int64_t y, std::int64_t cells) {
       for (std::int64_t dy = -cells; dy <= cells; ++dy)
-        for (std::int64_t dx = -cells; dx <= cells; ++dx) {
-          const Brick* brick = findBrick((x + dx) >> 3, (y + dy) >> 3, 0);
-          if (brick == nullptr) continue;
-          const std::uint32_t bit = bitOf({x + dx, y + dy, 0});
-          if ((((brick->occupied[bit >> 6] & brick->known[bit >> 6]) >> (bit & 63)) & 1u) != 0) return true;
-        }
+        for (std::int64_t dx = -cells; dx <= cells; ++dx)
+          if (observedOccupied({x + dx, y + dy, 0})) return true;
       return false;
     };
     const auto occupiedNear = [&](const Eigen::Vector2d& p) { return occupiedWithin(cellCoord(p.x()), cellCoord(p.y()), 2); };
@@ -237,12 +233,7 @@ class OctoMapWorld final : public CollisionWorld {
     out.cell_size = resolution_;
     // Only a 2-D map that loaded its free leaves knows which cells were never observed.
     if (dims_ != 2 || !(unknown_margin_ > 0.0 || unknown_blocked_) || !viewpoint.allFinite() || !(max_length > 0.0)) return out;
-    const auto observedOccupied = [&](std::int64_t x, std::int64_t y) {
-      const Brick* b = findBrick(x >> 3, y >> 3, 0);
-      if (b == nullptr) return false;
-      const std::uint32_t bit = bitOf({x, y, 0});
-      return (((b->occupied[bit >> 6] & b->known[bit >> 6]) >> (bit & 63)) & 1u) != 0;
-    };
+    const auto observedOccupied = [&](std::int64_t x, std::int64_t y) { return this->observedOccupied({x, y, 0}); };
     const auto observed = [&](std::int64_t x, std::int64_t y) {
       const Brick* b = findBrick(x >> 3, y >> 3, 0);
       if (b == nullptr) return false;
@@ -763,6 +754,12 @@ class OctoMapWorld final : public CollisionWorld {
   }
   // The free leaves were loaded: a cell in no brick, or with its known bit clear, was never observed.
   bool knowsObservedFree() const { return unknown_blocked_ || unknown_margin_ > 0.0 || keep_observed_free_; }
+  bool observedOccupied(const Cell& c) const {
+    const Brick* b = findBrick(c.x >> 3, c.y >> 3, c.z >> 3);
+    if (b == nullptr) return false;
+    const std::uint32_t bit = bitOf(c);
+    return (((b->occupied[bit >> 6] & b->known[bit >> 6]) >> (bit & 63)) & 1u) != 0;
+  }
   bool observedFree(const Cell& c) const {
     const Brick* b = findBrick(c.x >> 3, c.y >> 3, c.z >> 3);
     if (b == nullptr) return false;

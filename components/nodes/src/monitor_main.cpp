@@ -178,12 +178,12 @@ class MonitorComponent : public runtime::Component {
       // system/status is shared by every pipeline of the domain: a namespaced monitor judges its own
       // (the launcher names them NS/sim, NS/planner, ...).
       if (!this->ctx().ns().empty() && m.name().rfind(this->ctx().ns() + "/", 0) != 0) return;
+      const std::string name = bus::printable(m.name());
       // At most 64 names (a pipeline has a handful of components; a flood of made-up names is not kept).
-      if (m.detail().empty()) seen_.details.erase(bus::printable(m.name()));
-      else if (seen_.details.size() < 64 || seen_.details.contains(bus::printable(m.name())))
-        seen_.details[bus::printable(m.name())] = bus::printable(m.detail());
+      if (m.detail().empty()) seen_.details.erase(name);
+      else if (seen_.details.size() < 64 || seen_.details.contains(name)) seen_.details[name] = bus::printable(m.detail());
       if (m.state() == msg::LifecycleState::LIFECYCLE_FAILED && seen_.failure.empty())
-        seen_.failure = bus::printable(m.name()) + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
+        seen_.failure = name + ": " + (m.detail().empty() ? std::string("failed") : bus::printable(m.detail()));
     }));
     wall_started_ = last_clock_advance_wall_ = std::chrono::steady_clock::now();
     check_ = every(std::chrono::milliseconds(50), [this] { check(); });

@@ -160,8 +160,8 @@ OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, co
 // ellipse whose axis the map holds as observed occupied cells — within two cells of its centre and of one of the points
 // half its major semi-axis either side — bounds a piece of surface the map has mapped too; the part of it the scanner's
 // rays crossed (cells observed free) holds nothing, so it is clipped: replaced by the cells it overlaps that were not
-// observed free (its surface and what lies hidden behind it) or that border an observed occupied cell. An ellipse the map does not hold yet (an obstacle that
-// just appeared, a curved one whose centre lies off its arc) stays whole. Nothing is clipped unless `world` is a 2-D
+// observed free (its surface and what lies hidden behind it) or that border an observed occupied cell. An ellipse the
+// map does not hold yet (an obstacle that just appeared, a curved one whose centre lies off its arc) stays whole. Nothing is clipped unless `world` is a 2-D
 // makeOctoMapWorld that loaded its free leaves (keep_observed_free, unknown_margin_m > 0 or unknown_is_occupied), nor
 // an ellipse wider than 2^16 cells.
 struct ClippedObstacles {
@@ -172,7 +172,8 @@ struct ClippedObstacles {
 ClippedObstacles clipToObservedSpace(const CollisionWorld& world, const std::vector<EllipsoidObstacle>& ellipses);
 
 // `base` with the given cells (squares of cell_size centred on the points, in the x-y plane; z ignored) blocked as
-// well: a robot overlapping one is not free, and its clearance counts them. For occludedSurfaceContinuation's cells.
+// well: a robot overlapping one is not free, and its clearance counts them. For occludedSurfaceContinuation's and
+// clipToObservedSpace's cells.
 std::unique_ptr<CollisionWorld> makeBlockedCellsWorld(std::shared_ptr<const CollisionWorld> base, std::vector<Vec3> cells,
                                                       double cell_size);
 
