@@ -209,20 +209,43 @@ class OctoMapWorld final : public CollisionWorld {
     };
     const auto occupiedNear = [&](const Eigen::Vector2d& p) { return occupiedWithin(cellCoord(p.x()), cellCoord(p.y()), 2); };
     if (!occupiedNear(centre) || !(occupiedNear(centre - 0.5 * a * major) || occupiedNear(centre + 0.5 * a * major))) return false;
-    // The cells the ellipse overlaps (centre inside it grown by half a cell's diagonal: a superset) that were not
-    // observed free, or border an observed occupied one: a ray that crossed a cell beside the surface it ended on may
-    // have missed the part of the cell the surface cuts (gart_cluttered_2d: a circle's rim grazed by 0.04 m with
-    // those cells clipped too).
+    // The cells the ellipse overlaps: centre inside it grown by half a cell's diagonal (a superset).
     const double grow = 0.5 * std::sqrt(2.0) * resolution_, ga = a + grow, gb = b + grow;
     const double half_x = std::hypot(ga * major.x(), gb * minor.x()), half_y = std::hypot(ga * major.y(), gb * minor.y());
     const std::int64_t x0 = cellCoord(centre.x() - half_x), x1 = cellCoord(centre.x() + half_x);
     const std::int64_t y0 = cellCoord(centre.y() - half_y), y1 = cellCoord(centre.y() + half_y);
     if (double(x1 - x0 + 1) * double(y1 - y0 + 1) > double(kMaxClippedCellsPerEllipse)) return false;
+    const auto cellCentre = [&](std::int64_t x, std::int64_t y) {
+      return Eigen::Vector2d((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_);
+    };
+    const auto inside = [&](const Eigen::Vector2d& c) {
+      const double u = (c - centre).dot(major) / ga, v = (c - centre).dot(minor) / gb;
+      return u * u + v * v <= 1.0;
+    };
+    // Along its major axis, the stretch the map's occupied cells inside it span: there the ellipse keeps its whole
+    // width. Rays that graze a surface clear the cells they pass beside it (a cell hit once and passed twice is free
+    // again), so between and beside the hits the map holds, cells of the surface itself read observed free: a
+    // gart_cluttered_2d run whose ellipse of a true ellipse's flank was clipped there drove 0.2 m into that flank.
+    // What a fitted ellipse overreaches is its ends: a Gaussian's bound of a stretch of surface reaches well past
+    // the stretch along its axis (past a wall's corner into a doorway), and beyond the stretch is where it is clipped.
+    double s_min = kInf, s_max = -kInf;
     for (std::int64_t y = y0; y <= y1; ++y)
       for (std::int64_t x = x0; x <= x1; ++x) {
-        const Eigen::Vector2d c((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_);
-        const double u = (c - centre).dot(major) / ga, v = (c - centre).dot(minor) / gb;
-        if (u * u + v * v <= 1.0 && (!observedFree({x, y, 0}) || occupiedWithin(x, y, 1))) cells.emplace_back(c.x(), c.y(), 0.0);
+        const Eigen::Vector2d c = cellCentre(x, y);
+        if (!observedOccupied({x, y, 0}) || !inside(c)) continue;
+        const double s = (c - centre).dot(major);
+        s_min = std::min(s_min, s), s_max = std::max(s_max, s);
+      }
+    // Beyond it, the cells that were not observed free, or border an observed occupied one: a ray that crossed a cell
+    // beside the surface it ended on may have missed the part of the cell the surface cuts (gart_cluttered_2d: a
+    // circle's rim grazed by 0.04 m with those cells clipped too).
+    for (std::int64_t y = y0; y <= y1; ++y)
+      for (std::int64_t x = x0; x <= x1; ++x) {
+        const Eigen::Vector2d c = cellCentre(x, y);
+        if (!inside(c)) continue;
+        const double s = (c - centre).dot(major);
+        const bool along_the_stretch = s >= s_min - grow && s <= s_max + grow;
+        if (along_the_stretch || !observedFree({x, y, 0}) || occupiedWithin(x, y, 1)) cells.emplace_back(c.x(), c.y(), 0.0);
       }
     return true;
   }

@@ -737,6 +737,31 @@ TEST(ClipToObservedSpace, AnEllipseOfAMappedSurfaceLosesWhatTheScannerSawFree) {
   EXPECT_EQ(clipToObservedSpace(*map, {bad, flat, huge}).clipped, (std::vector<bool>{false, false, false}));
 }
 
+// A wall's face at x = 3 a stretch of which (y 0.3 .. 1.4) the map lost to grazing rays (a cell hit once and crossed twice
+// beside the surface reads free again), with an ellipse fitted to the face. The map still holds the face above and
+// below: between those hits the ellipse keeps its whole width, so the face it bounds stays blocked (a
+// gart_cluttered_2d run drove 0.2 m into a flank whose cells were clipped that way). Past the face's ends, where
+// the rays to a wall behind it crossed, it is clipped.
+TEST(ClipToObservedSpace, AFaceTheMapLostToGrazingRaysStaysBlockedBetweenItsHits) {
+  octomap::OcTree tree = boxesScan({{{3.0, -2.0}, {5.0, 2.0}}, {{5.5, -5.0}, {5.8, 5.0}}}, 1440, 8.0);
+  const float free = tree.getClampingThresMinLog();
+  for (double y = 0.35; y < 1.4; y += 0.1) tree.setNodeValue(octomap::point3d(3.05f, float(y), 0.05f), free);
+  OctoMapWorldOptions options;
+  options.keep_observed_free = true;
+  const std::shared_ptr<const CollisionWorld> map = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree), options);
+  EllipsoidObstacle face;
+  face.center = Vec3(3.05, 0.0, 0.0);
+  face.semi_axes = Vec3(2.6, 0.3, 0.0);  // reaches 0.6 m past the face's ends, where the rays crossed
+  face.axes.col(0) = Vec3(0, 1, 0);
+  face.axes.col(1) = Vec3(-1, 0, 0);
+  const auto clipped = clipToObservedSpace(*map, {face});
+  ASSERT_EQ(clipped.clipped, std::vector<bool>{true});
+  const Vec3 against_the_face(2.75, 0.9, 0.0);  // 0.05 m into the face for a robot of radius 0.3
+  EXPECT_TRUE(map->isFree(against_the_face));    // the map alone lost it
+  EXPECT_FALSE(makeBlockedCellsWorld(map, clipped.cells, clipped.cell_size)->isFree(against_the_face));
+  for (const Vec3& c : clipped.cells) EXPECT_LT(std::abs(c.y()), 2.1) << c.transpose();  // nothing kept past the face's ends
+}
+
 TEST(BlockedCellsWorld, FreeAndClearanceAsABruteForceScanSays) {
   const octomap::OcTree tree = occludedWallScan();
   const std::shared_ptr<const CollisionWorld> map = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree));
