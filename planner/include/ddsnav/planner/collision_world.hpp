@@ -158,9 +158,11 @@ OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, co
 
 // Perception's ellipses against what a 2-D map has seen (docs/world-model.md, "Ellipses of mapped surfaces"). An
 // ellipse whose axis the map holds as observed occupied cells — within two cells of its centre and of one of the points
-// half its major semi-axis either side — bounds a piece of surface the map has mapped too; the part of it the scanner's
-// rays crossed (cells observed free) holds nothing, so it is clipped: replaced by the cells it overlaps that were not
-// observed free (its surface and what lies hidden behind it) or that border an observed occupied cell. An ellipse the
+// half its major semi-axis either side — bounds a piece of surface the map has mapped too; past the ends of the
+// stretch of its major axis the map's occupied cells inside it span, the part the scanner's rays crossed (cells
+// observed free) holds nothing, so it is clipped: replaced there by the cells it overlaps that were not observed
+// free (what lies hidden) or that border an observed occupied cell. Along the stretch it keeps its whole width
+// (rays grazing a surface clear the surface's own cells between the hits the map keeps). An ellipse the
 // map does not hold yet (an obstacle that just appeared, a curved one whose centre lies off its arc) stays whole. Nothing is clipped unless `world` is a 2-D
 // makeOctoMapWorld that loaded its free leaves (keep_observed_free, unknown_margin_m > 0 or unknown_is_occupied), nor
 // an ellipse wider than 2^16 cells.
