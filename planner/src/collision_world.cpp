@@ -17,10 +17,13 @@ bool CollisionWorld::isSegmentFree(const Vec3& a, const Vec3& b) const {
   return true;
 }
 
-std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step) {
+std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step,
+                                        double wanted_clearance) {
   if (!p.allFinite()) throw std::invalid_argument("nearestFreePosition: the position must be finite");
   if (!std::isfinite(max_distance) || max_distance < 0.0) throw std::invalid_argument("nearestFreePosition: max_distance must be finite and >= 0");
   if (!std::isfinite(step) || !(step > 0.0)) throw std::invalid_argument("nearestFreePosition: step must be finite and > 0");
+  if (!std::isfinite(wanted_clearance) || wanted_clearance < 0.0)
+    throw std::invalid_argument("nearestFreePosition: wanted_clearance must be finite and >= 0");
   if (world.isFree(p)) return p;
   const bool flat = world.dimensions() == 2;
   const int n = static_cast<int>(std::floor(max_distance / step));
@@ -40,9 +43,15 @@ std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3&
       }
   // Nearest first; among equals the lattice order above, so the answer does not depend on the sort.
   std::stable_sort(offsets.begin(), offsets.end(), [](const Offset& a, const Offset& b) { return a.distance < b.distance; });
-  for (const Offset& o : offsets)
-    if (world.isFree(p + o.d)) return p + o.d;
-  return std::nullopt;
+  std::optional<Vec3> nearest_free;
+  double give_up_at = max_distance;
+  for (const Offset& o : offsets) {
+    if (o.distance > give_up_at) break;
+    if (!world.isFree(p + o.d)) continue;
+    if (wanted_clearance <= 0.0 || world.clearance(p + o.d) >= wanted_clearance) return p + o.d;
+    if (!nearest_free) nearest_free = p + o.d, give_up_at = std::min(max_distance, o.distance + wanted_clearance + 1e-9);
+  }
+  return nearest_free;
 }
 
 }  // namespace ddsnav::planner

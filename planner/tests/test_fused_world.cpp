@@ -103,6 +103,14 @@ TEST(FusedWorld, AStartAgainstTheMapMovesToTheNearestFreeStateOnItsSide) {
   EXPECT_TRUE(world->isFree(*moved));
   EXPECT_LE(moved->x(), 9.5 + 1e-9);                 // on the near side
   EXPECT_NEAR((*moved - against).norm(), 0.15, 1e-9);  // no farther than needed: 9.52 still touches
+  // Asked for 0.2 m of clearance, it goes on to the nearest state that has it (x <= 9.3), within the nearest free
+  // one's distance plus that; when none is within its reach, the nearest free one.
+  const auto clear = nearestFreePosition(*world, against, kRadius, 0.05, 0.2);
+  ASSERT_TRUE(clear.has_value());
+  EXPECT_GE(world->clearance(*clear), 0.2 - 1e-9);
+  EXPECT_NEAR((*clear - against).norm(), 0.35, 1e-9);
+  EXPECT_EQ(*nearestFreePosition(*world, against, 0.3, 0.05, 0.2), *moved);  // 0.35 m away is beyond a reach of 0.3
+  EXPECT_THROW(nearestFreePosition(*world, against, kRadius, 0.05, -1.0), std::invalid_argument);
   // A free position is its own answer; one inside the wall has no free state within the robot radius
   // (0.6 m to either side), so it gets none rather than one behind the wall.
   EXPECT_EQ(*nearestFreePosition(*world, Vec3(3, 4, 2), kRadius, 0.05), Vec3(3, 4, 2));

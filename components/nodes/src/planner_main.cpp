@@ -255,9 +255,11 @@ class PlannerComponent : public runtime::Component {
     // A vehicle right next to a mapped surface is "in collision" with the map's voxels while it physically
     // is not (docs/world-model.md): plan from the nearest free state within the robot radius instead (in 3-D
     // plus the surface margin, by which a map widens observed terrain).
+    // A few centimetres clear of them if that is near (see nearestFreePosition).
     const double reach = scenario_.robot_radius + world_source_.surfaceMargin();
     if (reach > 0.0 && !world->isFree(problem.start.position)) {
-      if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0)) {
+      const double wanted_clearance = std::min(0.5 * scenario_.robot_radius, 0.3);
+      if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0, wanted_clearance)) {
         spdlog::info("request {}: the start ({:.2f}, {:.2f}, {:.2f}) is in collision in the planner's world; planning from the nearest "
                      "free state, {:.2f} m away", request.request_id(), problem.start.position.x(), problem.start.position.y(),
                      problem.start.position.z(), (*moved - problem.start.position).norm());

@@ -71,7 +71,14 @@ class CollisionWorld {
 // (docs/world-model.md, "A start the map puts in collision"). std::invalid_argument for a non-finite p, a
 // negative or non-finite max_distance, a step that is not positive and finite, or a lattice of more than
 // 1e6 points.
-std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step);
+//
+// With `wanted_clearance` > 0 a moved position is the nearest whose clearance is at least that, searched up to
+// that much farther than the nearest free one (clearance grows at most as fast as the distance), and the nearest
+// free one when none is: a start barely free sits on the edge of the map's voxels, where the first edge of any
+// path from it grazes them (gart_terrain_3d: a vehicle stopped against a hill had ten plans from 0.25 m away,
+// each refused by the smoother, "passes too close to an obstacle" 0.4 m from the vehicle).
+std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step,
+                                        double wanted_clearance = 0.0);
 
 // Exact geometry of a scenario's obstacles.
 std::unique_ptr<CollisionWorld> makeScenarioWorld(const Scenario& scenario);
