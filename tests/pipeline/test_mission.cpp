@@ -79,8 +79,11 @@ nlohmann::json runMission(int domain, const std::string& scenario, double timeou
   if (!ended) return {{"error", "the run did not end within its wall-time bound"}};
   std::ifstream file(out / "summary.json");
   auto summary = nlohmann::json::parse(file, nullptr, /*allow_exceptions=*/false);
-  fs::remove_all(out);
-  return summary.is_object() ? summary : nlohmann::json{{"error", "no summary.json"}};
+  if (!summary.is_object()) return nlohmann::json{{"error", "no summary.json in " + out.string()}};
+  // A run that failed keeps its report, map and recording for a look (named in the summary the test prints).
+  if (summary.value("goal_reached", false) && summary.value("min_true_clearance_m", -1.0) > 0.0) fs::remove_all(out);
+  else summary["kept_run_directory"] = out.string();
+  return summary;
 }
 
 void expectReached(const nlohmann::json& summary, const std::string& log) {
