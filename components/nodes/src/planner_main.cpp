@@ -254,8 +254,8 @@ class PlannerComponent : public runtime::Component {
     problem.start = nodes::fromMsg(request.start());
     // A vehicle right next to a mapped surface is "in collision" with the map's voxels while it physically
     // is not (docs/world-model.md): plan from the nearest free state within the robot radius instead (in 3-D
-    // plus the surface margin, by which a map widens observed terrain).
-    // A few centimetres clear of them if that is near (see nearestFreePosition).
+    // plus the surface margin, by which a map widens observed terrain), and on to half the robot radius of
+    // clearance when that is near: a barely free start grazes the voxels with the first edge (nearestFreePosition).
     const double reach = scenario_.robot_radius + world_source_.surfaceMargin();
     if (reach > 0.0 && !world->isFree(problem.start.position)) {
       const double wanted_clearance = std::min(0.5 * scenario_.robot_radius, 0.3);
