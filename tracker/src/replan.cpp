@@ -26,6 +26,7 @@ void ReplanPolicy::validate() const {
     if (!ok) throw std::invalid_argument(std::string("replan policy: ") + what);
   };
   require(confirm_checks >= 1, "confirm_checks must be at least 1");
+  require(near_confirm_checks >= 1, "near_confirm_checks must be at least 1");
   require(std::isfinite(block_margin) && block_margin >= 0, "block_margin must be a finite number of metres >= 0");
   require(std::isfinite(stop_margin_s) && stop_margin_s >= 0, "stop_margin_s must be a finite number of seconds >= 0");
   require(std::isfinite(planning_time_s) && planning_time_s >= 0, "planning_time_s must be a finite number of seconds >= 0");
@@ -64,15 +65,17 @@ ReplanVerdict ReplanGate::check(const ReplanDecision& decision, const Trajectory
   }
   ++blocked_checks_;
   const bool deep = decision.penetration > policy_.block_margin;
-  if (blocked_checks_ < policy_.confirm_checks && !deep) return out;
+  const double lead = expectedPlanningTime();
+  const bool near = !(decision.time_ahead > lead + policy_.stop_margin_s);  // a stop, not a plan ahead, answers it
+  const int needed = near ? std::min(policy_.near_confirm_checks, policy_.confirm_checks) : policy_.confirm_checks;
+  if (blocked_checks_ < needed && !deep) return out;
   char why[160];
   std::snprintf(why, sizeof why, " (%s; %.2f s ahead, overlap %.2f m)",
                 deep ? "overlap beyond the margin" : (std::to_string(blocked_checks_) + " consecutive checks").c_str(),
                 decision.time_ahead, decision.penetration);
   out.reason = std::string(toString(decision.reason)) + ": " + decision.message + why;
   blocked_checks_ = 0;
-  const double lead = expectedPlanningTime();
-  if (decision.time_ahead > lead + policy_.stop_margin_s && reference_time + lead < trajectory.duration()) {
+  if (!near && reference_time + lead < trajectory.duration()) {
     out.action = ReplanAction::ReplanAhead;
     out.start = trajectory.at(reference_time + lead);
   } else {

@@ -47,6 +47,26 @@ TEST(ReplanGate, AGrazingBlockNeedsConsecutiveChecks) {
   EXPECT_NE(v.reason.find("2 consecutive checks"), std::string::npos);
 }
 
+// A grazing block the vehicle must stop for (1 s ahead: less than the 0.3 s planning + 1.5 s margin) is confirmed
+// by near_confirm_checks (2), not confirm_checks (5): waiting half a second at speed eats the stopping distance.
+TEST(ReplanGate, AGrazingBlockTooNearToPlanAheadOfNeedsFewerChecks) {
+  Straight s;
+  ReplanGate gate;
+  EXPECT_EQ(gate.check(blocked(1.0, 0.05), s.trajectory, 0).action, ReplanAction::Continue);
+  const auto v = gate.check(blocked(0.9, 0.05), s.trajectory, 0.1);
+  EXPECT_EQ(v.action, ReplanAction::StopAndReplan);
+  EXPECT_NE(v.reason.find("2 consecutive checks"), std::string::npos);
+  // Never more than the far blocks need; a far grazing block still needs all five.
+  ReplanPolicy one;
+  one.confirm_checks = 1;
+  EXPECT_EQ(ReplanGate(one).check(blocked(1.0, 0.05), s.trajectory, 0).action, ReplanAction::StopAndReplan);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(gate.check(blocked(20, 0.05), s.trajectory, 0.2).action, ReplanAction::Continue);
+  EXPECT_EQ(gate.check(blocked(20, 0.05), s.trajectory, 0.2).action, ReplanAction::ReplanAhead);
+  ReplanPolicy bad;
+  bad.near_confirm_checks = 0;
+  EXPECT_THROW(ReplanGate{bad}, std::invalid_argument);
+}
+
 TEST(ReplanGate, ADeepOverlapIsConfirmedAtOnce) {
   Straight s;
   ReplanGate gate;

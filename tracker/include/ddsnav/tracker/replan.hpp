@@ -32,6 +32,10 @@ namespace ddsnav::tracker {
 
 struct ReplanPolicy {
   int confirm_checks = 5;           // consecutive blocked checks that confirm a block (>= 1); 0.5 s at 10 Hz
+  // ... and a block too near to plan ahead of (the vehicle stops for it): confirmed by this many, at most
+  // confirm_checks. Half a second at 5 m/s is 2.5 m of a stopping distance of 6.25 m (gart_cluttered_2d: a block
+  // first seen 1 s ahead was confirmed 0.54 s ahead, too late to stop before it).
+  int near_confirm_checks = 2;
   double block_margin = 0.2;        // m of overlap that confirms a block at the first check
   double stop_margin_s = 1.5;       // s kept between the predicted start and the blocked sample
   double planning_time_s = 0.3;     // s, the least expected time from request to trajectory
