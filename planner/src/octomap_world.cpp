@@ -223,7 +223,7 @@ class OctoMapWorld final : public CollisionWorld {
       return u * u + v * v <= 1.0;
     };
     // Along its major axis, the stretch the map's occupied cells inside it span: there the ellipse keeps its whole
-    // width. Rays that graze a surface clear the cells they pass beside it (a cell hit once and passed twice is free
+    // width. Rays that graze a surface clear the cells they pass beside it (a cell hit once and crossed three times is free
     // again), so between and beside the hits the map holds, cells of the surface itself read observed free: a
     // gart_cluttered_2d run whose ellipse of a true ellipse's flank was clipped there drove 0.2 m into that flank.
     // What a fitted ellipse overreaches is its ends: a Gaussian's bound of a stretch of surface reaches well past

@@ -737,7 +737,7 @@ TEST(ClipToObservedSpace, AnEllipseOfAMappedSurfaceLosesWhatTheScannerSawFree) {
   EXPECT_EQ(clipToObservedSpace(*map, {bad, flat, huge}).clipped, (std::vector<bool>{false, false, false}));
 }
 
-// A wall's face at x = 3 a stretch of which (y 0.3 .. 1.4) the map lost to grazing rays (a cell hit once and crossed twice
+// A wall's face at x = 3 a stretch of which (y 0.3 .. 1.4) the map lost to grazing rays (a cell hit once and crossed three times
 // beside the surface reads free again), with an ellipse fitted to the face. The map still holds the face above and
 // below: between those hits the ellipse keeps its whole width, so the face it bounds stays blocked (a
 // gart_cluttered_2d run drove 0.2 m into a flank whose cells were clipped that way). Past the face's ends, where

@@ -76,7 +76,7 @@ class TrackerComponent : public runtime::Component {
           {.min = 1, .max = 1000, .doc = "consecutive blocked checks that confirm a block (hysteresis; docs/tracking.md, \"Replanning\")"}));
       replan.near_confirm_checks = static_cast<int>(p.declare<std::int64_t>(
           "replan_near_confirm_checks", replan.near_confirm_checks,
-          {.min = 1, .max = 1000, .doc = "... for a block too near to replan ahead of, which stops the vehicle (at most replan_confirm_checks)"}));
+          {.min = 1, .max = 1000, .doc = "consecutive blocked checks that confirm a block too near to replan ahead of, which stops the vehicle (at most replan_confirm_checks)"}));
       replan.block_margin = p.declare<double>("replan_block_margin", replan.block_margin,
                                               {.min = 0, .max = 100, .unit = "m", .doc = "overlap with an obstacle that confirms a block at the first check"});
       replan.stop_margin_s = p.declare<double>("replan_stop_margin_s", replan.stop_margin_s,
