@@ -1,4 +1,5 @@
 // ddsnav plan: solve one scenario with one planner, print statistics (or one JSON line), draw an SVG.
+#include "ddsnav/planner/coarse_route.hpp"
 #include "ddsnav/planner/collision_world.hpp"
 #include "ddsnav/planner/planner.hpp"
 #include "ddsnav/planner/scenario.hpp"
@@ -108,6 +109,11 @@ int main(int argc, char** argv) {
   app.add_flag("--kinodynamic", kinodynamic, "rrt/rrtstar: grow unicycle edges (needs the scenario's vehicle block)");
   app.add_option("--option", options, "planner option name=value (repeatable; docs/planners.md lists them)");
   app.add_flag("--tree-metrics", tree_metrics, "also compute c(G), g(G) and FGC (within the time limit)");
+  double guide_bias = 0.0;
+  app.add_option("--guide-bias", guide_bias,
+                 "draw this share of the samples along a lattice route found first (as the planner component's guide_bias; "
+                 "docs/planners.md, \"Lattice routes\"); 0: uniform sampling")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_flag("--list-options", list_options, "print the planner's options, their ranges and defaults, and exit");
   CLI11_PARSE(app, argc, argv);
 
@@ -138,6 +144,19 @@ int main(int argc, char** argv) {
     problem.tree_metrics = tree_metrics;
     if (kinodynamic && !scenario.vehicle) {
       throw std::invalid_argument("--kinodynamic needs a 'vehicle' block in " + scenario_file);
+    }
+
+    if (guide_bias > 0.0) {
+      CoarseRouteOptions lattice;
+      lattice.time_limit_s = time_limit;
+      const CoarseRoute route = findCoarseRoute(*world, problem.start.position, problem.goal, problem.goal_radius, lattice);
+      if (!json)
+        std::printf("lattice route (%.3f m cells): %s, %.1f m, %zu cells expanded in %.4f s\n", route.cell_m,
+                    route.outcome == CoarseRoute::Outcome::found  ? "found"
+                    : route.outcome == CoarseRoute::Outcome::none ? "none"
+                                                                   : "gave up",
+                    route.length_m, route.expanded, route.time_s);
+      guideAlong(problem, route, guide_bias);
     }
 
     PlanResult result;

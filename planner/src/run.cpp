@@ -45,6 +45,12 @@ PlannerRun::PlannerRun(const PlanProblem& p, std::string planner_name, bool kino
 
 Vec3 PlannerRun::sample(double goal_bias) {
   if (rng.uniform() < goal_bias) return problem.goal;
+  if (!problem.guide.empty() && problem.guide_bias > 0.0 && rng.uniform() < problem.guide_bias) {
+    const Vec3& near = problem.guide[rng.below(problem.guide.size())];
+    Vec3 offset(rng.normal(), rng.normal(), world.dimensions() == 3 ? rng.normal() : 0.0);
+    Vec3 p = near + problem.guide_spread_m * offset;
+    return p.cwiseMax(world.boundsMin()).cwiseMin(world.boundsMax());
+  }
   return rng.position(world);
 }
 

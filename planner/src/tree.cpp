@@ -139,6 +139,10 @@ void validateProblem(const PlanProblem& problem, bool needs_vehicle) {
     throw std::invalid_argument("goal " + describe(problem.goal, dims) + " is in collision, and so is every probed state within goal_radius " +
                                 std::to_string(problem.goal_radius) + " of it (or the robot does not fit inside the bounds there)");
   }
+  if (!(problem.guide_bias >= 0.0 && problem.guide_bias <= 1.0)) throw std::invalid_argument("guide_bias must be in [0, 1]");
+  if (!(problem.guide_spread_m >= 0.0 && problem.guide_spread_m <= kMaxCoordinate)) throw std::invalid_argument("guide_spread_m must be in [0, 1e9] m");
+  for (const Vec3& p : problem.guide)
+    if (!p.allFinite()) throw std::invalid_argument("a guide point has non-finite numbers");
   if (needs_vehicle) {
     if (!problem.vehicle) throw std::invalid_argument("this planner needs the vehicle limits (scenario 'vehicle' block)");
     const VehicleLimits& v = *problem.vehicle;

@@ -15,6 +15,7 @@
 #include <ddsnav/runtime/component.hpp>
 #include "ddsnav/nodes/world_source.hpp"
 
+#include <ddsnav/planner/coarse_route.hpp>
 #include <ddsnav/planner/planner.hpp>
 
 #include <spdlog/spdlog.h>
@@ -40,6 +41,8 @@ class PlannerComponent : public runtime::Component {
     std::optional<double> unknown_margin_m;       // default: nodes::defaultUnknownMargin
     std::optional<double> hidden_continuation_m;  // default: nodes::defaultHiddenContinuation
     double improve_for_s;
+    double route_lattice_s;
+    double guide_bias;
     std::vector<std::string> planner_options;
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: bounds, robot radius, vehicle limits"})),
@@ -67,6 +70,18 @@ class PlannerComponent : public runtime::Component {
               {.min = 0, .max = 60, .unit = "s",
                .doc = "after the first solution, keep improving the path this long (within the request's budget; a first solution "
                       "in a bug trap is a 30-50 % detour: docs/planners.md); 0: the first solution"})),
+          // On by default since the bug traps' replans spent 0.2 s failing on preferred worlds that were closed
+          // (docs/planners.md, "Lattice routes").
+          route_lattice_s(p.declare<double>(
+              "route_lattice_s", 0.03,
+              {.min = 0, .max = 10, .unit = "s",
+               .doc = "before each search, look this long at most for a route on a lattice of cells half the robot radius wide: a world "
+                      "tried before the plain map with no route on it is skipped at once, and a route found guides the samples "
+                      "(guide_bias; docs/planners.md, \"Lattice routes\"); 0: no lattice search"})),
+          guide_bias(p.declare<double>("guide_bias", 0.3,
+                                       {.min = 0, .max = 1,
+                                        .doc = "share of the samples drawn near the lattice route (route_lattice_s) instead of anywhere "
+                                               "in the bounds; 0: uniform sampling"})),
           planner_options(p.declare<std::vector<std::string>>("planner_options", {},
                                                               {.doc = "planner.option=value entries (docs/planners.md, \"Options\")"})) {}
   };
@@ -192,16 +207,20 @@ class PlannerComponent : public runtime::Component {
       double spent = 0.0;  // of the budget, by failed searches on the earlier worlds
       for (Tier* tier : tiers) {
         const double share = tier->share(budget - spent);
-        bool start_blocked = false;
-        result = attempt(request, algorithm, stop, tier->preferred, tier->continued ? hidden_continuation_m_ : 0.0, share, &start_blocked);
+        Skipped skipped = Skipped::no;
+        result = attempt(request, algorithm, stop, tier->preferred, tier->continued ? hidden_continuation_m_ : 0.0, share, &skipped);
         if (!result) return;  // answered (failed)
         if (result->stopped) return stopped();
         if (result->solved) {
           tier->solved(result->stats.time_s);
           break;
         }
-        if (start_blocked) {
+        if (skipped == Skipped::start_blocked) {
           spdlog::info("request {}: the start is not free {}; trying the next world", request.request_id(), tier->what);
+        } else if (skipped == Skipped::no_route) {
+          spent += result->stats.time_s;
+          spdlog::info("request {}: no lattice route {} ({:.1f} ms); trying the next world", request.request_id(), tier->what,
+                       1e3 * result->stats.time_s);
         } else {
           tier->failed();
           spent += share;
@@ -232,11 +251,15 @@ class PlannerComponent : public runtime::Component {
     const char* what;  // for the log
   };
 
-  // One solve on a snapshot of the world; nullopt when the request was answered as failed already (no world). On the
-  // preferred world a start that is not free there is not searched from: unsolved, with *start_in_margin set.
+  // Why a world tried before the plain map was not searched.
+  enum class Skipped { no, start_blocked, no_route };
+
+  // One solve on a snapshot of the world; nullopt when the request was answered as failed already (no world). On a
+  // world tried before the plain map (`skipped` given) a start that is not free there, or a goal the lattice route
+  // search finds closed off, is not searched for: unsolved, with *skipped saying why.
   std::optional<planner::PlanResult> attempt(const msg::PlanRequest& request, planner::Planner& algorithm, std::stop_token stop,
-                                             bool preferred, double continuation_m, double time_limit_s, bool* start_blocked = nullptr) {
-    const bool tier = start_blocked != nullptr;  // a world tried before the plain map
+                                             bool preferred, double continuation_m, double time_limit_s, Skipped* skipped = nullptr) {
+    const bool tier = skipped != nullptr;  // a world tried before the plain map
     std::unique_ptr<planner::CollisionWorld> world;
     try {
       world = world_source_.snapshot(nodes::fromMsg(request.start()).position, nodes::fromMsg(request.goal()).position, request.goal_radius(),
@@ -269,14 +292,28 @@ class PlannerComponent : public runtime::Component {
     // The preferred world blocks unseen space next to seen surfaces (unknown_margin_m): a vehicle rounding the seen
     // corner of a wall stands in it, deeper than the reach (bugtrap_0.6: the request failed "start ... is in
     // collision" ten times and the mission ended). Not solved there, so the plain map is tried.
-    if (tier && !world->isFree(problem.start.position)) {
-      *start_blocked = true;
+    auto notSearched = [&](Skipped why, double seconds) {
+      *skipped = why;
       planner::PlanResult not_there;
       not_there.planner = algorithm.name();
+      not_there.stats.time_s = seconds;
       return not_there;
-    }
+    };
+    if (tier && !world->isFree(problem.start.position)) return notSearched(Skipped::start_blocked, 0.0);
     problem.goal = nodes::fromMsg(request.goal()).position;
     problem.goal_radius = request.goal_radius();
+    // The lattice route (docs/planners.md, "Lattice routes"): milliseconds where the sampler may need a second, it
+    // tells a closed world (skipped before the plain map) and guides the samples through an open one.
+    if (params_.route_lattice_s > 0.0) {
+      planner::CoarseRouteOptions lattice;
+      lattice.time_limit_s = std::min(params_.route_lattice_s, 0.5 * time_limit_s);
+      lattice.stop = stop;
+      const planner::CoarseRoute route =
+          planner::findCoarseRoute(*world, problem.start.position, problem.goal, problem.goal_radius, lattice);
+      if (tier && route.outcome == planner::CoarseRoute::Outcome::none) return notSearched(Skipped::no_route, route.time_s);
+      time_limit_s = std::max(time_limit_s - route.time_s, 1e-3);
+      planner::guideAlong(problem, route, params_.guide_bias);
+    }
     problem.vehicle = scenario_.vehicle;
     problem.kinodynamic = kinodynamic_;
     problem.seed = request.seed();

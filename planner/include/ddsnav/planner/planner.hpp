@@ -41,6 +41,13 @@ struct PlanProblem {
   // (a metric not finished in time is reported as unknown: -1).
   bool tree_metrics = false;
   std::function<void(std::uint64_t iterations)> on_progress;  // called now and then, may be empty
+  // Points along a route a coarser search found (findCoarseRoute's waypoints): a share guide_bias of the samples is
+  // drawn within guide_spread_m of one of them, picked at random, instead of anywhere in the bounds. In a narrow
+  // passage a uniform sample lands in it about once per (bounds area / passage area) draws; the guided ones keep
+  // the tree's growth along the way out (docs/planners.md, "Lattice routes"). Empty: uniform sampling only.
+  std::vector<Vec3> guide;
+  double guide_bias = 0.0;
+  double guide_spread_m = 0.0;
   // A stop request ends the search at the next iteration, like the time limit (the result says `stopped`):
   // a component cancels a plan that a newer request superseded. Checked once per iteration (one atomic
   // load), so the same problem gives the same plan whether a token is given or not.

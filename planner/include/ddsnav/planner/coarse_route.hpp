@@ -1,0 +1,58 @@
+#pragma once
+// A route on a lattice of robot-sized cells (A*): the cheap, resolution-complete answer a sampling planner lacks.
+// A sampler that finds no path in its time cannot tell "there is none" from "not found yet", and in a narrow
+// passage it may take a hundred times longer than on open ground (docs/planners.md, "Lattice routes"). The
+// lattice search answers both in milliseconds on a 2-D world: "none" lets a caller skip a world that is closed, and
+// a route found guides the sampler's samples along it (PlanProblem::guide).
+
+#include "ddsnav/planner/collision_world.hpp"
+#include "ddsnav/planner/planner.hpp"
+
+#include <cstddef>
+#include <stop_token>
+#include <vector>
+
+namespace ddsnav::planner {
+
+struct CoarseRouteOptions {
+  // Lattice spacing; 0: half the robot radius (with the corners probed too, a passage with a quarter of the radius
+  // of play for the robot is resolved), coarsened until the bounds hold at most max_lattice_cells.
+  double cell_m = 0.0;
+  // Weighted A*: the route is at most this many times longer than the lattice's shortest, and is found after
+  // expanding far fewer cells where obstacles stand across the straight line (a guide need not be shortest).
+  double heuristic_weight = 2.0;
+  std::size_t max_lattice_cells = std::size_t(1) << 22;
+  std::size_t max_expanded = std::size_t(1) << 20;  // cells taken off the open list before the search gives up
+  double time_limit_s = 0.05;
+  std::stop_token stop;
+};
+
+struct CoarseRoute {
+  enum class Outcome {
+    found,    // waypoints lead from the start's cell to a free cell in the goal region
+    none,     // every lattice cell reachable from the start was searched: no route on this lattice
+    gave_up,  // a limit (cells, time, stop) ended the search first
+  };
+  Outcome outcome = Outcome::gave_up;
+  std::vector<Vec3> waypoints;  // cell centres, start first (found only; z = 0 in 2-D)
+  double cell_m = 0.0;          // the lattice spacing used
+  std::size_t expanded = 0;     // cells taken off the open list
+  double length_m = 0.0;        // along the waypoints (found only)
+  double time_s = 0.0;
+};
+
+// 8-connected (2-D) or 26-connected (3-D) A* between the cells of `world`'s bounds. A cell is passable when the
+// robot is free (world.isFree) at its centre or one of its corners, and the route goes through that point; on a
+// lattice coarsened past the robot radius a move also checks its segment. The start's own cell counts as passable (the vehicle is there); the goal region is the cells
+// whose centre lies within max(goal_radius, cell) of the goal. "none" is a statement about the lattice: a passage
+// narrower than a cell's diagonal may still hold a continuous path. Throws std::invalid_argument on non-finite
+// input or a start outside the bounds.
+CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start, const Vec3& goal, double goal_radius,
+                            const CoarseRouteOptions& options = {});
+
+// Guides problem's sampling along a found route: its waypoints, a share `bias` of the samples, spread by the larger of
+// the robot radius and the lattice cell (wide enough to cover a passage the lattice found, narrow enough to stay in
+// it). Leaves the problem as it is unless the route was found.
+void guideAlong(PlanProblem& problem, const CoarseRoute& route, double bias);
+
+}  // namespace ddsnav::planner

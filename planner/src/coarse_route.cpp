@@ -1,0 +1,196 @@
+// findCoarseRoute: A* on a lattice of cell centres, with the passability of each cell looked up once.
+#include "ddsnav/planner/coarse_route.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <queue>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace ddsnav::planner {
+namespace {
+
+constexpr std::uint32_t kNoParent = std::numeric_limits<std::uint32_t>::max();
+constexpr std::int8_t kNotLookedUp = -2, kNone = -1;
+
+struct Cell {
+  double g = std::numeric_limits<double>::infinity();  // route length from the start's cell
+  std::uint32_t parent = kNoParent;
+  std::int8_t free_point = kNotLookedUp;  // which of the cell's probe points is free (Lattice::probe), or kNone
+  bool closed = false;
+};
+
+class Lattice {
+ public:
+  Lattice(const CollisionWorld& world, double cell) : world_(world), cell_(cell), three_d_(world.dimensions() == 3) {
+    const Vec3 extent = world.boundsMax() - world.boundsMin();
+    auto count = [&](double e) { return std::max<std::uint32_t>(1, static_cast<std::uint32_t>(std::floor(e / cell))); };
+    nx_ = count(extent.x());
+    ny_ = count(extent.y());
+    nz_ = three_d_ ? count(extent.z()) : 1;
+  }
+
+  std::uint32_t indexOf(const Vec3& p) const {
+    const Vec3 c = (p - world_.boundsMin()) / cell_;
+    auto clampTo = [](double v, std::uint32_t n) { return static_cast<std::uint32_t>(std::clamp(std::floor(v), 0.0, double(n - 1))); };
+    return clampTo(c.x(), nx_) + nx_ * (clampTo(c.y(), ny_) + ny_ * (three_d_ ? clampTo(c.z(), nz_) : 0));
+  }
+  Vec3 centre(std::uint32_t index) const {
+    const std::uint32_t i = index % nx_, j = (index / nx_) % ny_, k = index / (nx_ * ny_);
+    Vec3 c = world_.boundsMin() + cell_ * Vec3(i + 0.5, j + 0.5, three_d_ ? k + 0.5 : 0.0);
+    if (!three_d_) c.z() = 0.0;
+    return c;
+  }
+  // Probe point k of a cell: its centre (k = 0), then its corners (1-4 in 2-D, 1-8 in 3-D). A cell is passable when
+  // the robot is free at one of them: the corners halve the spacing at which a passage is resolved for a fifth (a
+  // ninth) of the cost of a lattice twice as fine.
+  int probes() const { return three_d_ ? 9 : 5; }
+  Vec3 probe(std::uint32_t index, int k) const {
+    Vec3 c = centre(index);
+    if (k == 0) return c;
+    const int corner = k - 1;
+    c.x() += (corner & 1 ? 0.5 : -0.5) * cell_;
+    c.y() += (corner & 2 ? 0.5 : -0.5) * cell_;
+    if (three_d_) c.z() += (corner & 4 ? 0.5 : -0.5) * cell_;
+    return c;
+  }
+  // Calls fn(neighbour index) for the 8 / 26 neighbours inside the lattice.
+  template <class Fn>
+  void forNeighbours(std::uint32_t index, Fn&& fn) const {
+    const std::int64_t i = index % nx_, j = (index / nx_) % ny_, k = index / (nx_ * ny_);
+    const int dz = three_d_ ? 1 : 0;
+    for (int z = -dz; z <= dz; ++z)
+      for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) {
+          if (x == 0 && y == 0 && z == 0) continue;
+          const std::int64_t a = i + x, b = j + y, c = k + z;
+          if (a < 0 || b < 0 || c < 0 || a >= nx_ || b >= ny_ || c >= nz_) continue;
+          fn(static_cast<std::uint32_t>(a + std::int64_t(nx_) * (b + std::int64_t(ny_) * c)));
+        }
+  }
+
+ private:
+  const CollisionWorld& world_;
+  double cell_;
+  bool three_d_;
+  std::uint32_t nx_ = 1, ny_ = 1, nz_ = 1;
+};
+
+void checkFinite(const Vec3& v, const char* what) {
+  if (!v.allFinite()) throw std::invalid_argument(std::string("findCoarseRoute: ") + what + " is not finite");
+}
+
+}  // namespace
+
+CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, const Vec3& goal_in, double goal_radius,
+                            const CoarseRouteOptions& options) {
+  const auto started = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(); };
+  checkFinite(start_in, "the start");
+  checkFinite(goal_in, "the goal");
+  if (!std::isfinite(goal_radius) || goal_radius < 0.0) throw std::invalid_argument("findCoarseRoute: goal_radius must be finite and >= 0");
+  if (!(options.heuristic_weight >= 1.0 && options.heuristic_weight <= 100.0))
+    throw std::invalid_argument("findCoarseRoute: heuristic_weight must be in [1, 100]");
+  if (!(options.cell_m >= 0.0 && options.cell_m <= 1e6)) throw std::invalid_argument("findCoarseRoute: cell_m must be in [0, 1e6] m");
+  const bool three_d = world.dimensions() == 3;
+  Vec3 start = start_in, goal = goal_in;
+  if (!three_d) start.z() = goal.z() = 0.0;
+  const Vec3 lo = world.boundsMin(), hi = world.boundsMax();
+  for (int a = 0; a < (three_d ? 3 : 2); ++a)
+    if (start[a] < lo[a] || start[a] > hi[a]) throw std::invalid_argument("findCoarseRoute: the start is outside the bounds");
+
+  // The spacing: as asked, or half the robot radius, coarsened to the cell budget (the bounds' volume over it).
+  const Vec3 extent = hi - lo;
+  const double volume = three_d ? extent.x() * extent.y() * extent.z() : extent.x() * extent.y();
+  const double budget = static_cast<double>(std::max<std::size_t>(options.max_lattice_cells, 1));
+  double cell = options.cell_m > 0.0 ? options.cell_m : 0.5 * world.robotRadius();
+  cell = std::max({cell, std::pow(volume / budget, three_d ? 1.0 / 3.0 : 0.5), 1e-3});
+
+  CoarseRoute route;
+  route.cell_m = cell;
+  const Lattice lattice(world, cell);
+  // Moves join free probe points of neighbouring cells, at most two cell diagonals apart. They are not checked
+  // between their ends while a wall could not lie there unseen (free at both ends means nothing within the robot
+  // radius of either: a move up to twice the radius long cannot cross an obstacle, whatever its thickness) — the
+  // default spacing. A coarsened lattice checks each move's segment.
+  const double diagonal = cell * std::sqrt(three_d ? 3.0 : 2.0);
+  const bool check_segments = diagonal > world.robotRadius();
+  const double goal_reach = std::max(goal_radius, cell);
+
+  std::unordered_map<std::uint32_t, Cell> cells;
+  cells.reserve(4096);
+  using Entry = std::pair<double, std::uint32_t>;  // (g + h, index)
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+  auto heuristic = [&](const Vec3& c) { return options.heuristic_weight * std::max(0.0, (c - goal).norm() - goal_reach); };
+  auto passable = [&](std::uint32_t index, Cell& c) {
+    for (int k = 0; c.free_point == kNotLookedUp && k < lattice.probes(); ++k)
+      if (world.isFree(lattice.probe(index, k))) c.free_point = static_cast<std::int8_t>(k);
+    if (c.free_point == kNotLookedUp) c.free_point = kNone;
+    return c.free_point != kNone;
+  };
+  auto point = [&](std::uint32_t index) { return lattice.probe(index, std::max<int>(cells[index].free_point, 0)); };
+
+  const std::uint32_t first = lattice.indexOf(start);
+  {
+    Cell& c = cells[first];
+    c.g = 0.0;
+    c.free_point = 0;  // passable: the vehicle is there
+    open.emplace(heuristic(lattice.centre(first)), first);
+  }
+  std::uint32_t reached = kNoParent;
+  while (!open.empty()) {
+    if ((route.expanded & 255) == 0 && (elapsed() > options.time_limit_s || options.stop.stop_requested())) break;
+    if (route.expanded >= options.max_expanded) break;
+    const auto [f, index] = open.top();
+    open.pop();
+    Cell& here = cells[index];
+    if (here.closed) continue;
+    here.closed = true;
+    ++route.expanded;
+    const Vec3 at = index == first ? start : point(index);
+    if ((at - goal).norm() <= goal_reach && index != first) {
+      reached = index;
+      break;
+    }
+    if (index == first && (start - goal).norm() <= goal_reach) {
+      reached = index;
+      break;
+    }
+    const double g_here = here.g;
+    lattice.forNeighbours(index, [&](std::uint32_t next) {
+      Cell& n = cells[next];
+      if (n.closed || !passable(next, n)) return;
+      const Vec3 to = point(next);
+      const double g = g_here + (to - at).norm();
+      if (g >= n.g) return;
+      if (check_segments && !world.isSegmentFree(at, to)) return;
+      n.g = g;
+      n.parent = index;
+      open.emplace(g + heuristic(to), next);
+    });
+  }
+
+  route.time_s = elapsed();
+  if (reached == kNoParent) {
+    route.outcome = open.empty() ? CoarseRoute::Outcome::none : CoarseRoute::Outcome::gave_up;
+    return route;
+  }
+  route.outcome = CoarseRoute::Outcome::found;
+  for (std::uint32_t i = reached; i != kNoParent; i = cells[i].parent) route.waypoints.push_back(point(i));
+  std::reverse(route.waypoints.begin(), route.waypoints.end());
+  route.waypoints.front() = start;
+  for (std::size_t i = 1; i < route.waypoints.size(); ++i) route.length_m += (route.waypoints[i] - route.waypoints[i - 1]).norm();
+  return route;
+}
+
+void guideAlong(PlanProblem& problem, const CoarseRoute& route, double bias) {
+  if (route.outcome != CoarseRoute::Outcome::found || problem.world == nullptr) return;
+  problem.guide = route.waypoints;
+  problem.guide_bias = bias;
+  problem.guide_spread_m = std::max(problem.world->robotRadius(), route.cell_m);
+}
+
+}  // namespace ddsnav::planner

@@ -1,0 +1,179 @@
+// The lattice route: found through gaps (also ones only its corner probes resolve), "none" for a closed world,
+// bounded by its limits; and samples guided along a route stay near it.
+#include "ddsnav/planner/coarse_route.hpp"
+#include "ddsnav/planner/run.hpp"
+#include "ddsnav/planner/scenario.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace ddsnav::planner {
+namespace {
+
+// 50 x 50 m, r = 0.5, a wall across y = 24..26 with a gap [gap_min, gap_max] in x (none when gap_min == gap_max).
+std::unique_ptr<CollisionWorld> wallWorld(double gap_min, double gap_max) {
+  std::string yaml = R"(
+name: wall
+dimensions: 2
+bounds: {min: [0, 0], max: [50, 50]}
+robot_radius: 0.5
+start: [10, 5]
+goal: [40, 45]
+goal_radius: 1.0
+obstacles:
+)";
+  if (gap_min < gap_max) {
+    yaml += "  - {type: box, min: [0, 24], max: [" + std::to_string(gap_min) + ", 26]}\n";
+    yaml += "  - {type: box, min: [" + std::to_string(gap_max) + ", 24], max: [50, 26]}\n";
+  } else {
+    yaml += "  - {type: box, min: [0, 24], max: [50, 26]}\n";
+  }
+  return makeScenarioWorld(parseScenario(yaml, "test"));
+}
+
+const Vec3 kStart(10, 5, 0), kGoal(40, 45, 0);
+
+TEST(CoarseRoute, GoesThroughTheGapWithEveryWaypointFree) {
+  const auto world = wallWorld(30, 33);
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0);
+  ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  EXPECT_DOUBLE_EQ(route.cell_m, 0.25);
+  EXPECT_EQ(route.waypoints.front(), kStart);
+  EXPECT_LE((route.waypoints.back() - kGoal).norm(), 1.0);
+  bool through_gap = false;
+  for (const Vec3& p : route.waypoints) {
+    EXPECT_TRUE(world->isFree(p)) << p.transpose();
+    if (p.y() > 24.5 && p.y() < 25.5) through_gap = through_gap || (p.x() > 30.5 && p.x() < 32.5);
+  }
+  EXPECT_TRUE(through_gap);
+  // Weighted A* (weight 2) stays within twice the shortest way (start -> gap -> goal, about 46.6 m).
+  EXPECT_LT(route.length_m, 2.0 * 46.6);
+  EXPECT_GT(route.length_m, 46.0);
+}
+
+TEST(CoarseRoute, AClosedWorldHasNoneAfterTheReachableCellsAreSearched) {
+  const auto world = wallWorld(0, 0);
+  CoarseRouteOptions options;
+  options.time_limit_s = 10.0;  // exhausting the lower half must not be cut short on a slow machine
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0, options);
+  EXPECT_EQ(route.outcome, CoarseRoute::Outcome::none);
+  EXPECT_TRUE(route.waypoints.empty());
+  // The lower half: 200 x ~94 cells free of the wall and the bounds' edge.
+  EXPECT_GT(route.expanded, 15000u);
+  EXPECT_LT(route.expanded, 200u * 100u);
+}
+
+TEST(CoarseRoute, ResolvesAGapOnlyItsCornerProbesFit) {
+  // Centres of the robot fit in x in [24.95, 25.05] through the wall: no cell centre (24.875, 25.125) does, the
+  // corners at x = 25 do.
+  const auto world = wallWorld(24.45, 25.55);
+  ASSERT_FALSE(world->isFree(Vec3(24.875, 25, 0)));
+  ASSERT_FALSE(world->isFree(Vec3(25.125, 25, 0)));
+  ASSERT_TRUE(world->isFree(Vec3(25.0, 25, 0)));
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0);
+  ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  for (const Vec3& p : route.waypoints) {
+    if (p.y() >= 24.0 && p.y() <= 26.0) {  // inside the wall's thickness
+      EXPECT_NEAR(p.x(), 25.0, 0.05 + 1e-9) << p.transpose();
+    }
+  }
+}
+
+TEST(CoarseRoute, GivesUpAtItsLimitsAndNotBefore) {
+  const auto world = wallWorld(30, 33);
+  CoarseRouteOptions few;
+  few.max_expanded = 10;
+  const CoarseRoute cut = findCoarseRoute(*world, kStart, kGoal, 1.0, few);
+  EXPECT_EQ(cut.outcome, CoarseRoute::Outcome::gave_up);
+  EXPECT_EQ(cut.expanded, 10u);
+  std::stop_source stop;
+  stop.request_stop();
+  CoarseRouteOptions stopped;
+  stopped.stop = stop.get_token();
+  EXPECT_EQ(findCoarseRoute(*world, kStart, kGoal, 1.0, stopped).outcome, CoarseRoute::Outcome::gave_up);
+}
+
+TEST(CoarseRoute, AStartInsideTheGoalRegionIsItsOwnRoute) {
+  const auto world = wallWorld(30, 33);
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kStart + Vec3(0.5, 0, 0), 1.0);
+  ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  EXPECT_EQ(route.waypoints.size(), 1u);
+}
+
+TEST(CoarseRoute, CoarsensToItsCellBudgetAndChecksTheLongerMoves) {
+  const auto world = wallWorld(30, 33);
+  CoarseRouteOptions options;
+  options.max_lattice_cells = 400;  // 2500 m^2 / 400 = 6.25 m^2: 2.5 m cells, longer than the robot radius
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0, options);
+  EXPECT_DOUBLE_EQ(route.cell_m, 2.5);
+  ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  for (std::size_t i = 1; i < route.waypoints.size(); ++i)
+    EXPECT_TRUE(world->isSegmentFree(route.waypoints[i - 1], route.waypoints[i])) << route.waypoints[i].transpose();
+}
+
+TEST(CoarseRoute, FindsAWayOverTerrainIn3d) {
+  const auto world = makeScenarioWorld(parseScenario(R"(
+name: hills
+dimensions: 3
+bounds: {min: [0, 0, 0], max: [40, 40, 20]}
+robot_radius: 0.5
+start: [3, 3, 2]
+goal: [36, 36, 3]
+goal_radius: 2.0
+obstacles:
+  - {type: hill, center: [15, 15], height: 14, sigma: 5}
+  - {type: hill, center: [28, 26], height: 12, sigma: 4}
+)",
+                                                     "test"));
+  CoarseRouteOptions options;
+  options.time_limit_s = 10.0;
+  const CoarseRoute route = findCoarseRoute(*world, Vec3(3, 3, 2), Vec3(36, 36, 3), 2.0, options);
+  ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  for (const Vec3& p : route.waypoints) EXPECT_TRUE(world->isFree(p)) << p.transpose();
+}
+
+TEST(CoarseRoute, RefusesNonFiniteInputAndAStartOutsideTheBounds) {
+  const auto world = wallWorld(30, 33);
+  EXPECT_THROW(findCoarseRoute(*world, Vec3(NAN, 1, 0), kGoal, 1.0), std::invalid_argument);
+  EXPECT_THROW(findCoarseRoute(*world, kStart, Vec3(1, INFINITY, 0), 1.0), std::invalid_argument);
+  EXPECT_THROW(findCoarseRoute(*world, Vec3(-1, 5, 0), kGoal, 1.0), std::invalid_argument);
+  EXPECT_THROW(findCoarseRoute(*world, kStart, kGoal, -1.0), std::invalid_argument);
+  CoarseRouteOptions weight;
+  weight.heuristic_weight = 0.5;
+  EXPECT_THROW(findCoarseRoute(*world, kStart, kGoal, 1.0, weight), std::invalid_argument);
+}
+
+TEST(GuidedSampling, DrawsItsShareNearTheGuideAndTheRestAnywhere) {
+  const auto world = wallWorld(30, 33);
+  PlanProblem problem;
+  problem.world = world.get();
+  problem.start.position = kStart;
+  problem.goal = kGoal;
+  problem.guide = {Vec3(31.5, 25, 0)};
+  problem.guide_bias = 0.5;
+  problem.guide_spread_m = 0.5;
+  PlannerRun run(problem, "test", false);
+  int near = 0;
+  constexpr int kDraws = 4000;
+  for (int i = 0; i < kDraws; ++i) near += (run.sample(0.0) - problem.guide.front()).norm() < 2.5;  // 5 sigma
+  // Half of the draws, plus the uniform ones that land within 2.5 m (pi 2.5^2 / 2500 of them: 0.4 %).
+  EXPECT_NEAR(double(near) / kDraws, 0.5 + 0.5 * 0.004, 0.03);
+}
+
+TEST(GuidedSampling, ABadGuideIsRefused) {
+  const auto world = wallWorld(30, 33);
+  PlanProblem problem;
+  problem.world = world.get();
+  problem.start.position = kStart;
+  problem.goal = kGoal;
+  problem.guide_bias = 1.5;
+  EXPECT_THROW(PlannerRun(problem, "test", false), std::invalid_argument);
+  problem.guide_bias = 0.5;
+  problem.guide = {Vec3(NAN, 0, 0)};
+  EXPECT_THROW(PlannerRun(problem, "test", false), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace ddsnav::planner
