@@ -639,53 +639,101 @@ class OctoMapWorld final : public CollisionWorld {
     for (std::int64_t dy = -m; dy <= m; ++dy)
       for (std::int64_t dx = -m; dx <= m; ++dx)
         if ((dx * dx + dy * dy) <= m * m && (dx != 0 || dy != 0)) disk.emplace_back(dx, dy);
-    auto state = [&](std::int64_t x, std::int64_t y, bool& occupied, bool& known) {
-      const Brick* b = findBrick(x >> 3, y >> 3, 0);
-      const std::uint32_t bit = bitOf({x, y, 0});
-      occupied = b && ((b->occupied[bit >> 6] >> (bit & 63)) & 1u);
-      known = b && ((b->known[bit >> 6] >> (bit & 63)) & 1u);
-    };
     // A never-observed cell with space observed free on both sides of it along a row, a column or a diagonal, within
     // kBeamGap cells each way, is a gap between a scanner's beams (they fan out: 0.5 degree apart is 0.14 m at 16 m),
     // not unseen space beyond a surface. Why: the margin closed the mouth of bugtrap_0.6's 2.4 m neck right in front
     // of the start (the robot's centre line blocked, clearance -0.3 m, from x = 55.5 to 60.5), so the world the
     // planner prefers had no way out but the plain map's, through walls not yet seen.
     constexpr std::int64_t kBeamGap = 2;
-    auto betweenBeams = [&](const Cell& n) {
-      for (const auto& [ux, uy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{1, -1}}) {
-        bool ahead = false, behind = false;
-        for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observedFree({n.x + k * ux, n.y + k * uy, 0});
-        for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observedFree({n.x - k * ux, n.y - k * uy, 0});
-        if (ahead && behind) return true;
+    // The cells a mark can fall in: the occupied cells' box widened by the margin, inside the clip range.
+    Cell lo{std::numeric_limits<std::int64_t>::max(), std::numeric_limits<std::int64_t>::max(), 0};
+    Cell hi{std::numeric_limits<std::int64_t>::min(), std::numeric_limits<std::int64_t>::min(), 0};
+    for (const Brick& b : bricks_) {
+      if (b.occupied[0] == 0) continue;  // a 2-D brick's 64 cells are its first word (z = 0)
+      lo = {std::min<std::int64_t>(lo.x, b.bx * 8), std::min<std::int64_t>(lo.y, b.by * 8), 0};
+      hi = {std::max<std::int64_t>(hi.x, b.bx * 8 + 7), std::max<std::int64_t>(hi.y, b.by * 8 + 7), 0};
+    }
+    if (lo.x > hi.x) return;
+    lo = {std::max(lo.x - m, clip_lo.x), std::max(lo.y - m, clip_lo.y), 0};
+    hi = {std::min(hi.x + m, clip_hi.x), std::min(hi.y + m, clip_hi.y), 0};
+    // Tile by tile, on dense copies of the bricks' bits: every face's disk is marked as candidates first (a cell near a
+    // long wall lies in the disks of ~300 faces), then each candidate is judged once. The halo holds every face
+    // within the margin of the tile, their 4-neighbours and the beam-gap look-ups.
+    constexpr std::int64_t kTile = 256;
+    constexpr std::uint8_t kOccupied = 1, kKnown = 2;
+    const std::int64_t halo = m + kBeamGap + 1;
+    std::vector<std::uint8_t> state, candidate;
+    // Marks are applied after every tile was read (a mark must not make a face of its own), one word per 2-D brick.
+    std::unordered_map<std::uint64_t, std::uint64_t> marks;
+    // Only the tiles within the margin of an occupied brick: the occupied cells' box may span the whole bounds (two
+    // surfaces far apart) while the work stays in proportion to the surfaces.
+    std::vector<std::pair<std::int64_t, std::int64_t>> tiles;
+    for (const Brick& b : bricks_) {
+      if (b.occupied[0] == 0) continue;
+      const std::int64_t x0 = std::max(b.bx * std::int64_t(8) - m, lo.x), x1 = std::min(b.bx * std::int64_t(8) + 7 + m, hi.x);
+      const std::int64_t y0 = std::max(b.by * std::int64_t(8) - m, lo.y), y1 = std::min(b.by * std::int64_t(8) + 7 + m, hi.y);
+      if (x0 > x1 || y0 > y1) continue;
+      for (std::int64_t ty = (y0 - lo.y) / kTile; ty <= (y1 - lo.y) / kTile; ++ty)
+        for (std::int64_t tx = (x0 - lo.x) / kTile; tx <= (x1 - lo.x) / kTile; ++tx) tiles.emplace_back(tx, ty);
+    }
+    std::sort(tiles.begin(), tiles.end());
+    tiles.erase(std::unique(tiles.begin(), tiles.end()), tiles.end());
+    for (const auto& [tile_x, tile_y] : tiles) {
+      {
+        const std::int64_t tx = lo.x + tile_x * kTile, ty = lo.y + tile_y * kTile;
+        const Cell t_lo{tx, ty, 0}, t_hi{std::min(tx + kTile - 1, hi.x), std::min(ty + kTile - 1, hi.y), 0};
+        const Cell g_lo{t_lo.x - halo, t_lo.y - halo, 0}, g_hi{t_hi.x + halo, t_hi.y + halo, 0};
+        const std::int64_t gw = g_hi.x - g_lo.x + 1, gh = g_hi.y - g_lo.y + 1;
+        state.assign(static_cast<std::size_t>(gw * gh), 0);
+        bool any_occupied = false;
+        forBricksIn(g_lo, g_hi, [&](std::uint32_t, const Brick& b) {
+          const std::uint64_t occupied = b.occupied[0], known = b.known[0];
+          any_occupied |= occupied != 0;
+          for (unsigned bit = 0; bit < 64; ++bit) {
+            const std::int64_t x = std::int64_t(b.bx) * 8 + (bit & 7) - g_lo.x, y = std::int64_t(b.by) * 8 + (bit >> 3) - g_lo.y;
+            if (x < 0 || y < 0 || x >= gw || y >= gh) continue;
+            state[static_cast<std::size_t>(y * gw + x)] =
+                static_cast<std::uint8_t>(((occupied >> bit) & 1u) * kOccupied | ((known >> bit) & 1u) * kKnown);
+          }
+        });
+        if (!any_occupied) continue;
+        auto at = [&](std::int64_t x, std::int64_t y) { return state[static_cast<std::size_t>((y - g_lo.y) * gw + (x - g_lo.x))]; };
+        const std::int64_t tw = t_hi.x - t_lo.x + 1, th = t_hi.y - t_lo.y + 1;
+        candidate.assign(static_cast<std::size_t>(tw * th), 0);
+        for (std::int64_t y = t_lo.y - m; y <= t_hi.y + m; ++y) {
+          for (std::int64_t x = t_lo.x - m; x <= t_hi.x + m; ++x) {
+            if (!(at(x, y) & kOccupied)) continue;
+            const bool face = !(at(x + 1, y) & kOccupied) || !(at(x - 1, y) & kOccupied) || !(at(x, y + 1) & kOccupied) ||
+                              !(at(x, y - 1) & kOccupied);
+            if (!face) continue;
+            for (const auto& [dx, dy] : disk) {
+              const std::int64_t nx = x + dx - t_lo.x, ny = y + dy - t_lo.y;
+              if (nx >= 0 && ny >= 0 && nx < tw && ny < th) candidate[static_cast<std::size_t>(ny * tw + nx)] = 1;
+            }
+          }
+        }
+        auto observedFreeAt = [&](std::int64_t x, std::int64_t y) { return (at(x, y) & (kOccupied | kKnown)) == kKnown; };
+        auto betweenBeams = [&](std::int64_t x, std::int64_t y) {
+          for (const auto& [ux, uy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{1, -1}}) {
+            bool ahead = false, behind = false;
+            for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observedFreeAt(x + k * ux, y + k * uy);
+            for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observedFreeAt(x - k * ux, y - k * uy);
+            if (ahead && behind) return true;
+          }
+          return false;
+        };
+        for (std::int64_t ny = 0; ny < th; ++ny)
+          for (std::int64_t nx = 0; nx < tw; ++nx) {
+            if (!candidate[static_cast<std::size_t>(ny * tw + nx)]) continue;
+            const std::int64_t x = t_lo.x + nx, y = t_lo.y + ny;
+            if (at(x, y) & (kOccupied | kKnown) || betweenBeams(x, y)) continue;
+            marks[pack(x >> 3, y >> 3, 0)] |= std::uint64_t(1) << bitOf({x, y, 0});
+          }
       }
-      return false;
-    };
-    // Marked after the scan (new bricks would move the ones being read), one mask per brick however many faces
-    // reach a cell.
-    std::unordered_map<std::uint64_t, std::array<std::uint64_t, 8>> marks;
-    for (std::size_t i = 0; i < bricks_.size(); ++i) {
-      forEachBit(bricks_[i].occupied, [&](unsigned bit) {
-        const Cell c = cellOfBit(bricks_[i], bit);
-        bool occ = false, known = false, face = false;
-        for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
-          state(c.x + dx, c.y + dy, occ, known);
-          face |= !occ;
-        }
-        if (!face) return;
-        for (const auto& [dx, dy] : disk) {
-          const Cell n{c.x + dx, c.y + dy, 0};
-          if (!inRange(n, clip_lo, clip_hi)) continue;
-          state(n.x, n.y, occ, known);
-          if (occ || known || betweenBeams(n)) continue;
-          const std::uint32_t nbit = bitOf(n);
-          marks[pack(n.x >> 3, n.y >> 3, 0)][nbit >> 6] |= std::uint64_t(1) << (nbit & 63);
-        }
-      });
     }
     for (const auto& [key, mask] : marks) {
       constexpr std::int64_t kb = kCellLimit / 8;
-      Brick& b = brickFor(std::int64_t(key & 0x1fffu) - kb, std::int64_t((key >> 13) & 0x1fffu) - kb, 0);
-      for (int w = 0; w < 8; ++w) b.occupied[w] |= mask[w];
+      brickFor(std::int64_t(key & 0x1fffu) - kb, std::int64_t((key >> 13) & 0x1fffu) - kb, 0).occupied[0] |= mask;
     }
   }
 
