@@ -468,30 +468,34 @@ TEST(OctoMapWorld, SolidBelowSurfaceIsThreeDimensionalOnly) {
 }
 
 
-TEST(OctoMapWorld, UnknownMarginBlocksUnseenCellsNearSeenSurfacesAsABruteForceScanSays) {
-  // A planar scan from the origin of a few walls and a disc: free cells along the rays, occupied cells where they
-  // end, the far sides unknown. With unknown_margin_m, exactly the unknown cells within the margin (a disc of
-  // whole cells) of an occupied cell that borders a non-occupied one are blocked; known cells answer for themselves.
+// A planar scan from the origin of a few walls and a disc, every length times `scale`: free cells along the rays,
+// occupied cells where they end, the far sides unknown. With unknown_margin_m, exactly the unknown cells within the
+// margin (a disc of whole cells) of an occupied cell that borders a non-occupied one are blocked; known cells answer
+// for themselves.
+void checkUnknownMarginAgainstABruteForceScan(int scale) {
   octomap::OcTree tree(0.1);
   octomap::Pointcloud cloud;
-  for (int i = 0; i < 720; ++i) {
-    const double a = i * 2.0 * M_PI / 720.0;
+  const int beams = 720 * scale;
+  for (int i = 0; i < beams; ++i) {
+    const double a = i * 2.0 * M_PI / beams;
     const Eigen::Vector2d d(std::cos(a), std::sin(a));
-    double range = 5.5;
-    if (d.x() > 0.3) range = std::min(range, 2.0 / d.x());                      // a wall at x = 2
-    const Eigen::Vector2d c(-1.5, 1.0);                                        // a disc of radius 0.8
-    const double b = d.dot(c), disc = b * b - (c.squaredNorm() - 0.64);
+    double range = 5.5 * scale;
+    if (d.x() > 0.3) range = std::min(range, 2.0 * scale / d.x());             // a wall at x = 2
+    const Eigen::Vector2d c(-1.5 * scale, 1.0 * scale);                        // a disc of radius 0.8
+    const double rr = 0.8 * scale;
+    const double b = d.dot(c), disc = b * b - (c.squaredNorm() - rr * rr);
     if (disc >= 0 && b - std::sqrt(disc) > 0) range = std::min(range, b - std::sqrt(disc));
     cloud.push_back(static_cast<float>(range * d.x()), static_cast<float>(range * d.y()), 0.05f);
   }
-  tree.insertPointCloud(cloud, octomap::point3d(0.0f, 0.0f, 0.05f), 5.0);  // rays longer than 5 m end unknown
+  tree.insertPointCloud(cloud, octomap::point3d(0.0f, 0.0f, 0.05f), 5.0 * scale);  // rays longer than 5 m end unknown
   OctoMapWorldOptions options;
   options.unknown_margin_m = 0.45;  // 4 cells (rounded down)
-  const auto world = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), options);
-  const auto plain = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), OctoMapWorldOptions{});
-  constexpr int kN = 120, kOff = 60;  // cells [-60, 60) of 0.1 m per axis
+  const double half = 6.0 * scale;
+  const auto world = makeOctoMapWorld(2, Vec3(-half, -half, 0), Vec3(half, half, 0), 0.0, toBytes(tree), options);
+  const auto plain = makeOctoMapWorld(2, Vec3(-half, -half, 0), Vec3(half, half, 0), 0.0, toBytes(tree), OctoMapWorldOptions{});
+  const int kN = 120 * scale, kOff = 60 * scale;  // cells [-kOff, kOff) of 0.1 m per axis
   enum State { Unknown, Free, Occupied };
-  std::vector<State> state(kN * kN, Unknown);
+  std::vector<State> state(static_cast<std::size_t>(kN) * kN, Unknown);
   auto at = [&](int x, int y) -> State {
     return x < 0 || y < 0 || x >= kN || y >= kN ? Unknown : state[static_cast<std::size_t>(y * kN + x)];
   };
@@ -504,28 +508,71 @@ TEST(OctoMapWorld, UnknownMarginBlocksUnseenCellsNearSeenSurfacesAsABruteForceSc
     for (int x = 0; x < kN; ++x)
       if (at(x, y) == Occupied && (at(x + 1, y) != Occupied || at(x - 1, y) != Occupied || at(x, y + 1) != Occupied || at(x, y - 1) != Occupied))
         faces.emplace_back(x, y);
+  // A hole between beams (observed free within 2 cells on both sides along a row, a column or a diagonal) is
+  // no unseen space beyond a surface (UnknownMarginLeavesHolesBetweenBeamsFree).
+  auto betweenBeams = [&](int x, int y) {
+    for (const auto& [ux, uy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{1, -1}}) {
+      const bool ahead = at(x + ux, y + uy) == Free || at(x + 2 * ux, y + 2 * uy) == Free;
+      const bool behind = at(x - ux, y - uy) == Free || at(x - 2 * ux, y - 2 * uy) == Free;
+      if (ahead && behind) return true;
+    }
+    return false;
+  };
   int newly_blocked = 0, unknown_free = 0;
   for (int y = 2; y < kN - 2; ++y)
     for (int x = 2; x < kN - 2; ++x) {
       const Vec3 p((x - kOff + 0.5) * 0.1, (y - kOff + 0.5) * 0.1, 0.0);
       bool expected = at(x, y) == Occupied;
-      if (at(x, y) == Unknown)
+      if (at(x, y) == Unknown && !betweenBeams(x, y))
         for (const auto& [fx, fy] : faces)
           if ((fx - x) * (fx - x) + (fy - y) * (fy - y) <= 16) expected = true;
       ASSERT_EQ(world->isFree(p), !expected) << p.transpose();
       newly_blocked += expected && plain->isFree(p);
       unknown_free += at(x, y) == Unknown && !expected;
     }
-  EXPECT_GT(newly_blocked, 300);  // both answers were exercised among the unknown cells
-  EXPECT_GT(unknown_free, 300);
+  EXPECT_GT(newly_blocked, 300 * scale);  // both answers were exercised among the unknown cells
+  EXPECT_GT(unknown_free, 300 * scale);
   // Known free space next to a surface stays free: the cell in front of the wall, on the ray from the origin.
-  EXPECT_TRUE(world->isFree(Vec3(1.85, 0.05, 0.0)));
+  EXPECT_TRUE(world->isFree(Vec3(2.0 * scale - 0.15, 0.05, 0.0)));
+}
+
+TEST(OctoMapWorld, UnknownMarginBlocksUnseenCellsNearSeenSurfacesAsABruteForceScanSays) {
+  checkUnknownMarginAgainstABruteForceScan(1);
   // 3-D worlds ignore it; bad values are refused.
-  OctoMapWorldOptions bad = options;
+  octomap::OcTree tree(0.1);
+  tree.updateNode(octomap::point3d(1.0f, 1.0f, 0.05f), true);
+  OctoMapWorldOptions bad;
   bad.unknown_margin_m = -0.1;
   EXPECT_THROW(makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), bad), std::invalid_argument);
   bad.unknown_margin_m = std::numeric_limits<double>::infinity();
   EXPECT_THROW(makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), bad), std::invalid_argument);
+}
+
+// Four times larger: 480 cells a side, several of the margin's 256-cell tiles.
+TEST(OctoMapWorld, UnknownMarginMatchesABruteForceScanOverSeveralTiles) { checkUnknownMarginAgainstABruteForceScan(4); }
+
+// The margin is computed in tiles of 256 cells that start 4 cells (the margin) before the first occupied brick: a
+// wall whose end lies two cells before a tile's edge blocks the unseen cells past its end in the next tile, whose
+// only faces lie in its halo.
+TEST(OctoMapWorld, UnknownMarginReachesAcrossATileEdgeFromAWallEnd) {
+  octomap::OcTree tree(0.1);
+  for (int x = 0; x <= 250; ++x) {
+    tree.updateNode(octomap::point3d((x + 0.5f) * 0.1f, 0.05f, 0.05f), true);  // the wall, y cell 0
+    for (int y = 1; y <= 10; ++y) tree.updateNode(octomap::point3d((x + 0.5f) * 0.1f, (0.5f - y) * 0.1f, 0.05f), false);
+  }
+  OctoMapWorldOptions options;
+  options.unknown_margin_m = 0.45;  // 4 cells
+  const auto world = makeOctoMapWorld(2, Vec3(-5, -5, 0), Vec3(30, 5, 0), 0.0, toBytes(tree), options);
+  auto cell = [](int x, int y) { return Vec3((x + 0.5) * 0.1, (y + 0.5) * 0.1, 0.0); };
+  // The tile edge is at x cell 252 (-4 + 256). Past the end (250, 0): blocked within 4 cells, free beyond.
+  for (int x = 251; x <= 254; ++x) EXPECT_FALSE(world->isFree(cell(x, 0))) << x;
+  EXPECT_TRUE(world->isFree(cell(255, 0)));
+  EXPECT_FALSE(world->isFree(cell(252, 2)));  // 2^2 + 2^2 <= 16
+  EXPECT_FALSE(world->isFree(cell(253, 2)));  // 3^2 + 2^2 <= 16
+  EXPECT_TRUE(world->isFree(cell(254, 2)));   // 4^2 + 2^2 > 16
+  EXPECT_TRUE(world->isFree(cell(252, 4)));   // 2^2 + 4^2 > 16 from the end, the nearest face
+  EXPECT_FALSE(world->isFree(cell(240, 4)));  // above the wall: 4 cells from (240, 0)
+  EXPECT_TRUE(world->isFree(cell(240, 5)));
 }
 
 
