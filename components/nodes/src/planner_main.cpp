@@ -311,6 +311,9 @@ class PlannerComponent : public runtime::Component {
       const planner::CoarseRoute route =
           planner::findCoarseRoute(*world, problem.start.position, problem.goal, problem.goal_radius, lattice);
       if (tier && route.outcome == planner::CoarseRoute::Outcome::none) return notSearched(Skipped::no_route, route.time_s);
+      if (route.outcome == planner::CoarseRoute::Outcome::gave_up)
+        spdlog::info("request {}: no lattice route within {:.1f} ms ({} cells of {:.2f} m); sampling without a guide", request.request_id(),
+                     1e3 * route.time_s, route.expanded, route.cell_m);
       time_limit_s = std::max(time_limit_s - route.time_s, 1e-3);
       planner::guideAlong(problem, route, params_.guide_bias);
     }
