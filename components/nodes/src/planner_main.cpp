@@ -41,7 +41,7 @@ class PlannerComponent : public runtime::Component {
     std::optional<double> unknown_margin_m;       // default: nodes::defaultUnknownMargin
     std::optional<double> hidden_continuation_m;  // default: nodes::defaultHiddenContinuation
     double improve_for_s;
-    double route_lattice_s;
+    std::optional<double> route_lattice_s;  // default: routeLatticeDefault
     double guide_bias;
     std::vector<std::string> planner_options;
     explicit Params(runtime::Parameters& p)
@@ -70,14 +70,15 @@ class PlannerComponent : public runtime::Component {
               {.min = 0, .max = 60, .unit = "s",
                .doc = "after the first solution, keep improving the path this long (within the request's budget; a first solution "
                       "in a bug trap is a 30-50 % detour: docs/planners.md); 0: the first solution"})),
-          // On by default since the bug traps' replans spent 0.2 s failing on preferred worlds that were closed
-          // (docs/planners.md, "Lattice routes").
-          route_lattice_s(p.declare<double>(
-              "route_lattice_s", 0.03,
+          // On by default in 2-D since the bug traps' replans spent 0.2 s failing on preferred worlds that were closed;
+          // off in 3-D, where there are none and city_3d's missions took longer with the guide (docs/planners.md,
+          // "Lattice routes").
+          route_lattice_s(p.declareOptional<double>(
+              "route_lattice_s",
               {.min = 0, .max = 10, .unit = "s",
                .doc = "before each search, look this long at most for a route on a lattice of cells half the robot radius wide: a world "
                       "tried before the plain map with no route on it is skipped at once, and a route found guides the samples "
-                      "(guide_bias; docs/planners.md, \"Lattice routes\"); 0: no lattice search"})),
+                      "(guide_bias; docs/planners.md, \"Lattice routes\"); 0: no lattice search; default 0.03 s in 2-D, 0 in 3-D"})),
           guide_bias(p.declare<double>("guide_bias", 0.3,
                                        {.min = 0, .max = 1,
                                         .doc = "share of the samples drawn near the lattice route (route_lattice_s) instead of anywhere "
@@ -96,6 +97,7 @@ class PlannerComponent : public runtime::Component {
         planner_options_(planner::parsePlannerOptions(params_.planner_options)),
         unknown_margin_m_(params_.unknown_margin_m.value_or(nodes::defaultUnknownMargin(scenario_))),
         hidden_continuation_m_(params_.hidden_continuation_m.value_or(nodes::defaultHiddenContinuation(scenario_))),
+        route_lattice_s_(params_.route_lattice_s.value_or(scenario_.dimensions == 2 ? 0.03 : 0.0)),
         world_source_(ctx, params_.world, scenario_, unknown_margin_m_),
         paths_(publisher(runtime::topics::path)) {
     if (kinodynamic_ && !scenario_.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
@@ -304,9 +306,9 @@ class PlannerComponent : public runtime::Component {
     problem.goal_radius = request.goal_radius();
     // The lattice route (docs/planners.md, "Lattice routes"): milliseconds where the sampler may need a second, it
     // tells a closed world (skipped before the plain map) and guides the samples through an open one.
-    if (params_.route_lattice_s > 0.0) {
+    if (route_lattice_s_ > 0.0) {
       planner::CoarseRouteOptions lattice;
-      lattice.time_limit_s = std::min(params_.route_lattice_s, 0.5 * time_limit_s);
+      lattice.time_limit_s = std::min(route_lattice_s_, 0.5 * time_limit_s);
       lattice.stop = stop;
       const planner::CoarseRoute route =
           planner::findCoarseRoute(*world, problem.start.position, problem.goal, problem.goal_radius, lattice);
@@ -332,7 +334,7 @@ class PlannerComponent : public runtime::Component {
   const nodes::WorldKind kind_;
   const bool kinodynamic_;
   const std::map<std::string, std::vector<std::string>> planner_options_;
-  const double unknown_margin_m_, hidden_continuation_m_;  // the parameters, or their defaults for the scenario
+  const double unknown_margin_m_, hidden_continuation_m_, route_lattice_s_;  // the parameters, or their defaults for the scenario
   nodes::WorldSource world_source_;
   bus::Publisher<msg::Path> paths_;
   std::map<std::uint64_t, std::uint32_t> last_request_;  // requester (publication handle) -> its last request id
