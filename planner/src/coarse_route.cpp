@@ -143,7 +143,7 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, c
   std::uint32_t reached = kNoParent;
   while (!open.empty()) {
     if ((route.expanded & 255) == 0 && (elapsed() > options.time_limit_s || options.stop.stop_requested())) break;
-    if (route.expanded >= options.max_expanded) break;
+    if (cells.size() >= options.max_cells_seen) break;
     const auto [f, index] = open.top();
     open.pop();
     Cell& here = cells[index];

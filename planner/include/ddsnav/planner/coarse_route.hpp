@@ -22,7 +22,9 @@ struct CoarseRouteOptions {
   // expanding far fewer cells where obstacles stand across the straight line (a guide need not be shortest).
   double heuristic_weight = 2.0;
   std::size_t max_lattice_cells = std::size_t(1) << 22;
-  std::size_t max_expanded = std::size_t(1) << 20;  // cells taken off the open list before the search gives up
+  // Cells the search may hold (looked up or queued, ~40 bytes each) before it gives up: the memory bound (a 3-D
+  // expansion looks at 26 neighbours).
+  std::size_t max_cells_seen = std::size_t(1) << 21;
   double time_limit_s = 0.05;
   std::stop_token stop;
 };
@@ -31,7 +33,7 @@ struct CoarseRoute {
   enum class Outcome {
     found,    // waypoints lead from the start's cell to a free cell in the goal region
     none,     // every lattice cell reachable from the start was searched: no route on this lattice
-    gave_up,  // a limit (cells, time, stop) ended the search first
+    gave_up,  // a limit (cells seen, time, stop) ended the search first
   };
   Outcome outcome = Outcome::gave_up;
   std::vector<Vec3> waypoints;  // cell centres, start first (found only; z = 0 in 2-D)
