@@ -114,25 +114,36 @@ TEST(CoarseRoute, CoarsensToItsCellBudgetAndChecksTheLongerMoves) {
     EXPECT_TRUE(world->isSegmentFree(route.waypoints[i - 1], route.waypoints[i])) << route.waypoints[i].transpose();
 }
 
-TEST(CoarseRoute, FindsAWayOverTerrainIn3d) {
+TEST(CoarseRoute, FindsTheWindowInA3dWall) {
+  // A wall across y = 19..21, the whole height, with a 4 x 4 m window at x 18..22, z 8..12.
   const auto world = makeScenarioWorld(parseScenario(R"(
-name: hills
+name: window
 dimensions: 3
 bounds: {min: [0, 0, 0], max: [40, 40, 20]}
 robot_radius: 0.5
-start: [3, 3, 2]
-goal: [36, 36, 3]
-goal_radius: 2.0
+start: [5, 5, 3]
+goal: [35, 35, 15]
+goal_radius: 1.0
 obstacles:
-  - {type: hill, center: [15, 15], height: 14, sigma: 5}
-  - {type: hill, center: [28, 26], height: 12, sigma: 4}
+  - {type: box, min: [0, 19, 0], max: [18, 21, 20]}
+  - {type: box, min: [22, 19, 0], max: [40, 21, 20]}
+  - {type: box, min: [18, 19, 0], max: [22, 21, 8]}
+  - {type: box, min: [18, 19, 12], max: [22, 21, 20]}
 )",
                                                      "test"));
   CoarseRouteOptions options;
   options.time_limit_s = 10.0;
-  const CoarseRoute route = findCoarseRoute(*world, Vec3(3, 3, 2), Vec3(36, 36, 3), 2.0, options);
+  const CoarseRoute route = findCoarseRoute(*world, Vec3(5, 5, 3), Vec3(35, 35, 15), 1.0, options);
   ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
-  for (const Vec3& p : route.waypoints) EXPECT_TRUE(world->isFree(p)) << p.transpose();
+  bool through_window = false;
+  for (const Vec3& p : route.waypoints) {
+    EXPECT_TRUE(world->isFree(p)) << p.transpose();
+    if (p.y() > 19.0 && p.y() < 21.0) {
+      EXPECT_TRUE(p.x() > 18.5 && p.x() < 21.5 && p.z() > 8.5 && p.z() < 11.5) << p.transpose();
+      through_window = true;
+    }
+  }
+  EXPECT_TRUE(through_window);
 }
 
 TEST(CoarseRoute, RefusesNonFiniteInputAndAStartOutsideTheBounds) {
@@ -146,12 +157,17 @@ TEST(CoarseRoute, RefusesNonFiniteInputAndAStartOutsideTheBounds) {
   EXPECT_THROW(findCoarseRoute(*world, kStart, kGoal, 1.0, weight), std::invalid_argument);
 }
 
-TEST(GuidedSampling, DrawsItsShareNearTheGuideAndTheRestAnywhere) {
-  const auto world = wallWorld(30, 33);
+PlanProblem problemIn(const CollisionWorld& world) {
   PlanProblem problem;
-  problem.world = world.get();
+  problem.world = &world;
   problem.start.position = kStart;
   problem.goal = kGoal;
+  return problem;
+}
+
+TEST(GuidedSampling, DrawsItsShareNearTheGuideAndTheRestAnywhere) {
+  const auto world = wallWorld(30, 33);
+  PlanProblem problem = problemIn(*world);
   problem.guide = {Vec3(31.5, 25, 0)};
   problem.guide_bias = 0.5;
   problem.guide_spread_m = 0.5;
@@ -165,10 +181,7 @@ TEST(GuidedSampling, DrawsItsShareNearTheGuideAndTheRestAnywhere) {
 
 TEST(GuidedSampling, ABadGuideIsRefused) {
   const auto world = wallWorld(30, 33);
-  PlanProblem problem;
-  problem.world = world.get();
-  problem.start.position = kStart;
-  problem.goal = kGoal;
+  PlanProblem problem = problemIn(*world);
   problem.guide_bias = 1.5;
   EXPECT_THROW(PlannerRun(problem, "test", false), std::invalid_argument);
   problem.guide_bias = 0.5;
