@@ -45,7 +45,15 @@ class BlockedCellsWorld final : public CollisionWorld {
   }
 
   std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override {
-    auto out = base_->obstaclesNear(p, range);
+    return withSquares(base_->obstaclesNear(p, range), p, range);
+  }
+  std::vector<NearbyObstacle> nearestPerBrick(const Vec3& p, double range) const override {
+    return withSquares(base_->nearestPerBrick(p, range), p, range);
+  }
+
+ private:
+  // The base's list with the nearest square of each bucket within range added, nearest first.
+  std::vector<NearbyObstacle> withSquares(std::vector<NearbyObstacle> out, const Vec3& p, double range) const {
     if (!p.allFinite() || !(range >= 0.0)) return out;
     // The nearest square of each bucket within range, with ids of their own (negative: the base's are not).
     forBucketsWithin(p, std::min(range, 1e6), [&](const Bucket& b) {
@@ -62,7 +70,6 @@ class BlockedCellsWorld final : public CollisionWorld {
     return out;
   }
 
- private:
   struct Bucket {
     int ordinal = 0;
     std::vector<Eigen::Vector2d> centres;

@@ -58,7 +58,7 @@ class FusedWorld final : public CollisionWorld {
     // flank within range holds thousands of voxels — one per brick keeps the contact shape at brick size.
     std::vector<NearbyObstacle> out;
     std::unordered_set<int> bricks;
-    for (const auto& o : structure_->obstaclesNear(p, range)) {
+    for (const auto& o : structure_->nearestPerBrick(p, range)) {
       const int brick = o.id / 512;
       if (!bricks.insert(brick).second) continue;
       out.push_back({2 * o.id, o.nearest_point, o.distance});

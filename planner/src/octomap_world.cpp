@@ -394,7 +394,13 @@ class OctoMapWorld final : public CollisionWorld {
     return out;
   }
 
-  std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override {
+  std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override { return nearby(p, range, false); }
+  std::vector<NearbyObstacle> nearestPerBrick(const Vec3& p, double range) const override { return nearby(p, range, true); }
+
+ private:
+  // Every occupied voxel within range (per_brick: the nearest of each brick, the lowest bit among equals), sorted
+  // by distance, then id.
+  std::vector<NearbyObstacle> nearby(const Vec3& p, double range, bool per_brick) const {
     std::vector<NearbyObstacle> out;
     if (!p.allFinite() || !(range >= 0.0) || occupied_bricks_.empty()) return out;
     Cell lo, hi;
@@ -403,13 +409,18 @@ class OctoMapWorld final : public CollisionWorld {
     hi = {std::min(hi.x, occ_hi_.x), std::min(hi.y, occ_hi_.y), std::min(hi.z, occ_hi_.z)};
     if (lo.x > hi.x || lo.y > hi.y || lo.z > hi.z) return out;
     auto visit = [&](std::uint32_t index, const Brick& b) {
+      NearbyObstacle nearest{-1, p, std::numeric_limits<double>::infinity()};
       forEachBit(b.occupied, [&](unsigned bit) {
         const Cell c = cellOfBit(b, bit);
         if (!inRange(c, lo, hi)) return;
         const Vec3 q = nearestPointOfCell(c, p);
         const double d = distance(p, q);
-        if (d <= range) out.push_back({static_cast<int>(index * 512u + bit), q, d});
+        if (!(d <= range)) return;
+        const NearbyObstacle here{static_cast<int>(index * 512u + bit), q, d};
+        if (!per_brick) out.push_back(here);
+        else if (d < nearest.distance) nearest = here;  // bits come in ascending order: the lowest id wins a tie
       });
+      if (per_brick && nearest.id >= 0) out.push_back(nearest);
     };
     const double bricks_in_box = double((hi.x >> 3) - (lo.x >> 3) + 1) * double((hi.y >> 3) - (lo.y >> 3) + 1) *
                                  double((hi.z >> 3) - (lo.z >> 3) + 1);
@@ -424,7 +435,6 @@ class OctoMapWorld final : public CollisionWorld {
     return out;
   }
 
- private:
   struct Brick {
     std::array<std::uint64_t, 8> occupied{};
     std::array<std::uint64_t, 8> known{};  // occupied or free in the octree

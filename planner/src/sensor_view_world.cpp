@@ -56,6 +56,7 @@ class SensorViewWorld final : public CollisionWorld {
 
   double clearance(const Vec3& p) const override { return world_->clearance(p); }
   std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override { return world_->obstaclesNear(p, range); }
+  std::vector<NearbyObstacle> nearestPerBrick(const Vec3& p, double range) const override { return world_->nearestPerBrick(p, range); }
 
  private:
   // Every validity check asks this: the fan's slopes are computed once, not two tangents per call.

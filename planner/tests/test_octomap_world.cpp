@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <set>
 #include <sstream>
 
 namespace ddsnav::planner {
@@ -615,6 +616,37 @@ octomap::OcTree boxesScan(const std::vector<ScanBox>& boxes, int beams, double r
 // The unknown margin is for unseen space beyond a surface, not for the holes a fan of beams leaves between its
 // rays: a never-observed cell with observed free space on both sides of it (within 2 cells, along a row, a column
 // or a diagonal) stays free; one with unobserved space on a side is blocked.
+// nearestPerBrick is obstaclesNear's list with only the first entry of each brick kept (what the fused world used to
+// compute from it), 2-D with the unknown margin's cells and 3-D.
+TEST(OctoMapWorld, NearestPerBrickIsTheFirstOfEachBrickInObstaclesNear) {
+  const octomap::OcTree tree = occludedWallScan();
+  OctoMapWorldOptions with_margin;
+  with_margin.unknown_margin_m = 0.45;
+  for (int dims : {2, 3}) {
+    const auto world = makeOctoMapWorld(dims, Vec3(-6, -6, -1), Vec3(6, 6, 1), 0.3, toBytes(tree), dims == 2 ? with_margin : OctoMapWorldOptions{});
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(-5.0, 5.0);
+    std::size_t compared = 0;
+    for (int i = 0; i < 300; ++i) {
+      const Vec3 p(u(rng), u(rng), dims == 3 ? 0.05 : 0.0);
+      const double range = 0.5 + std::abs(u(rng));
+      std::vector<NearbyObstacle> expected;
+      std::set<int> bricks;
+      for (const auto& o : world->obstaclesNear(p, range))
+        if (bricks.insert(o.id / 512).second) expected.push_back(o);
+      const auto got = world->nearestPerBrick(p, range);
+      ASSERT_EQ(got.size(), expected.size()) << p.transpose();
+      for (std::size_t k = 0; k < got.size(); ++k) {
+        EXPECT_EQ(got[k].id, expected[k].id);
+        EXPECT_EQ(got[k].distance, expected[k].distance);
+        EXPECT_EQ(got[k].nearest_point, expected[k].nearest_point);
+      }
+      compared += got.size();
+    }
+    EXPECT_GT(compared, 300u) << dims;
+  }
+}
+
 TEST(OctoMapWorld, UnknownMarginLeavesHolesBetweenBeamsFree) {
   octomap::OcTree tree(0.1);
   for (double x = 0.05; x < 2.0; x += 0.1) tree.updateNode(x, 0.05, 0.05, true);  // a wall's face along y = 0

@@ -32,6 +32,9 @@ class SharedWorld final : public planner::CollisionWorld {
   std::vector<planner::NearbyObstacle> obstaclesNear(const planner::Vec3& p, double range) const override {
     return world_->obstaclesNear(p, range);
   }
+  std::vector<planner::NearbyObstacle> nearestPerBrick(const planner::Vec3& p, double range) const override {
+    return world_->nearestPerBrick(p, range);
+  }
 
  private:
   std::shared_ptr<const planner::CollisionWorld> world_;

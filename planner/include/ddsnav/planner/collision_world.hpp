@@ -46,6 +46,14 @@ class CollisionWorld {
   // Obstacles whose surface is within `range` of p, nearest first.
   virtual std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const = 0;
 
+  // obstaclesNear with a voxel map's voxels reduced to the nearest one of each 8x8x8-voxel brick (an OctoMap
+  // world's ids are brick * 512 + bit; the same entries, in the same order, as the first of each brick in
+  // obstaclesNear's list), nearest first; worlds of other shapes: obstaclesNear. The fused world's query
+  // (makeFusedWorld): a wall or the unknown margin within a planner's detection range holds thousands of
+  // voxels, and listing and sorting every one of them for each candidate was most of a bug-trap solve.
+  // Wrappers forward it.
+  virtual std::vector<NearbyObstacle> nearestPerBrick(const Vec3& p, double range) const { return obstaclesNear(p, range); }
+
   // Step used by isSegmentFree; small enough for the narrowest shipped passage (0.3 m tunnel).
   virtual double checkResolution() const { return check_resolution_; }
   void setCheckResolution(double r) { check_resolution_ = r; }
