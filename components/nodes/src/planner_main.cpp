@@ -41,6 +41,7 @@ class PlannerComponent : public runtime::Component {
     std::optional<double> unknown_margin_m;       // default: nodes::defaultUnknownMargin
     std::optional<double> hidden_continuation_m;  // default: nodes::defaultHiddenContinuation
     double improve_for_s;
+    double preferred_worlds_s;
     std::optional<double> route_lattice_s;  // default: routeLatticeDefault
     double guide_bias;
     std::vector<std::string> planner_options;
@@ -70,6 +71,13 @@ class PlannerComponent : public runtime::Component {
               {.min = 0, .max = 60, .unit = "s",
                .doc = "after the first solution, keep improving the path this long (within the request's budget; a first solution "
                       "in a bug trap is a 30-50 % detour: docs/planners.md); 0: the first solution"})),
+          // 0.15 s: the scan -> new trajectory target. A world tried first for the first time had a tenth of the budget
+          // (0.5 s), and two such failures in a row held a bug-trap replan 0.62 s (docs/world-model.md).
+          preferred_worlds_s(p.declare<double>(
+              "preferred_worlds_s", 0.15,
+              {.min = 0, .max = 60, .unit = "s",
+               .doc = "the most the worlds tried before the plain map (unknown_margin_m, hidden_continuation_m) may search together "
+                      "before the plain map is planned on; 0: only the plain map"})),
           // On by default in 2-D since the bug traps' replans spent 0.2 s failing on preferred worlds that were closed;
           // off in 3-D, where there are none and city_3d's missions took longer with the guide (docs/planners.md,
           // "Lattice routes").
@@ -208,7 +216,9 @@ class PlannerComponent : public runtime::Component {
       std::optional<planner::PlanResult> result;
       double spent = 0.0;  // of the budget, by failed searches on the earlier worlds
       for (Tier* tier : tiers) {
-        const double share = tier->share(budget - spent);
+        const double room = std::min(params_.preferred_worlds_s, budget) - spent;  // of preferred_worlds_s
+        if (room < 0.01) break;
+        const double share = std::min(tier->share(budget - spent), room);
         Skipped skipped = Skipped::no;
         result = attempt(request, algorithm, stop, tier->preferred, tier->continued ? hidden_continuation_m_ : 0.0, share, &skipped);
         if (!result) return;  // answered (failed)
