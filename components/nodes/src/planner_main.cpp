@@ -42,7 +42,7 @@ class PlannerComponent : public runtime::Component {
     std::optional<double> hidden_continuation_m;  // default: nodes::defaultHiddenContinuation
     double improve_for_s;
     double preferred_worlds_s;
-    std::optional<double> route_lattice_s;  // default: routeLatticeDefault
+    std::optional<double> route_lattice_s;  // default: 0.03 s in 2-D, 0 (off) in 3-D
     double guide_bias;
     std::vector<std::string> planner_options;
     explicit Params(runtime::Parameters& p)
@@ -215,7 +215,7 @@ class PlannerComponent : public runtime::Component {
         if (hidden_continuation_m_ > 0.0) tiers.push_back(&continuation_tier_);
       }
       std::optional<planner::PlanResult> result;
-      double spent = 0.0;  // of the budget, by failed searches on the earlier worlds
+      double spent = 0.0;  // of the budget, by failed searches and lattice searches on the earlier worlds
       for (Tier* tier : tiers) {
         const double room = std::min(params_.preferred_worlds_s, budget) - spent;  // of preferred_worlds_s
         if (room < 0.01) break;
@@ -324,7 +324,7 @@ class PlannerComponent : public runtime::Component {
       const planner::CoarseRoute route =
           planner::findCoarseRoute(*world, problem.start.position, problem.goal, problem.goal_radius, lattice);
       if (tier && route.outcome == planner::CoarseRoute::Outcome::none) return notSearched(Skipped::no_route, route.time_s);
-      if (route.outcome == planner::CoarseRoute::Outcome::gave_up)
+      if (route.outcome == planner::CoarseRoute::Outcome::gave_up && !stop.stop_requested())
         spdlog::info("request {}: no lattice route within {:.1f} ms ({} cells of {:.2f} m); sampling without a guide", request.request_id(),
                      1e3 * route.time_s, route.expanded, route.cell_m);
       time_limit_s = std::max(time_limit_s - route.time_s, 1e-3);
