@@ -197,10 +197,14 @@ class MonitorComponent : public runtime::Component {
     run.sim_elapsed_s = started_ns_ ? (clock().nowNs() - started_ns_) * 1e-9 : 0.0;
     if (!clock_stopped_.empty()) run.failure = run.failure.empty() ? clock_stopped_ : run.failure + "; " + clock_stopped_;
     if (seen_.goal_entered_ns) {
-      // From the mission's start: the first plan request, else (it was missed) the first trajectory.
-      const auto from = !seen_.requests.empty()
-                            ? std::optional<std::int64_t>(started_ns_ + static_cast<std::int64_t>(seen_.requests.front().sim_time_s * 1e9))
-                            : seen_.first_trajectory_ns;
+      // From the mission's start: the first plan request, or the first trajectory when that came earlier — the first
+      // request can be missed while the monitor and the tracker still discover each other (bugtrap_1.0, 2026-12-04:
+      // request 1 missed, the time counted from request 2, 41 s into the mission: 16.6 s, "0.35x").
+      std::optional<std::int64_t> from = seen_.first_trajectory_ns;
+      if (!seen_.requests.empty()) {
+        const std::int64_t requested = started_ns_ + static_cast<std::int64_t>(seen_.requests.front().sim_time_s * 1e9);
+        from = from ? std::min(*from, requested) : requested;
+      }
       if (from) run.sim_time_to_goal_s = (*seen_.goal_entered_ns - *from) * 1e-9;
     }
     if (const auto closest = nodes::closestApproach(scenario_, seen_.track)) {
