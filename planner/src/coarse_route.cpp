@@ -151,11 +151,7 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, c
     here.closed = true;
     ++route.expanded;
     const Vec3 at = index == first ? start : point(index);
-    if ((at - goal).norm() <= goal_reach && index != first) {
-      reached = index;
-      break;
-    }
-    if (index == first && (start - goal).norm() <= goal_reach) {
+    if ((at - goal).norm() <= goal_reach) {
       reached = index;
       break;
     }

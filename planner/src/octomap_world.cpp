@@ -689,57 +689,52 @@ class OctoMapWorld final : public CollisionWorld {
     std::sort(tiles.begin(), tiles.end());
     tiles.erase(std::unique(tiles.begin(), tiles.end()), tiles.end());
     for (const auto& [tile_x, tile_y] : tiles) {
-      {
-        const std::int64_t tx = lo.x + tile_x * kTile, ty = lo.y + tile_y * kTile;
-        const Cell t_lo{tx, ty, 0}, t_hi{std::min(tx + kTile - 1, hi.x), std::min(ty + kTile - 1, hi.y), 0};
-        const Cell g_lo{t_lo.x - halo, t_lo.y - halo, 0}, g_hi{t_hi.x + halo, t_hi.y + halo, 0};
-        const std::int64_t gw = g_hi.x - g_lo.x + 1, gh = g_hi.y - g_lo.y + 1;
-        state.assign(static_cast<std::size_t>(gw * gh), 0);
-        bool any_occupied = false;
-        forBricksIn(g_lo, g_hi, [&](std::uint32_t, const Brick& b) {
-          const std::uint64_t occupied = b.occupied[0], known = b.known[0];
-          any_occupied |= occupied != 0;
-          for (unsigned bit = 0; bit < 64; ++bit) {
-            const std::int64_t x = std::int64_t(b.bx) * 8 + (bit & 7) - g_lo.x, y = std::int64_t(b.by) * 8 + (bit >> 3) - g_lo.y;
-            if (x < 0 || y < 0 || x >= gw || y >= gh) continue;
-            state[static_cast<std::size_t>(y * gw + x)] =
-                static_cast<std::uint8_t>(((occupied >> bit) & 1u) * kOccupied | ((known >> bit) & 1u) * kKnown);
-          }
-        });
-        if (!any_occupied) continue;
-        auto at = [&](std::int64_t x, std::int64_t y) { return state[static_cast<std::size_t>((y - g_lo.y) * gw + (x - g_lo.x))]; };
-        const std::int64_t tw = t_hi.x - t_lo.x + 1, th = t_hi.y - t_lo.y + 1;
-        candidate.assign(static_cast<std::size_t>(tw * th), 0);
-        for (std::int64_t y = t_lo.y - m; y <= t_hi.y + m; ++y) {
-          for (std::int64_t x = t_lo.x - m; x <= t_hi.x + m; ++x) {
-            if (!(at(x, y) & kOccupied)) continue;
-            const bool face = !(at(x + 1, y) & kOccupied) || !(at(x - 1, y) & kOccupied) || !(at(x, y + 1) & kOccupied) ||
-                              !(at(x, y - 1) & kOccupied);
-            if (!face) continue;
-            for (const auto& [dx, dy] : disk) {
-              const std::int64_t nx = x + dx - t_lo.x, ny = y + dy - t_lo.y;
-              if (nx >= 0 && ny >= 0 && nx < tw && ny < th) candidate[static_cast<std::size_t>(ny * tw + nx)] = 1;
-            }
+      const std::int64_t tx = lo.x + tile_x * kTile, ty = lo.y + tile_y * kTile;
+      const Cell t_lo{tx, ty, 0}, t_hi{std::min(tx + kTile - 1, hi.x), std::min(ty + kTile - 1, hi.y), 0};
+      const Cell g_lo{t_lo.x - halo, t_lo.y - halo, 0}, g_hi{t_hi.x + halo, t_hi.y + halo, 0};
+      const std::int64_t gw = g_hi.x - g_lo.x + 1, gh = g_hi.y - g_lo.y + 1;
+      state.assign(static_cast<std::size_t>(gw * gh), 0);
+      forBricksIn(g_lo, g_hi, [&](std::uint32_t, const Brick& b) {
+        const std::uint64_t occupied = b.occupied[0], known = b.known[0];
+        for (unsigned bit = 0; bit < 64; ++bit) {
+          const std::int64_t x = std::int64_t(b.bx) * 8 + (bit & 7) - g_lo.x, y = std::int64_t(b.by) * 8 + (bit >> 3) - g_lo.y;
+          if (x < 0 || y < 0 || x >= gw || y >= gh) continue;
+          state[static_cast<std::size_t>(y * gw + x)] =
+              static_cast<std::uint8_t>(((occupied >> bit) & 1u) * kOccupied | ((known >> bit) & 1u) * kKnown);
+        }
+      });
+      auto at = [&](std::int64_t x, std::int64_t y) { return state[static_cast<std::size_t>((y - g_lo.y) * gw + (x - g_lo.x))]; };
+      const std::int64_t tw = t_hi.x - t_lo.x + 1, th = t_hi.y - t_lo.y + 1;
+      candidate.assign(static_cast<std::size_t>(tw * th), 0);
+      for (std::int64_t y = t_lo.y - m; y <= t_hi.y + m; ++y) {
+        for (std::int64_t x = t_lo.x - m; x <= t_hi.x + m; ++x) {
+          if (!(at(x, y) & kOccupied)) continue;
+          const bool face = !(at(x + 1, y) & kOccupied) || !(at(x - 1, y) & kOccupied) || !(at(x, y + 1) & kOccupied) ||
+                            !(at(x, y - 1) & kOccupied);
+          if (!face) continue;
+          for (const auto& [dx, dy] : disk) {
+            const std::int64_t nx = x + dx - t_lo.x, ny = y + dy - t_lo.y;
+            if (nx >= 0 && ny >= 0 && nx < tw && ny < th) candidate[static_cast<std::size_t>(ny * tw + nx)] = 1;
           }
         }
-        auto observedFreeAt = [&](std::int64_t x, std::int64_t y) { return (at(x, y) & (kOccupied | kKnown)) == kKnown; };
-        auto betweenBeams = [&](std::int64_t x, std::int64_t y) {
-          for (const auto& [ux, uy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{1, -1}}) {
-            bool ahead = false, behind = false;
-            for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observedFreeAt(x + k * ux, y + k * uy);
-            for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observedFreeAt(x - k * ux, y - k * uy);
-            if (ahead && behind) return true;
-          }
-          return false;
-        };
-        for (std::int64_t ny = 0; ny < th; ++ny)
-          for (std::int64_t nx = 0; nx < tw; ++nx) {
-            if (!candidate[static_cast<std::size_t>(ny * tw + nx)]) continue;
-            const std::int64_t x = t_lo.x + nx, y = t_lo.y + ny;
-            if (at(x, y) & (kOccupied | kKnown) || betweenBeams(x, y)) continue;
-            marks[pack(x >> 3, y >> 3, 0)] |= std::uint64_t(1) << bitOf({x, y, 0});
-          }
       }
+      auto observedFreeAt = [&](std::int64_t x, std::int64_t y) { return (at(x, y) & (kOccupied | kKnown)) == kKnown; };
+      auto betweenBeams = [&](std::int64_t x, std::int64_t y) {
+        for (const auto& [ux, uy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{1, -1}}) {
+          bool ahead = false, behind = false;
+          for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observedFreeAt(x + k * ux, y + k * uy);
+          for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observedFreeAt(x - k * ux, y - k * uy);
+          if (ahead && behind) return true;
+        }
+        return false;
+      };
+      for (std::int64_t ny = 0; ny < th; ++ny)
+        for (std::int64_t nx = 0; nx < tw; ++nx) {
+          if (!candidate[static_cast<std::size_t>(ny * tw + nx)]) continue;
+          const std::int64_t x = t_lo.x + nx, y = t_lo.y + ny;
+          if (at(x, y) & (kOccupied | kKnown) || betweenBeams(x, y)) continue;
+          marks[pack(x >> 3, y >> 3, 0)] |= std::uint64_t(1) << bitOf({x, y, 0});
+        }
     }
     for (const auto& [key, mask] : marks) {
       constexpr std::int64_t kb = kCellLimit / 8;

@@ -32,7 +32,7 @@ namespace ddsnav::tracker {
 
 struct ReplanPolicy {
   int confirm_checks = 5;           // consecutive blocked checks that confirm a block (>= 1); 0.5 s at 10 Hz
-  // ... and a block too near to plan ahead of (the vehicle stops for it): confirmed by this many, at most
+  // Consecutive blocked checks that confirm a block too near to plan ahead of (the vehicle stops for it), at most
   // confirm_checks. Half a second at 5 m/s is 2.5 m of a stopping distance of 6.25 m (gart_cluttered_2d: a block
   // first seen 1 s ahead was confirmed 0.54 s ahead, too late to stop before it).
   int near_confirm_checks = 2;
