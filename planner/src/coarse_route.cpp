@@ -144,7 +144,7 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, c
   while (!open.empty()) {
     if ((route.expanded & 255) == 0 && (elapsed() > options.time_limit_s || options.stop.stop_requested())) break;
     if (cells.size() >= options.max_cells_seen) break;
-    const auto [f, index] = open.top();
+    const std::uint32_t index = open.top().second;  // a plain variable: lambdas below capture it
     open.pop();
     Cell& here = cells[index];
     if (here.closed) continue;
