@@ -18,6 +18,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -34,6 +35,7 @@ constexpr std::uint64_t kEmpty = ~0ull;
 constexpr std::int64_t kCellLimit = 32768;  // OctoMap keys are 16 bits: cells -32768 .. 32767 per axis
 constexpr std::size_t kMaxContinuationCells = 1u << 20;  // occludedSurfaceContinuation's output, at most
 constexpr std::size_t kMaxClippedCellsPerEllipse = 1u << 16;  // a larger ellipse is not clipped (kept whole)
+constexpr std::int64_t kMaxObservedDiscCells = 1 << 16;  // a larger disc is not judged (nullopt)
 
 struct Cell {
   std::int64_t x, y, z;
@@ -251,6 +253,24 @@ class OctoMapWorld final : public CollisionWorld {
   }
 
   // See occludedSurfaceContinuation (collision_world.hpp).
+  // See robotInObservedFreeSpace (collision_world.hpp).
+  std::optional<bool> robotObservedFree(const Vec3& p) const {
+    if (dims_ != 2 || !knowsObservedFree() || !p.allFinite()) return std::nullopt;
+    // Half a cell of the disc's rim may overlap cells never observed: the plain check already keeps every observed
+    // hit out of the whole disc, and the surface cell beside a path the smoother keeps a few centimetres from a wall
+    // is often unsampled at grazing incidence (a stop in front of every narrow passage otherwise).
+    const double r = std::max(0.0, radius_ - 0.5 * resolution_);
+    Cell lo, hi;
+    cellRange(p, r, lo, hi);
+    if ((hi.x - lo.x + 1) * (hi.y - lo.y + 1) > kMaxObservedDiscCells) return std::nullopt;
+    for (std::int64_t x = lo.x; x <= hi.x; ++x)
+      for (std::int64_t y = lo.y; y <= hi.y; ++y) {
+        const Cell c{x, y, 0};
+        if (distanceToCells(p, c, c) < r && !observedFree(c)) return false;
+      }
+    return true;
+  }
+
   OccludedContinuation occludedContinuation(const Vec3& viewpoint, double max_length) const {
     OccludedContinuation out;
     out.cell_size = resolution_;
@@ -1123,6 +1143,11 @@ OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, co
     throw std::invalid_argument("occludedSurfaceContinuation: max_length_m must be in [0, 1000] m");
   const auto* map = dynamic_cast<const OctoMapWorld*>(&world);
   return map ? map->occludedContinuation(viewpoint, max_length_m) : OccludedContinuation{};
+}
+
+std::optional<bool> robotInObservedFreeSpace(const CollisionWorld& world, const Vec3& p) {
+  const auto* map = dynamic_cast<const OctoMapWorld*>(&world);
+  return map ? map->robotObservedFree(p) : std::nullopt;
 }
 
 ClippedObstacles clipToObservedSpace(const CollisionWorld& world, const std::vector<EllipsoidObstacle>& ellipses) {

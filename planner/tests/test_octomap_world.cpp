@@ -868,5 +868,31 @@ TEST(BlockedCellsWorld, FreeAndClearanceAsABruteForceScanSays) {
   EXPECT_THROW(makeBlockedCellsWorld(map, {Vec3(std::nan(""), 0, 0)}, 0.1), std::invalid_argument);
 }
 
+// robotInObservedFreeSpace: a scan from the origin of a wall at x = 3 and a small block at (1.0..1.5, 0.5..0.7) whose
+// shadow (bearings 18-35 degrees beyond it) the scanner never saw. The plain map, optimistic, has the shadow free.
+TEST(OctoMapWorld, ObservedFreeSpaceIsWhereRaysCrossedAndTheShadowIsNot) {
+  const octomap::OcTree tree = boxesScan({{{3.0, -2.0}, {5.0, 2.0}}, {{1.0, 0.5}, {1.5, 0.7}}}, 1440, 8.0);
+  OctoMapWorldOptions options;
+  options.keep_observed_free = true;
+  const auto map = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree), options);
+  const Vec3 open(1.5, -0.3, 0), before_the_wall(2.55, -0.5, 0), in_the_shadow(2.3, 1.15, 0);  // open: rays to the wall cross it
+  EXPECT_EQ(robotInObservedFreeSpace(*map, open), std::optional<bool>(true));
+  EXPECT_EQ(robotInObservedFreeSpace(*map, before_the_wall), std::optional<bool>(true));  // 0.15 m from the face
+  EXPECT_TRUE(map->isFree(in_the_shadow));
+  EXPECT_EQ(robotInObservedFreeSpace(*map, in_the_shadow), std::optional<bool>(false));
+  EXPECT_EQ(robotInObservedFreeSpace(*map, Vec3(2.8, -0.5, 0)), std::optional<bool>(false));  // over the face's hits
+  // Beside the wall's end, where the beams hit nothing within the scan's range: a beam without a return clears no
+  // cell (why stop_within_observed is off by default).
+  EXPECT_EQ(robotInObservedFreeSpace(*map, Vec3(1.5, -1.6, 0)), std::optional<bool>(false));
+  // A world that cannot tell: no free cells kept, a 3-D map, another kind of world, a point that is not finite.
+  const auto plain = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree), OctoMapWorldOptions{});
+  EXPECT_EQ(robotInObservedFreeSpace(*plain, open), std::nullopt);
+  const auto volume = makeOctoMapWorld(3, Vec3(-6, -6, -1), Vec3(6, 6, 1), 0.3, toBytes(tree), options);
+  EXPECT_EQ(robotInObservedFreeSpace(*volume, open), std::nullopt);
+  const auto ellipses = makeEllipsoidWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, {});
+  EXPECT_EQ(robotInObservedFreeSpace(*ellipses, open), std::nullopt);
+  EXPECT_EQ(robotInObservedFreeSpace(*map, Vec3(std::nan(""), 0, 0)), std::nullopt);
+}
+
 }  // namespace
 }  // namespace ddsnav::planner

@@ -179,6 +179,13 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
     cmd = purePursuit(state, proj);
 
   if (!reference_done) cmd.v = std::min(cmd.v, brakingCap(proj));
+  // Stopping within observed space (limitToObservedSpace).
+  observed_cap_ = std::numeric_limits<double>::infinity();
+  if (observed_arc_ < std::numeric_limits<double>::infinity()) {
+    const double room = observed_arc_ - proj.arc_length;
+    observed_cap_ = std::sqrt(2 * observed_decel_ * std::max(0.0, room));
+    cmd.v = std::min(cmd.v, observed_cap_);
+  }
   cmd.v = std::clamp(cmd.v, 0.0, limits_.v_max);
   cmd.omega = std::clamp(cmd.omega, -limits_.omega_max, limits_.omega_max);
   cmd.vz = trajectory_->dimensions == 3 ? std::clamp(cmd.vz, -limits_.vz_max, limits_.vz_max) : 0.0;
@@ -202,6 +209,13 @@ double TrajectoryTracker::brakingCap(const Projection& proj) const {
     cap = std::min(cap, std::sqrt(j->speed * j->speed + 2 * a * std::max(0.0, ahead)));
   }
   return cap;
+}
+
+void TrajectoryTracker::limitToObservedSpace(double arc, double decel) {
+  if (std::isnan(arc)) throw std::invalid_argument("tracker: the observed-space bound's arc length is NaN");
+  if (!(decel > 0) || !std::isfinite(decel)) throw std::invalid_argument("tracker: the observed-space bound's deceleration must be positive");
+  observed_arc_ = arc;
+  observed_decel_ = decel;
 }
 
 double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {

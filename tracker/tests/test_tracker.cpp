@@ -328,3 +328,50 @@ TEST(Tracker, CatchingUpNeverOutrunsTheBrakingDistanceToTheNextStop) {
   EXPECT_FALSE(uncapped_within);  // without the cap the command exceeds it (the test can fail)
   std::printf("overshoot past the stop: %.3f m with the cap, %.3f m without\n", overshoot, uncapped);
 }
+
+// Stopping within observed space: a vehicle at speed on a straight 20 m trajectory whose map has observed it free only
+// for its first 8 m stops before 8 m, holds there, and drives on to the end once the bound is lifted (the space seen).
+TEST(Tracker, AVehicleStopsBeforeSpaceTheMapHasNotObservedFree) {
+  auto sc = scenario2d(40, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto traj = smoothPath(pathOf({{1, 5, 0}, {21, 5, 0}}), *world, *sc.vehicle);
+  const double unobserved_from_x = 9.0;  // the trajectory's arc length 8 m
+  const double stop_arc = observedStopArc(traj, 0.0, 100.0, [&](const Vec3& p) -> std::optional<bool> {
+    return p.x() < unobserved_from_x;
+  });
+  ASSERT_LT(stop_arc, 8.0);
+  EXPECT_GT(stop_arc, 7.5);  // the last sample before 8 m
+  TrajectoryTracker tracker(traj, *sc.vehicle);
+  tracker.limitToObservedSpace(stop_arc, 1.0);
+  VehicleConfig vc;
+  vc.limits = *sc.vehicle;
+  vc.noise = VehicleNoise::none();
+  VehicleState start;
+  start.position = {1, 5, 0};
+  UnicycleVehicle vehicle(vc, start);
+  double farthest = 0.0;
+  for (int i = 0; i < 600; ++i) {
+    vehicle.step(tracker.update(vehicle.state(), 0.05), 0.05);
+    farthest = std::max(farthest, vehicle.state().position.x());
+  }
+  EXPECT_LE(farthest, 1.0 + stop_arc + 0.05);
+  EXPECT_GT(farthest, 1.0 + stop_arc - 0.5);  // it got there, held rather than stopped early
+  EXPECT_LT(tracker.observedSpaceCap(), 0.5);
+  EXPECT_FALSE(tracker.status().goal_reached);
+  tracker.limitToObservedSpace(std::numeric_limits<double>::infinity(), 1.0);
+  for (int i = 0; i < 1200 && !tracker.status().goal_reached; ++i) vehicle.step(tracker.update(vehicle.state(), 0.05), 0.05);
+  EXPECT_TRUE(tracker.status().goal_reached);
+  EXPECT_NEAR(vehicle.state().position.x(), 21.0, 0.2);
+
+  // Every sample observed, or none that can be judged: no bound. The first sample unobserved: stop where the vehicle is.
+  EXPECT_EQ(observedStopArc(traj, 0.0, 100.0, [](const Vec3&) -> std::optional<bool> { return true; }),
+            std::numeric_limits<double>::infinity());
+  EXPECT_EQ(observedStopArc(traj, 0.0, 100.0, [](const Vec3&) -> std::optional<bool> { return std::nullopt; }),
+            std::numeric_limits<double>::infinity());
+  EXPECT_EQ(observedStopArc(traj, 3.0, 100.0, [](const Vec3&) -> std::optional<bool> { return false; }), 3.0);
+  // Beyond the reach nothing is looked at.
+  EXPECT_EQ(observedStopArc(traj, 0.0, 5.0, [&](const Vec3& p) -> std::optional<bool> { return p.x() < unobserved_from_x; }),
+            std::numeric_limits<double>::infinity());
+  EXPECT_THROW(tracker.limitToObservedSpace(std::nan(""), 1.0), std::invalid_argument);
+  EXPECT_THROW(tracker.limitToObservedSpace(5.0, 0.0), std::invalid_argument);
+}

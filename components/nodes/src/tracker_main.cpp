@@ -53,6 +53,8 @@ class TrackerComponent : public runtime::Component {
     std::optional<double> piece_length_m;
     tracker::SmootherConfig smoother;
     double max_decel;
+    bool stop_within_observed;
+    double observed_hold_s;
     std::optional<double> catch_up_decel;  // default: the smoother's max_accel in 2-D, off in 3-D
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
@@ -102,6 +104,21 @@ class TrackerComponent : public runtime::Component {
       max_decel = p.declare<double>("max_decel", 2.0,
                                     {.above = 0, .max = 1000, .unit = "m/s^2",
                                      .doc = "deceleration the vehicle can brake at; a stop brakes along the trajectory at limit_fraction (0.85) of it"});
+      // A 2-D replan check only sees what the map has: a wall's face scanned at grazing incidence from down a corridor
+      // is found when the vehicle is about a second from it (an unseen S-tunnel layout, 2026-12-05: the block seen
+      // 0.95 s ahead at 4.2 m/s, the vehicle 0.3 m into the wall). Off by default: the simulated scanner gives no point
+      // for a beam that hits nothing, so the map never marks open space observed free and the bound held the vehicle
+      // at the start of open worlds (docs/tracking.md, "Stopping within observed space").
+      stop_within_observed = p.declare<bool>(
+          "stop_within_observed", false,
+          {.doc = "2-D map and fused worlds: the vehicle never goes faster than still stops, at limit_fraction of max_decel, before "
+                  "the first point of its trajectory whose robot disc the map has not observed free (docs/tracking.md); needs a "
+                  "sensor whose beams that hit nothing still clear the map"});
+      observed_hold_s = p.declare<double>(
+          "observed_hold_s", 3.0,
+          {.above = 0, .max = 1e4, .unit = "s",
+           .doc = "a vehicle held at rest this long by stop_within_observed stops waiting and plans again from where it is"});
+      world.keep_observed_free = stop_within_observed;
       smoother.sample_dt = p.declare<double>("sample_dt", smoother.sample_dt, {.above = 0, .unit = "s", .doc = "trajectory sample spacing"});
       // Perceived obstacles grow as more of them is scanned: on gart_cluttered_2d ellipses grew by 0.05-0.32 m
       // next to trajectories kept 0.16-0.2 m away, the vehicle touched them and then stood inside the
@@ -525,6 +542,7 @@ class TrackerComponent : public runtime::Component {
     double reference_time = 0.0;
     tracker::ReplanDecision decision;
     double took_s = 0.0;
+    double observed_stop_arc = std::numeric_limits<double>::infinity();  // stop_within_observed: where to have stopped by
   };
   void checkOnWorldChange() {
     if (!follower_ || !vehicle_ || stopping_for_ || next_trajectory_ || checking_.valid() || !mission_.driving()) return;
@@ -542,12 +560,28 @@ class TrackerComponent : public runtime::Component {
       const auto started = std::chrono::steady_clock::now();
       Checked out{serial, follower.status().reference_time, {}, 0.0};
       if (const auto world = currentWorld(position)) out.decision = follower.checkReplan(*world, horizon);
+      if (params_.stop_within_observed) out.observed_stop_arc = observedStopArc(follower);
       out.took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       token.reset();
       ctx().executor().post([this] { takeUpNow(Arrived::Check); });
       return out;
     });
   }
+
+  // stop_within_observed: where on the follower's trajectory the vehicle must have stopped to stay in space the
+  // newest 2-D map has observed free, looked for as far as a stop from top speed reaches, and a little more (the
+  // next check comes a period later); infinity without such a map.
+  double observedStopArc(const tracker::TrajectoryTracker& follower) const {
+    const auto observed = world_source_.observedSpace();
+    if (!observed) return std::numeric_limits<double>::infinity();
+    const auto& trajectory = follower.trajectory();
+    const auto& status = follower.status();
+    const double vehicle_arc = std::max(0.0, trajectory.at(status.reference_time).arc_length + status.along_track_error);
+    const double reach = limits_.v_max * limits_.v_max / (2 * observedDecel()) + limits_.v_max + 2 * scenario_.robot_radius;
+    return tracker::observedStopArc(trajectory, vehicle_arc, reach,
+                                    [&](const planner::Vec3& p) { return planner::robotInObservedFreeSpace(*observed, p); });
+  }
+  double observedDecel() const { return smoother_config_.limit_fraction * params_.max_decel; }
 
   // A stop brakes along the trajectory being flown, until the vehicle is at rest (the control step follows it). A
   // zero command alone let the vehicle coast straight on along its heading while its speed ran down — metres off
@@ -727,6 +761,7 @@ class TrackerComponent : public runtime::Component {
     if (!ready(checking_)) return;
     Checked checked = checking_.get();
     if (checked.took_s > 1.0) spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check)", checked.took_s);
+    if (follower_ && checked.trajectory_serial == trajectory_serial_) follower_->limitToObservedSpace(checked.observed_stop_arc, observedDecel());
     // Only a check of the trajectory still flown counts, and only while no new one waits for its switch;
     // while one is smoothed only a stop counts (react).
     if (follower_ && checked.trajectory_serial == trajectory_serial_ && !next_trajectory_) react(checked, state);
@@ -771,6 +806,7 @@ class TrackerComponent : public runtime::Component {
       startNextPiece();
     const auto command = follower_->update(*state, dt);
     const auto& status = follower_->status();
+    if (heldByUnobservedSpace(*state)) return;
     // A line every 10 s of driving, so a run that creeps along one trajectory says why in the log (the
     // reference held back by max_lead, a slow vehicle, a small command).
     if (clock().nowNs() - last_progress_log_ns_ > 10'000'000'000LL) {
@@ -807,6 +843,30 @@ class TrackerComponent : public runtime::Component {
       startCheck(*state);  // unless a new obstacle array was just checked
     }
     takeChecked(*state);
+  }
+
+  // stop_within_observed holds the vehicle before space the map has not observed free until it is seen; a vehicle
+  // held at rest for observed_hold_s (the space stays unseen: hidden behind the vehicle's own trajectory's corner,
+  // or never reached by a ray) stops waiting and plans again from where it is. True when it did.
+  bool heldByUnobservedSpace(const tracker::VehicleState& state) {
+    const double cap = follower_->observedSpaceCap();
+    const bool held = cap < 0.05 * limits_.v_max && std::abs(state.v) < 0.05 * limits_.v_max && !mission_.awaitingPlan() &&
+                      !next_trajectory_ && !smoothing_.valid();
+    if (!held) {
+      held_since_ns_.reset();
+      if (cap < 0.5 * limits_.v_max && clock().nowNs() - last_observed_log_ns_ > 5'000'000'000LL) {
+        last_observed_log_ns_ = clock().nowNs();
+        spdlog::info("slowing to {:.2f} m/s: the map has observed the trajectory free for only {:.1f} m ahead", cap,
+                     follower_->observedSpaceArc() - (follower_->trajectory().at(follower_->status().reference_time).arc_length +
+                                                      follower_->status().along_track_error));
+      }
+      return false;
+    }
+    if (!held_since_ns_) held_since_ns_ = clock().nowNs();
+    if (static_cast<double>(clock().nowNs() - *held_since_ns_) * 1e-9 < params_.observed_hold_s) return false;
+    held_since_ns_.reset();
+    stopToPlanAtRest(state, fmt::format("unobserved_ahead: held {:.1f} s before space the map has not observed free", params_.observed_hold_s));
+    return true;
   }
 
   void react(Checked checked, const tracker::VehicleState& current) {
@@ -870,6 +930,8 @@ class TrackerComponent : public runtime::Component {
   double flown_pieces_m_ = 0.0;           // the plan's pieces flown before the current one, m
   double last_piece_smoothing_s_ = -1.0;  // clock seconds the last next piece took; < 0: none yet
   std::future<Smoothed> smoothing_;
+  std::optional<std::int64_t> held_since_ns_;  // stop_within_observed: since when the vehicle is held at rest
+  std::int64_t last_observed_log_ns_ = 0;
   unsigned rest_start_refusals_ = 0;  // plans refused in a row for starting at rest while the vehicle is moving
   std::optional<std::string> stopping_for_;  // a stop-and-replan's reason, until the vehicle is at rest
   std::int64_t stopping_since_ns_ = 0;

@@ -109,6 +109,8 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
                             ? world.surface_margin_m
                             : 0.0),
       clip_obstacles_(world.clip_obstacles_to_map && scenario.dimensions == 2 && kind_ == WorldKind::Fused),
+      keep_observed_free_(scenario.dimensions == 2 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) &&
+                          (clip_obstacles_ || world.keep_observed_free)),
       clock_(ctx.clock()),
       preferred_on_demand_(preferred_on_demand) {
   if (preferred_unknown_margin_m > 0.0 && scenario.dimensions == 2 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) &&
@@ -175,7 +177,7 @@ planner::OctoMapWorldOptions WorldSource::mapOptions(bool preferred) const {
   options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
   options.solid_below_surface = solid_below_surface_;
   options.surface_margin_m = surface_margin_m_;
-  options.keep_observed_free = clip_obstacles_;
+  options.keep_observed_free = keep_observed_free_;
   if (preferred) options.unknown_margin_m = preferred_unknown_margin_m_;
   return options;
 }
@@ -203,6 +205,12 @@ bool WorldSource::buildMap(const msg::OccupancyMap& m) {
   if (preferred_on_demand_) preferred_source_ = std::move(preferred_source);  // the cache follows in preferredOnDemand
   else preferred_map_world_ = std::move(preferred);
   return true;
+}
+
+std::shared_ptr<const planner::CollisionWorld> WorldSource::observedSpace() const {
+  if (!keep_observed_free_) return nullptr;
+  std::lock_guard lock(mutex_);
+  return map_world_;
 }
 
 bool WorldSource::hasPreferredWorld() const {

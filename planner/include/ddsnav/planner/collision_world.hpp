@@ -188,6 +188,14 @@ struct ClippedObstacles {
 };
 ClippedObstacles clipToObservedSpace(const CollisionWorld& world, const std::vector<EllipsoidObstacle>& ellipses);
 
+// Whether the robot's disc at `p` lies in space a 2-D map has observed free: every cell within the robot radius
+// less half a cell of `p` was crossed by a ray and holds no hit. For the tracker's speed bound (docs/tracking.md,
+// "Stopping within observed space"): optimistic planning plans through space nobody has seen, and the vehicle must
+// still be able to stop before it gets there. std::nullopt when `world` cannot tell: not a 2-D makeOctoMapWorld
+// that loaded its free leaves (keep_observed_free, unknown_margin_m > 0 or unknown_is_occupied), a disc of more
+// than 2^16 cells, or a non-finite p.
+std::optional<bool> robotInObservedFreeSpace(const CollisionWorld& world, const Vec3& p);
+
 // `base` with the given cells (squares of cell_size centred on the points, in the x-y plane; z ignored) blocked as
 // well: a robot overlapping one is not free, and its clearance counts them. For occludedSurfaceContinuation's and
 // clipToObservedSpace's cells.

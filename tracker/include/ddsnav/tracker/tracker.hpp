@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <memory>
 #include <string>
 
@@ -78,6 +79,24 @@ struct ReplanDecision {
                                    // deepest along the blocked run from that sample (within the horizon)
 };
 
+// Where on `trajectory` the robot must have stopped to stay in space the map has observed free: the arc length of
+// the last sample before the first one, at or after arc length `from_arc` and at most `reach` metres beyond it,
+// where `observed_free` says the robot would not be (false); `from_arc` when that is the first sample looked at;
+// infinity when there is none (a sample it cannot judge, nullopt, counts as observed). For
+// TrajectoryTracker::limitToObservedSpace with planner::robotInObservedFreeSpace.
+template <class ObservedFree>
+double observedStopArc(const Trajectory& trajectory, double from_arc, double reach, ObservedFree&& observed_free) {
+  double last_observed = from_arc;
+  for (const TrajectorySample& sample : trajectory.samples) {
+    if (sample.arc_length < from_arc) continue;
+    if (sample.arc_length > from_arc + reach) break;
+    const std::optional<bool> seen = observed_free(sample.position);
+    if (seen && !*seen) return last_observed;
+    last_observed = sample.arc_length;
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
 class TrajectoryTracker {
  public:
   // Throws std::invalid_argument for an empty trajectory or bad limits / gains.
@@ -104,6 +123,15 @@ class TrajectoryTracker {
   // deviation replan after every late switch). Returns the seconds skipped (0 when none).
   double skipToVehicle(const Vec3& position, double within_s);
 
+  // Stopping within observed space (docs/tracking.md): from now on the speed command never exceeds what still
+  // stops, braking at `decel`, by arc length `arc` of the trajectory — before the robot would enter space the
+  // map has not observed free (observedStopArc). The reference waits for the vehicle meanwhile (max_lead).
+  // infinity lifts the bound. std::invalid_argument for a NaN arc or a decel that is not positive and finite.
+  void limitToObservedSpace(double arc, double decel);
+  // The bound's arc length (infinity without one) and the speed it allows the vehicle where it is now.
+  double observedSpaceArc() const { return observed_arc_; }
+  double observedSpaceCap() const { return observed_cap_; }
+
  private:
   struct Projection {
     std::size_t segment = 0;  // samples[segment] .. samples[segment + 1]
@@ -127,6 +155,9 @@ class TrajectoryTracker {
   TrackerConfig config_;
   TrackingStatus status_;
   std::size_t last_segment_ = 0;
+  double observed_arc_ = std::numeric_limits<double>::infinity();
+  double observed_decel_ = 1.0;
+  double observed_cap_ = std::numeric_limits<double>::infinity();  // the bound's speed at the last update
   double sum_cross_ = 0.0, sum_position_ = 0.0;
 };
 

@@ -40,6 +40,9 @@ struct WorldParameters {
   bool sensor_view_below = false;  // `sensor_view_below`: also below the fan's lower edge
   bool clip_obstacles_to_map = true;  // `clip_obstacles_to_map`: planner::clipToObservedSpace (2-D fused world)
   std::optional<double> sensor_vertical_min_deg, sensor_vertical_max_deg, sensor_view_range_m;
+  // Not a parameter: 2-D maps also keep which cells were observed free, for observedSpace() (the tracker's speed
+  // bound). Fused worlds that clip ellipses keep them anyway.
+  bool keep_observed_free = false;
   WorldParameters() = default;
   explicit WorldParameters(runtime::Parameters& params);
 };
@@ -96,6 +99,9 @@ class WorldSource {
   // a free state this much farther out.
   double surfaceMargin() const { return surface_margin_m_; }
   bool hasObstacles() const;  // perception/obstacles received (whatever the kind)
+  // The newest 2-D map as built, when it knows which cells were observed free (planner::robotInObservedFreeSpace);
+  // nullptr otherwise (no map yet, a 3-D or scenario world, or keep_observed_free off and no ellipse clipping).
+  std::shared_ptr<const planner::CollisionWorld> observedSpace() const;
   // Called on the component's executor after each good perception/obstacles array is taken in (not for maps,
   // which are built on a worker): the tracker checks its trajectory at once instead of at its next period.
   void onObstacles(std::function<void()> callback) { on_obstacles_ = std::move(callback); }
@@ -125,6 +131,7 @@ class WorldSource {
   bool solid_below_surface_;
   double surface_margin_m_;
   bool clip_obstacles_;  // 2-D fused: ellipses of mapped surfaces clipped to the space not observed free
+  bool keep_observed_free_;  // 2-D map or fused: maps keep their observed free cells (clip_obstacles_ or asked for)
   std::optional<planner::SensorView> view_;  // set when the sensor view applies (3-D, map or fused, enabled)
   const runtime::Clock& clock_;
   mutable std::mutex mutex_;
