@@ -289,6 +289,16 @@ TEST(BrakeAlong, StopsOnThePathWithinTheBrakingDistance) {
   EXPECT_THROW(brakeAlong(t, from, 1.0, 0.0), std::invalid_argument);
 }
 
+// A vehicle without noise at rest at `position`, heading along +x.
+static UnicycleVehicle noiselessVehicleAt(const VehicleLimits& limits, const Vec3& position) {
+  VehicleConfig vc;
+  vc.limits = limits;
+  vc.noise = VehicleNoise::none();
+  VehicleState start;
+  start.position = position;
+  return UnicycleVehicle(vc, start);
+}
+
 // A vehicle behind its reference (a late switch: the reference ran max_lead ahead while it stood) must not catch up
 // faster than it can still brake for where the reference stops: stunnel_1.0, a catch-up at 2.4 m/s toward a stop
 // 2.3 m ahead next to a wall, overshot it by 0.5 m into the wall.
@@ -299,12 +309,7 @@ static double overshootAfterALateStart(double catch_up_decel, bool* capped) {
   TrackerConfig cfg;
   cfg.catch_up_decel = catch_up_decel;
   TrajectoryTracker tracker(traj, *sc.vehicle, cfg);
-  VehicleConfig vc;
-  vc.limits = *sc.vehicle;
-  vc.noise = VehicleNoise::none();
-  VehicleState start;
-  start.position = {1, 5, 0};
-  UnicycleVehicle vehicle(vc, start);
+  UnicycleVehicle vehicle = noiselessVehicleAt(*sc.vehicle, {1, 5, 0});
   for (int i = 0; i < 40; ++i) tracker.update(vehicle.state(), 0.05);  // standing: the reference runs ahead
   *capped = true;
   double farthest = 0.0;
@@ -343,12 +348,7 @@ TEST(Tracker, AVehicleStopsBeforeSpaceTheMapHasNotObservedFree) {
   EXPECT_GT(stop_arc, 7.5);  // the last sample before 8 m
   TrajectoryTracker tracker(traj, *sc.vehicle);
   tracker.limitToObservedSpace(stop_arc, 1.0);
-  VehicleConfig vc;
-  vc.limits = *sc.vehicle;
-  vc.noise = VehicleNoise::none();
-  VehicleState start;
-  start.position = {1, 5, 0};
-  UnicycleVehicle vehicle(vc, start);
+  UnicycleVehicle vehicle = noiselessVehicleAt(*sc.vehicle, {1, 5, 0});
   double farthest = 0.0;
   for (int i = 0; i < 600; ++i) {
     vehicle.step(tracker.update(vehicle.state(), 0.05), 0.05);
