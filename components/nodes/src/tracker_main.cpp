@@ -574,14 +574,18 @@ class TrackerComponent : public runtime::Component {
   double observedStopArc(const tracker::TrajectoryTracker& follower) const {
     const auto observed = world_source_.observedSpace();
     if (!observed) return std::numeric_limits<double>::infinity();
-    const auto& trajectory = follower.trajectory();
-    const auto& status = follower.status();
-    const double vehicle_arc = std::max(0.0, trajectory.at(status.reference_time).arc_length + status.along_track_error);
-    const double reach = limits_.v_max * limits_.v_max / (2 * observedDecel()) + limits_.v_max + 2 * scenario_.robot_radius;
-    return tracker::observedStopArc(trajectory, vehicle_arc, reach,
+    const double reach = limits_.v_max * limits_.v_max / (2 * comfortableDecel()) + limits_.v_max + 2 * scenario_.robot_radius;
+    return tracker::observedStopArc(follower.trajectory(), vehicleArc(follower), reach,
                                     [&](const planner::Vec3& p) { return planner::robotInObservedFreeSpace(*observed, p); });
   }
-  double observedDecel() const { return smoother_config_.limit_fraction * params_.max_decel; }
+  // The rate a stop brakes at unless a block is close: limit_fraction of max_decel.
+  double comfortableDecel() const { return smoother_config_.limit_fraction * params_.max_decel; }
+
+  // Where the vehicle is along the follower's trajectory: the reference's arc length plus the along-track error.
+  static double vehicleArc(const tracker::TrajectoryTracker& follower) {
+    const auto& status = follower.status();
+    return std::max(0.0, follower.trajectory().at(status.reference_time).arc_length + status.along_track_error);
+  }
 
   // A stop brakes along the trajectory being flown, until the vehicle is at rest (the control step follows it). A
   // zero command alone let the vehicle coast straight on along its heading while its speed ran down — metres off
@@ -596,11 +600,10 @@ class TrackerComponent : public runtime::Component {
     if (follower_) {
       try {
         const auto& trajectory = follower_->trajectory();
-        const auto& status = follower_->status();
-        const double vehicle_arc = std::max(0.0, trajectory.at(status.reference_time).arc_length + status.along_track_error);
+        const double vehicle_arc = vehicleArc(*follower_);
         const double from_time = tracker::timeAtArcLength(trajectory, vehicle_arc);
         const double speed = std::max(std::hypot(state.v, state.vz), std::abs(trajectory.at(from_time).speed));
-        const double comfortable = smoother_config_.limit_fraction * params_.max_decel;
+        const double comfortable = comfortableDecel();
         double decel = comfortable;
         if (blocked_time) {
           // A tenth of the room is kept: the blocked sample is where the robot already touches the obstacle.
@@ -761,7 +764,7 @@ class TrackerComponent : public runtime::Component {
     if (!ready(checking_)) return;
     Checked checked = checking_.get();
     if (checked.took_s > 1.0) spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check)", checked.took_s);
-    if (follower_ && checked.trajectory_serial == trajectory_serial_) follower_->limitToObservedSpace(checked.observed_stop_arc, observedDecel());
+    if (follower_ && checked.trajectory_serial == trajectory_serial_) follower_->limitToObservedSpace(checked.observed_stop_arc, comfortableDecel());
     // Only a check of the trajectory still flown counts, and only while no new one waits for its switch;
     // while one is smoothed only a stop counts (react).
     if (follower_ && checked.trajectory_serial == trajectory_serial_ && !next_trajectory_) react(checked, state);
@@ -857,8 +860,7 @@ class TrackerComponent : public runtime::Component {
       if (cap < 0.5 * limits_.v_max && clock().nowNs() - last_observed_log_ns_ > 5'000'000'000LL) {
         last_observed_log_ns_ = clock().nowNs();
         spdlog::info("slowing to {:.2f} m/s: the map has observed the trajectory free for only {:.1f} m ahead", cap,
-                     follower_->observedSpaceArc() - (follower_->trajectory().at(follower_->status().reference_time).arc_length +
-                                                      follower_->status().along_track_error));
+                     follower_->observedSpaceArc() - vehicleArc(*follower_));
       }
       return false;
     }
