@@ -183,7 +183,7 @@ VehicleCommand TrajectoryTracker::update(const VehicleState& state, double dt) {
   observed_cap_ = std::numeric_limits<double>::infinity();
   if (observed_arc_ < std::numeric_limits<double>::infinity()) {
     const double room = observed_arc_ - proj.arc_length;
-    observed_cap_ = std::sqrt(2 * observed_decel_ * std::max(0.0, room));
+    observed_cap_ = std::max(observed_crawl_, std::sqrt(2 * observed_decel_ * std::max(0.0, room)));
     cmd.v = std::min(cmd.v, observed_cap_);
   }
   cmd.v = std::clamp(cmd.v, 0.0, limits_.v_max);
@@ -211,11 +211,14 @@ double TrajectoryTracker::brakingCap(const Projection& proj) const {
   return cap;
 }
 
-void TrajectoryTracker::limitToObservedSpace(double arc, double decel) {
+void TrajectoryTracker::limitToObservedSpace(double arc, double decel, double crawl_speed) {
   if (std::isnan(arc)) throw std::invalid_argument("tracker: the observed-space bound's arc length is NaN");
   if (!(decel > 0) || !std::isfinite(decel)) throw std::invalid_argument("tracker: the observed-space bound's deceleration must be positive");
+  if (!(crawl_speed >= 0) || !std::isfinite(crawl_speed))
+    throw std::invalid_argument("tracker: the observed-space bound's crawl speed must be finite and >= 0");
   observed_arc_ = arc;
   observed_decel_ = decel;
+  observed_crawl_ = crawl_speed;
 }
 
 double TrajectoryTracker::skipToVehicle(const Vec3& position, double within_s) {

@@ -1,4 +1,5 @@
 #include "ddsnav/tracker/closed_loop.hpp"
+#include "ddsnav/tracker/scan_free_space.hpp"
 #include "ddsnav/tracker/smoother.hpp"
 #include "ddsnav/tracker/tracker.hpp"
 
@@ -374,4 +375,41 @@ TEST(Tracker, AVehicleStopsBeforeSpaceTheMapHasNotObservedFree) {
             std::numeric_limits<double>::infinity());
   EXPECT_THROW(tracker.limitToObservedSpace(std::nan(""), 1.0), std::invalid_argument);
   EXPECT_THROW(tracker.limitToObservedSpace(5.0, 0.0), std::invalid_argument);
+  EXPECT_THROW(tracker.limitToObservedSpace(5.0, 1.0, -1.0), std::invalid_argument);
+  // With a crawl speed the bound never holds the vehicle below it.
+  TrajectoryTracker crawling(traj, *sc.vehicle);
+  crawling.limitToObservedSpace(0.0, 1.0, 0.4);
+  crawling.update(noiselessVehicleAt(*sc.vehicle, {1, 5, 0}).state(), 0.05);
+  EXPECT_DOUBLE_EQ(crawling.observedSpaceCap(), 0.4);
+}
+
+// A scan from the origin: a wall at x = 5 for y in [-1, 1] (returns at bearings within ~11 degrees), nothing else
+// within the 20 m range. A disc before the wall, or off its bearings, was looked through; behind it, or beyond the
+// range, or outside a forward field of view, it was not.
+TEST(ScanFreeSpace, WhatTheBeamsLookedThroughIsEmptyWhatIsBehindReturnsIsNot) {
+  std::vector<Vec3> wall;
+  for (double y = -1.0; y <= 1.0; y += 0.05) wall.emplace_back(5.0, y, 0.0);
+  ScanFreeSpace all_round(0.5 * M_PI / 180, 20.0, 2 * M_PI);
+  EXPECT_FALSE(all_round.discSeenEmpty(Vec3(2, 0, 0), 0.5));  // before the first scan
+  all_round.update(Vec3::Zero(), 0.0, wall);
+  EXPECT_TRUE(all_round.discSeenEmpty(Vec3(3, 0, 0), 0.5));    // before the wall
+  EXPECT_FALSE(all_round.discSeenEmpty(Vec3(4.7, 0, 0), 0.5)); // reaching over it
+  EXPECT_FALSE(all_round.discSeenEmpty(Vec3(8, 0, 0), 0.5));   // behind it
+  EXPECT_FALSE(all_round.discSeenEmpty(Vec3(8, 1.4, 0), 0.5)); // behind its end: the disc's bearings reach the returns
+  EXPECT_TRUE(all_round.discSeenEmpty(Vec3(8, 3, 0), 0.5));    // beside it: no return on those bearings
+  EXPECT_TRUE(all_round.discSeenEmpty(Vec3(-10, 0, 0), 0.5));  // behind the sensor, all round
+  EXPECT_FALSE(all_round.discSeenEmpty(Vec3(-19.8, 0, 0), 0.5));  // its far side beyond the range
+  EXPECT_TRUE(all_round.discSeenEmpty(Vec3(0.2, 0, 0), 0.5));     // around the sensor itself, all round
+  all_round.update(Vec3(4.7, 0, 0), 0.0, wall);
+  EXPECT_FALSE(all_round.discSeenEmpty(Vec3(4.8, 0, 0), 0.5));    // ... unless a return lies within it
+  ScanFreeSpace forward(0.5 * M_PI / 180, 20.0, M_PI / 2);  // 90 degrees, facing +y
+  forward.update(Vec3::Zero(), M_PI / 2, wall);
+  EXPECT_TRUE(forward.discSeenEmpty(Vec3(0, 6, 0), 0.5));
+  EXPECT_FALSE(forward.discSeenEmpty(Vec3(-10, 0, 0), 0.5));  // outside the field of view
+  EXPECT_FALSE(forward.discSeenEmpty(Vec3(0.2, 0, 0), 0.5));  // around the sensor: partly behind it
+  forward.update(Vec3(std::nan(""), 0, 0), 0.0, wall);
+  EXPECT_FALSE(forward.discSeenEmpty(Vec3(0, 6, 0), 0.5));  // a scan without an origin sees nothing
+  EXPECT_THROW(ScanFreeSpace(0.0, 20.0, 1.0), std::invalid_argument);
+  EXPECT_THROW(ScanFreeSpace(0.01, 0.0, 1.0), std::invalid_argument);
+  EXPECT_THROW(ScanFreeSpace(0.01, 20.0, 7.0), std::invalid_argument);
 }

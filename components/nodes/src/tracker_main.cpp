@@ -21,15 +21,18 @@
 #include <ddsnav/tracker/mission.hpp>
 #include <ddsnav/tracker/path_pieces.hpp>
 #include <ddsnav/tracker/replan.hpp>
+#include <ddsnav/tracker/scan_free_space.hpp>
 #include <ddsnav/tracker/smoother.hpp>
 #include <ddsnav/tracker/tracker.hpp>
 
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <future>
 #include <numbers>
+#include <mutex>
 #include <optional>
 
 using namespace ddsnav;
@@ -55,6 +58,7 @@ class TrackerComponent : public runtime::Component {
     double max_decel;
     bool stop_within_observed;
     double observed_hold_s;
+    std::optional<double> observed_crawl_speed;  // default: a stop from it takes a quarter of the robot radius
     std::optional<double> catch_up_decel;  // default: the smoother's max_accel in 2-D, off in 3-D
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
@@ -106,18 +110,21 @@ class TrackerComponent : public runtime::Component {
                                      .doc = "deceleration the vehicle can brake at; a stop brakes along the trajectory at limit_fraction (0.85) of it"});
       // A 2-D replan check only sees what the map has: a wall's face scanned at grazing incidence from down a corridor
       // is found when the vehicle is about a second from it (an unseen S-tunnel layout, 2026-12-05: the block seen
-      // 0.95 s ahead at 4.2 m/s, the vehicle 0.3 m into the wall). Off by default: the simulated scanner gives no point
-      // for a beam that hits nothing, so the map never marks open space observed free and the bound held the vehicle
-      // at the start of open worlds (docs/tracking.md, "Stopping within observed space").
+      // 0.95 s ahead at 4.2 m/s, the vehicle 0.3 m into the wall; docs/tracking.md, "Stopping within observed space").
       stop_within_observed = p.declare<bool>(
-          "stop_within_observed", false,
+          "stop_within_observed", true,
           {.doc = "2-D map and fused worlds: the vehicle never goes faster than still stops, at limit_fraction of max_decel, before "
-                  "the first point of its trajectory whose robot disc the map has not observed free (docs/tracking.md); needs a "
-                  "sensor whose beams that hit nothing still clear the map"});
+                  "the first point of its trajectory whose robot disc neither the map observed free nor the newest scan looked "
+                  "through (docs/tracking.md); observed_crawl_speed at least"});
       observed_hold_s = p.declare<double>(
           "observed_hold_s", 3.0,
           {.above = 0, .max = 1e4, .unit = "s",
-           .doc = "a vehicle held at rest this long by stop_within_observed stops waiting and plans again from where it is"});
+           .doc = "a vehicle held at rest this long by stop_within_observed (observed_crawl_speed 0) stops waiting and plans again "
+                  "from where it is"});
+      observed_crawl_speed = p.declareOptional<double>(
+          "observed_crawl_speed", {.min = 0, .max = 1000, .unit = "m/s",
+                                   .doc = "stop_within_observed slows the vehicle to no less than this (a passage is seen into only "
+                                          "from its mouth); default: the speed a stop from which takes a quarter of the robot radius"});
       world.keep_observed_free = stop_within_observed;
       smoother.sample_dt = p.declare<double>("sample_dt", smoother.sample_dt, {.above = 0, .unit = "s", .doc = "trajectory sample spacing"});
       // Perceived obstacles grow as more of them is scanned: on gart_cluttered_2d ellipses grew by 0.05-0.32 m
@@ -151,12 +158,14 @@ class TrackerComponent : public runtime::Component {
         mission_(missionConfig()),
         replan_gate_(params_.replan),
         tracker_config_(trackerConfig()),
-        piece_length_m_(params_.piece_length_m.value_or(std::max(200.0, 2.0 * tracker_config_.replan_horizon_distance))) {
+        piece_length_m_(params_.piece_length_m.value_or(std::max(200.0, 2.0 * tracker_config_.replan_horizon_distance))),
+        observed_crawl_speed_(params_.observed_crawl_speed.value_or(std::sqrt(2 * comfortableDecel() * 0.25 * scenario_.robot_radius))) {
     spdlog::info("replan check: {:.1f} s or {:.1f} m of the trajectory ahead, whichever reaches farther", tracker_config_.replan_horizon,
                  tracker_config_.replan_horizon_distance);
     if (piece_length_m_ > 0) spdlog::info("paths longer than {:.0f} m are smoothed and flown {:.0f} m at a time", 1.5 * piece_length_m_, piece_length_m_);
     // A state with a non-finite number would reach the controller (and its commands the vehicle): drop it
     // here, once, and keep following the last good one.
+    if (params_.stop_within_observed && scenario_.dimensions == 2) startScanView();
     state_sub_ = subscribe(runtime::topics::vehicle_state, [this](const msg::VehicleState& s) {
       if (const auto error = nodes::checkVehicleState(s, nodes::kWorldFrame); !error.empty()) return dropped_states_.drop(error);
       vehicle_ = nodes::fromMsg(s);
@@ -575,8 +584,42 @@ class TrackerComponent : public runtime::Component {
     const auto observed = world_source_.observedSpace();
     if (!observed) return std::numeric_limits<double>::infinity();
     const double reach = limits_.v_max * limits_.v_max / (2 * comfortableDecel()) + limits_.v_max + 2 * scenario_.robot_radius;
-    return tracker::observedStopArc(follower.trajectory(), vehicleArc(follower), reach,
-                                    [&](const planner::Vec3& p) { return planner::robotInObservedFreeSpace(*observed, p); });
+    std::shared_ptr<const tracker::ScanFreeSpace> scan;
+    {
+      std::lock_guard lock(scan_view_mutex_);
+      scan = scan_view_;
+    }
+    return tracker::observedStopArc(follower.trajectory(), vehicleArc(follower), reach, [&](const planner::Vec3& p) -> std::optional<bool> {
+      const std::optional<bool> in_map = planner::robotInObservedFreeSpace(*observed, p);
+      if (in_map && !*in_map && scan && scan->discSeenEmpty(p, scenario_.robot_radius)) return true;
+      return in_map;
+    });
+  }
+
+  // The newest scan as seen-empty space (tracker::ScanFreeSpace), for stop_within_observed: the map keeps free only
+  // the space in front of returns, the scan also what its beams without a return looked through. Bins and reach are
+  // the simulator's default sensor for the scenario; a scenario it has none for goes without.
+  void startScanView() {
+    try {
+      const sim::RangeSensorConfig sensor = sim::chooseSensor(scenario_).config;
+      const double fov = std::clamp(sensor.horizontal_fov_deg, 1e-3, 360.0) * std::numbers::pi / 180.0;
+      const double bin = std::clamp(fov / std::max(1, sensor.columns), 1e-4, std::numbers::pi / 8);
+      scan_view_config_ = {bin, sensor.max_range, fov};
+    } catch (const std::exception& e) {
+      spdlog::warn("stop_within_observed: no default sensor for this scenario ({}): the map alone says what was observed", e.what());
+      return;
+    }
+    clouds_sub_ = subscribe(runtime::topics::points, [this](const msg::PointCloud& cloud) {
+      const auto origin = nodes::fromMsg(cloud.sensor_origin());
+      if (cloud.header().frame_id() != nodes::kWorldFrame || cloud.xyz().size() % 3 != 0 || !origin.allFinite() || !vehicle_) return;
+      std::vector<planner::Vec3> points;
+      points.reserve(cloud.xyz().size() / 3);
+      for (const auto& p : nodes::pointsOf(cloud)) points.emplace_back(p.cast<double>());
+      auto view = std::make_shared<tracker::ScanFreeSpace>(scan_view_config_[0], scan_view_config_[1], scan_view_config_[2]);
+      view->update(origin, vehicle_->heading, points);
+      std::lock_guard lock(scan_view_mutex_);
+      scan_view_ = std::move(view);
+    });
   }
   // The rate a stop brakes at unless a block is close: limit_fraction of max_decel.
   double comfortableDecel() const { return smoother_config_.limit_fraction * params_.max_decel; }
@@ -764,7 +807,7 @@ class TrackerComponent : public runtime::Component {
     if (!ready(checking_)) return;
     Checked checked = checking_.get();
     if (checked.took_s > 1.0) spdlog::warn("replan check took {:.3f} s (world snapshot and trajectory check)", checked.took_s);
-    if (follower_ && checked.trajectory_serial == trajectory_serial_) follower_->limitToObservedSpace(checked.observed_stop_arc, comfortableDecel());
+    if (follower_ && checked.trajectory_serial == trajectory_serial_) follower_->limitToObservedSpace(checked.observed_stop_arc, comfortableDecel(), observed_crawl_speed_);
     // Only a check of the trajectory still flown counts, and only while no new one waits for its switch;
     // while one is smoothed only a stop counts (react).
     if (follower_ && checked.trajectory_serial == trajectory_serial_ && !next_trajectory_) react(checked, state);
@@ -927,6 +970,7 @@ class TrackerComponent : public runtime::Component {
   bool next_is_piece_ = false;             // next_trajectory_ continues the one flown
   // A long path's later pieces: the path after the end of the trajectory flown (docs/tracking.md).
   const double piece_length_m_;
+  const double observed_crawl_speed_;  // observed_crawl_speed, or its default for the scenario
   std::vector<planner::State> rest_of_path_;
   double rest_length_m_ = 0.0;           // of rest_of_path_ when it was set (a next piece's job takes the path itself)
   double flown_pieces_m_ = 0.0;           // the plan's pieces flown before the current one, m
@@ -954,7 +998,10 @@ class TrackerComponent : public runtime::Component {
   std::optional<msg::PlanRequest> unanswered_request_;
   std::chrono::steady_clock::time_point unanswered_sent_{};
   int unanswered_copies_ = 0;  // copies of the unanswered request sent (logged once)
-  bus::Subscription state_sub_, path_sub_;
+  bus::Subscription state_sub_, path_sub_, clouds_sub_;
+  std::array<double, 3> scan_view_config_{};  // bin (rad), max range (m), field of view (rad)
+  mutable std::mutex scan_view_mutex_;
+  std::shared_ptr<const tracker::ScanFreeSpace> scan_view_;  // the newest scan, stop_within_observed
   runtime::Timer control_;
 };
 

@@ -38,7 +38,7 @@ bool names(const Names& list, std::string_view component) {
 // launcher. The tools that carry any topic (record, play, bridge, echo) get wildcards in their grants.
 const std::vector<TopicRow>& stockTopics() {
   static const std::vector<TopicRow> table = {
-      row(topics::points, "sensorData", {"sim"}, {"perception", "mapper", "monitor"}),
+      row(topics::points, "sensorData", {"sim"}, {"perception", "mapper", "tracker", "monitor"}),
       row(topics::vehicle_state, "sensorData", {"sim"}, {"tracker", "monitor"}),
       row(topics::obstacles, "state", {"perception"}, {"planner", "tracker", "monitor"}),
       row(topics::octomap, "state", {"mapper"}, {"planner", "tracker", "monitor"}, "planner and tracker with `world: map` or `fused`"),

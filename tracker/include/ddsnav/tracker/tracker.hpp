@@ -125,9 +125,11 @@ class TrajectoryTracker {
 
   // Stopping within observed space (docs/tracking.md): from now on the speed command never exceeds what still
   // stops, braking at `decel`, by arc length `arc` of the trajectory — before the robot would enter space the
-  // map has not observed free (observedStopArc). The reference waits for the vehicle meanwhile (max_lead).
-  // infinity lifts the bound. std::invalid_argument for a NaN arc or a decel that is not positive and finite.
-  void limitToObservedSpace(double arc, double decel);
+  // map has not observed free (observedStopArc), but never below `crawl_speed` (a stop from it is short: the space
+  // ahead of a passage is seen only from its mouth). The reference waits for the vehicle meanwhile (max_lead).
+  // infinity lifts the bound. std::invalid_argument for a NaN arc, a decel that is not positive and finite, or a
+  // crawl speed that is negative or not finite.
+  void limitToObservedSpace(double arc, double decel, double crawl_speed = 0.0);
   // The bound's arc length (infinity without one) and the speed it allows the vehicle where it is now.
   double observedSpaceArc() const { return observed_arc_; }
   double observedSpaceCap() const { return observed_cap_; }
@@ -157,6 +159,7 @@ class TrajectoryTracker {
   std::size_t last_segment_ = 0;
   double observed_arc_ = std::numeric_limits<double>::infinity();
   double observed_decel_ = 1.0;
+  double observed_crawl_ = 0.0;
   double observed_cap_ = std::numeric_limits<double>::infinity();  // the bound's speed at the last update
   double sum_cross_ = 0.0, sum_position_ = 0.0;
 };
