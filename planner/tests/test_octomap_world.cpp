@@ -882,7 +882,7 @@ TEST(OctoMapWorld, ObservedFreeSpaceIsWhereRaysCrossedAndTheShadowIsNot) {
   EXPECT_EQ(robotInObservedFreeSpace(*map, in_the_shadow), std::optional<bool>(false));
   EXPECT_EQ(robotInObservedFreeSpace(*map, Vec3(2.8, -0.5, 0)), std::optional<bool>(false));  // over the face's hits
   // Beside the wall's end, where the beams hit nothing within the scan's range: a beam without a return clears no
-  // cell (why stop_within_observed is off by default).
+  // cell (why the tracker also asks the newest scan, tracker::ScanFreeSpace).
   EXPECT_EQ(robotInObservedFreeSpace(*map, Vec3(1.5, -1.6, 0)), std::optional<bool>(false));
   // A world that cannot tell: no free cells kept, a 3-D map, another kind of world, a point that is not finite.
   const auto plain = makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.3, toBytes(tree), OctoMapWorldOptions{});
