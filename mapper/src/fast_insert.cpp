@@ -185,8 +185,9 @@ class TreeWalk {
   // Updates the voxel `key` (Morton code `morton`). With `leaf_depth` kBrickDepth, updates the whole 8x8x8
   // brick of voxels [morton, last_morton] as its node at that depth, which must have no children (see
   // walkBricks).
+  // `fill`: a voxel of the surface fill (FillMode); `occupied` is then ignored.
   void update(std::uint64_t morton, const octomap::OcTreeKey& key, bool occupied, int leaf_depth = kTreeDepth,
-              std::uint64_t last_morton = 0) {
+              std::uint64_t last_morton = 0, FillMode fill = FillMode::none) {
     int keep = base_;
     if (has_previous_) {
       const unsigned level = (63u - static_cast<unsigned>(std::countl_zero(morton ^ previous_))) / 3u;
@@ -197,7 +198,15 @@ class TreeWalk {
     keep = std::min(keep, valid_);
     settleDownTo(keep);
 
-    const float delta = occupied ? hit_ : miss_;
+    // A fill voxel takes a hit unless it was observed free with confidence before this scan; then the scan's own
+    // miss if its rays crossed it, else nothing (fillUpdate).
+    float delta = fill != FillMode::none ? hit_ : occupied ? hit_ : miss_;
+    const auto decideFill = [&](const octomap::OcTreeNode* observed) {
+      const std::optional<bool> hit = fillUpdate(observed == nullptr ? std::nullopt : std::optional(observed->getLogOdds()),
+                                                 fill == FillMode::over_free, miss_);
+      if (hit) delta = *hit ? hit_ : miss_;
+      return hit.has_value();
+    };
     int d = keep;
     octomap::OcTreeNode* node = path_[d];
     while (d < leaf_depth) {
@@ -207,10 +216,11 @@ class TreeWalk {
         if (!tree_.nodeHasChildren(node) && !fresh_[d]) {
           // A pruned leaf: OctoMap's updateNode() finds it with search() and stops early when the
           // update cannot change it.
-          if (atClamp(node, delta)) {
+          if ((fill != FillMode::none && !decideFill(node)) || atClamp(node, delta)) {
             valid_ = d;
             return;
           }
+          fill = FillMode::none;  // decided
           ops_.expand(node);
         } else {
           ops_.createChild(node, pos);
@@ -223,6 +233,7 @@ class TreeWalk {
       fresh_[d] = created;
     }
     valid_ = d;
+    if (fill != FillMode::none && !decideFill(fresh_[d] ? nullptr : node)) return;
     if (!fresh_[d] && atClamp(node, delta)) return;
     tree_.updateNodeLogOdds(node, delta);
   }
@@ -283,20 +294,25 @@ void walkBricks(const std::vector<BrickMap::Brick>& bricks, const std::uint64_t*
     const octomap::OcTreeKey brick_key(static_cast<octomap::key_type>(kx), static_cast<octomap::key_type>(ky),
                                        static_cast<octomap::key_type>(kz));
     bool all_free = true;
-    for (unsigned w = 0; w < 8; ++w) all_free &= b.free[w] == ~0ull;
+    for (unsigned w = 0; w < 8; ++w) all_free &= b.free[w] == ~0ull && b.fill[w] == 0;
     if (all_free && !walk.brickNodeHasChildren(brick_key)) {
       walk.update(base, brick_key, false, kBrickDepth, base | 511);
       continue;
     }
     for (unsigned w = 0; w < 8; ++w) {
-      std::uint64_t any = b.free[w] | b.occupied[w];
+      std::uint64_t any = b.free[w] | b.occupied[w] | b.fill[w];
       while (any != 0) {
         const unsigned local = (w << 6) | static_cast<unsigned>(std::countr_zero(any));
         any &= any - 1;
         const octomap::OcTreeKey key(static_cast<octomap::key_type>(kx | kLocal.x[local]),
                                      static_cast<octomap::key_type>(ky | kLocal.y[local]),
                                      static_cast<octomap::key_type>(kz | kLocal.z[local]));
-        walk.update(base | local, key, (b.occupied[w] >> (local & 63)) & 1u);
+        const unsigned bit = local & 63;
+        const bool occupied = (b.occupied[w] >> bit) & 1u;
+        const FillMode fill = occupied || !((b.fill[w] >> bit) & 1u) ? FillMode::none
+                              : ((b.free[w] >> bit) & 1u)           ? FillMode::over_free
+                                                                    : FillMode::only;
+        walk.update(base | local, key, occupied, kTreeDepth, 0, fill);
       }
     }
   }
@@ -340,7 +356,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
           subtrees.push_back({i, i, 0, nullptr, false});
         }
         const BrickMap::Brick& b = bricks[sorted[i] & 0xffffff];
-        for (int w = 0; w < 8; ++w) subtrees.back().cells += std::popcount(b.free[w] | b.occupied[w]);
+        for (int w = 0; w < 8; ++w) subtrees.back().cells += std::popcount(b.free[w] | b.occupied[w] | b.fill[w]);
       }
       if (!subtrees.empty()) subtrees.back().last = sorted.size();
       if (subtrees.size() >= 8u * threads) {
@@ -586,6 +602,7 @@ void BrickMap::mergeFrom(const BrickMap& other) {
     for (int w = 0; w < 8; ++w) {
       dst.free[w] |= src.free[w];
       dst.occupied[w] |= src.occupied[w];
+      dst.fill[w] |= src.fill[w];
     }
   }
   cursor_ = Cursor{};
@@ -654,7 +671,7 @@ InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap:
   if (surface_cells != nullptr) {
     octomap::OcTreeKey key;
     for (const octomap::point3d& p : *surface_cells)
-      if (tree.coordToKeyChecked(p, key)) maps[0].markOccupied(key);
+      if (tree.coordToKeyChecked(p, key)) maps[0].markFill(key);
   }
   if (counts.seconds_rays == 0.0) counts.seconds_rays = lap();
 
@@ -663,8 +680,9 @@ InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap:
   for (BrickMap::Brick& b : bricks) {
     for (int w = 0; w < 8; ++w) {
       b.free[w] &= ~b.occupied[w];
-      counts.free_cells += std::popcount(b.free[w]);
-      counts.occupied_cells += std::popcount(b.occupied[w]);
+      b.fill[w] &= ~b.occupied[w];  // a return there: a plain hit
+      counts.free_cells += std::popcount(b.free[w] & ~b.fill[w]);
+      counts.occupied_cells += std::popcount(b.occupied[w]) + std::popcount(b.fill[w]);
     }
   }
   keys.cells = counts.free_cells + counts.occupied_cells;

@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <exception>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -42,6 +43,7 @@ class BrickMap {
   struct Brick {
     std::uint64_t free[8];
     std::uint64_t occupied[8];
+    std::uint64_t fill[8];  // the surface fill (surface_cells of computeKeys), updated by fillUpdate
     std::uint64_t morton;  // Morton code of the brick coordinates (key >> 3 on each axis)
     std::uint16_t bx, by, bz;
   };
@@ -55,6 +57,12 @@ class BrickMap {
   void clear();
   void markFree(std::uint64_t code, Cursor& cursor) { mark(code, false, cursor); }
   void markOccupied(const octomap::OcTreeKey& key) { mark(mortonCode(key), true, cursor_); }
+  void markFill(const octomap::OcTreeKey& key) {
+    const std::uint64_t code = mortonCode(key);
+    const unsigned bit = static_cast<unsigned>(code & 511);
+    bricks_[findOrAdd(code >> 9)].fill[bit >> 6] |= 1ull << (bit & 63);
+    cursor_ = Cursor{};
+  }
   void mergeFrom(const BrickMap& other);
 
   const std::vector<Brick>& bricks() const { return bricks_; }
@@ -102,11 +110,26 @@ struct ScanKeys {
   std::size_t memoryUsage() const;
 };
 
+// How a voxel of the surface fill is updated (MapperConfig::fill_surfaces_between_returns): `only` where this
+// scan's rays did not cross it, `over_free` where they did.
+enum class FillMode { none, only, over_free };
+
+// The fill's rule, on the voxel's log-odds before this scan (nullopt: never observed): a hit (true), unless the
+// voxel was observed free with confidence — more than twice a miss below even, about three more scans free than
+// occupied: an opening beams have looked through — then a miss where this scan's rays crossed it (false), else no
+// update (nullopt). Within one scan the fill wins over the rays: a face seen at a grazing angle is crossed by the
+// rays to its farther hits in the voxels it cuts through.
+inline std::optional<bool> fillUpdate(std::optional<float> log_odds_before, bool crossed_by_scan, float miss_log_odds) {
+  if (!log_odds_before || *log_odds_before > 2.5f * miss_log_odds) return true;
+  if (crossed_by_scan) return false;
+  return std::nullopt;
+}
+
 // Stage 1 (rays, de-duplication, occupied-wins, Morton sort). Reads only the tree's key arithmetic
 // (resolution and key offset, fixed at construction), never a node, so it may run while stage 2 of
 // an earlier scan changes the tree.
-// `surface_cells` (may be null): points whose voxels are marked occupied as well, with no ray (cells a scan's
-// returns imply but no beam hit: MapperConfig::fill_surfaces_between_returns).
+// `surface_cells` (may be null): points whose voxels are marked occupied as well, with no ray, by fillUpdate's rule
+// (cells a scan's returns imply but no beam hit: MapperConfig::fill_surfaces_between_returns).
 InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                          const octomap::point3d& origin, double max_range, bool discretize, int threads, ScanKeys& keys,
                          const std::vector<octomap::point3d>* surface_cells = nullptr);

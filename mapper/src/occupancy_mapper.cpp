@@ -361,16 +361,35 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
       result.walk_threads = std::max(result.walk_threads, counts.walk_threads);
     } else {
       finish();
-      octomap::Pointcloud cloud;
-      cloud.reserve(points.size());
-      for (const octomap::point3d& p : points) cloud.push_back(p);
-      tree.insertPointCloud(cloud, origin, range, /*lazy_eval=*/false, config_.discretize);
+      // The fill's voxels as they were before the scan (detail::fillUpdate decides on that; search finds a pruned
+      // parent leaf too).
+      std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>> fill_before;
       if (fill != nullptr) {
         octomap::KeySet cells;
         octomap::OcTreeKey key;
         for (const octomap::point3d& p : *fill)
           if (tree.coordToKeyChecked(p, key)) cells.insert(key);
-        for (const octomap::OcTreeKey& k : cells) tree.updateNode(k, true, /*lazy_eval=*/false);
+        for (const octomap::OcTreeKey& k : cells) {
+          const octomap::OcTreeNode* n = tree.search(k);
+          fill_before.emplace_back(k, n != nullptr ? std::optional(n->getLogOdds()) : std::nullopt);
+        }
+      }
+      octomap::Pointcloud cloud;
+      cloud.reserve(points.size());
+      for (const octomap::point3d& p : points) cloud.push_back(p);
+      tree.insertPointCloud(cloud, origin, range, /*lazy_eval=*/false, config_.discretize);
+      if (fill != nullptr) {
+        octomap::KeySet returns;  // a fill voxel with a return in it took a plain hit
+        octomap::OcTreeKey key;
+        for (const octomap::point3d& p : points)
+          if ((range < 0.0 || (p - origin).norm() <= range) && tree.coordToKeyChecked(p, key)) returns.insert(key);
+        for (const auto& [k, before] : fill_before) {
+          if (returns.count(k) != 0) continue;
+          const octomap::OcTreeNode* after = tree.search(k);
+          const bool crossed = after != nullptr && (!before || after->getLogOdds() != *before);
+          if (detail::fillUpdate(before, crossed, tree.getProbMissLog()).value_or(false))
+            tree.setNodeValue(k, before.value_or(0.0f) + tree.getProbHitLog(), /*lazy_eval=*/false);
+        }
       }
     }
   };

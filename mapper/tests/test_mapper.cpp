@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <octomap/OcTree.h>
@@ -344,6 +345,68 @@ TEST(Mapper, BeamsThatReturnNothingClearTheGapsBetweenReturns) {
   // The flag is 2-D only, and a bad gap limit is refused.
   config.max_clear_gap_rad = 0.0;
   EXPECT_THROW(OccupancyMapper{config}, std::invalid_argument);
+}
+
+// A planar scan from `origin`, a beam every 0.5 degrees, of the segments {x0, y0, x1, y1}; beams that hit none within
+// max_range return nothing.
+Scan planarScan(const std::vector<std::array<double, 4>>& segments, double ox, double oy, double max_range = 30.0) {
+  Scan scan;
+  scan.origin = {static_cast<float>(ox), static_cast<float>(oy), 0.0f};
+  scan.max_range = max_range;
+  for (int i = 0; i < 720; ++i) {
+    const double a = i * 0.5 * M_PI / 180.0, c = std::cos(a), sn = std::sin(a);
+    double t = std::numeric_limits<double>::infinity();
+    for (const auto& [x0, y0, x1, y1] : segments) {
+      const double vx = x1 - x0, vy = y1 - y0, across = c * vy - sn * vx;
+      if (std::abs(across) < 1e-12) continue;
+      const double wx = x0 - ox, wy = y0 - oy;
+      const double along = (wx * vy - wy * vx) / across, u = (wx * sn - wy * c) / across;
+      if (along > 0.0 && u >= 0.0 && u <= 1.0) t = std::min(t, along);
+    }
+    if (t <= max_range) scan.points.push_back({static_cast<float>(ox + t * c), static_cast<float>(oy + t * sn), 0.0f});
+  }
+  return scan;
+}
+
+// The fill yields to space observed free with confidence. A wall along y = 1.2 with a 0.6 m opening (x 16 .. 16.6)
+// that the grazing scan from the origin has no beam through, a wall y = 3 behind it: seen three times from below
+// the opening first, the opening stays free under the grazing scans; seen once, or not at all, it is filled as the
+// face around it is (an opening no beam has looked through is taken for the wall). Both insertion methods agree.
+TEST(Mapper, AFaceFillYieldsToAnOpeningBeamsHaveLookedThrough) {
+  const std::vector<std::array<double, 4>> world = {{3.0, 1.2, 16.0, 1.2}, {16.6, 1.2, 20.0, 1.2}, {12.0, 3.0, 20.0, 3.0}};
+  const Scan grazing = planarScan(world, 0.0, 0.0), through = planarScan(world, 16.3, -0.5);
+  std::vector<std::string> trees;  // per method
+  for (const InsertMethod method : {InsertMethod::kFast, InsertMethod::kOctoMap}) {
+    MapperConfig config;
+    config.dimensions = 2;
+    config.resolution = 0.1;
+    config.fill_surfaces_between_returns = true;
+    config.method = method;
+    OccupancyMapper looked(config), glimpsed(config), grazed_only(config);
+    for (int k = 0; k < 3; ++k) ASSERT_TRUE(looked.insert(through).inserted);
+    ASSERT_TRUE(glimpsed.insert(through).inserted);
+    for (int k = 0; k < 2; ++k) {
+      ASSERT_GT(looked.insert(grazing).surface_fill, 0u);
+      ASSERT_GT(glimpsed.insert(grazing).surface_fill, 0u);
+      ASSERT_GT(grazed_only.insert(grazing).surface_fill, 0u);
+    }
+    const auto occupied = [](const OccupancyMapper& m, double x, double y) {
+      const octomap::OcTreeNode* n = m.octree().search(x, y, 0.0);
+      return n != nullptr && m.octree().isNodeOccupied(n);
+    };
+    for (const double x : {16.15, 16.25, 16.35, 16.45}) {
+      EXPECT_TRUE(occupied(grazed_only, x, 1.25)) << x;  // no beam looked through it: filled, as the wall is
+      EXPECT_TRUE(occupied(glimpsed, x, 1.25)) << x;     // one scan's look is not enough
+      EXPECT_FALSE(occupied(looked, x, 1.25)) << x;      // three scans' is
+    }
+    int face = 0, cells = 0;
+    for (double x = 11.05; x < 15.5; x += 0.1, ++cells) face += occupied(looked, x, 1.25);  // hits 0.4-0.8 m apart
+    EXPECT_EQ(face, cells);
+    trees.push_back(fullBytes(looked.octree()));
+    trees.push_back(fullBytes(glimpsed.octree()));
+  }
+  EXPECT_EQ(trees[0], trees[2]);
+  EXPECT_EQ(trees[1], trees[3]);
 }
 
 // A 2-D scan of a wall along y = 1.2 (x 3 .. 20) seen at a grazing angle, its hits up to 2 m apart, and below the

@@ -58,13 +58,15 @@ class MapperComponent : public runtime::Component {
                                                    {.above = 0, .max = 180, .unit = "deg",
                                                     .doc = "widest gap between returns cleared (a wider one, a blind sector, stays unknown)"}) *
                                  std::numbers::pi / 180.0;
-      // Off by default: alternating runs with and without it shortened no mission and lengthened some (bugtrap_0.6,
-      // rooms_2d; docs/world-model.md, "Faces seen at a grazing angle").
+      // On by default since the jittered S-tunnels (2 m corridors whose walls the scanner hits every few metres down
+      // the leg): without it the plans went through the gaps between the hits into the blocks between the legs, and
+      // the vehicle backtracked whole legs until the mission timed out (docs/world-model.md, "Faces seen at a grazing
+      // angle").
       config.fill_surfaces_between_returns = p.declare<bool>(
-          "fill_surfaces_between_returns", false,
-          {.doc = "2-D: mark occupied the segment between neighbouring returns when a third lies on their line (a wall seen at "
-                  "a grazing angle is hit every few metres, and the planner took the stretches between for open space: "
-                  "docs/world-model.md)"});
+          "fill_surfaces_between_returns", true,
+          {.doc = "2-D: mark occupied the segment between neighbouring returns when a third lies on their line, except where "
+                  "beams have looked through with confidence (a wall seen at a grazing angle is hit every few metres, and the "
+                  "planner took the stretches between for open space: docs/world-model.md)"});
       config.max_surface_fill_m = p.declare<double>(
           "max_surface_fill_m", 0.0,
           {.min = 0, .max = 1e4, .unit = "m", .doc = "longest segment filled; 0: the scan's max_range / 8"});

@@ -79,8 +79,11 @@ struct MapperConfig {
   // the wall (docs/world-model.md, "Faces seen at a grazing angle"). With this on, the segment between two
   // neighbouring returns (one angular step apart) is marked occupied, with no ray, when the return before or after
   // them lies on their line (its range within half the resolution of where its beam meets the line) and it is at most max_surface_fill_m long (0: the scan's
-  // max_range / 8). An opening between two such hits is one no beam saw through: when one does, its return breaks
-  // the line and the fill stops there, and the beams then clear it. Off by default (OctoMap's insertPointCloud).
+  // max_range / 8), and so is the segment moved one voxel away from the scanner (the face's far side: rays grazing
+  // the face on their way to farther hits observe the voxels it cuts through free). Only voxels never observed are
+  // filled, this scan's rays included: a voxel a beam once saw through is never filled again, and a filled one takes
+  // one hit, so a few beams through it clear it. An opening between two such hits is one no beam saw through: when
+  // one does, its return breaks the line and the fill stops there. Off by default (OctoMap's insertPointCloud).
   bool fill_surfaces_between_returns = false;
   double max_surface_fill_m = 0.0;
 };
