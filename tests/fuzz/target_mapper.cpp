@@ -5,7 +5,9 @@
 //
 // Input: byte 0 flags (bit 0 discretize, bits 1-2 threads {1, 2, 3, 2}, bit 3 pipeline, bit 4 2-D, bit 5 a
 // dense lidar-like fan of rays instead of explicit points, bits 6-7 scans - 1); byte 1 resolution (bits 0-2)
-// and coordinate scale (bits 3-5); byte 2 max_range (bits 0-2); then int16 triplets: per scan its origin, then
+// and coordinate scale (bits 3-5); byte 2 max_range (bits 0-2), bit 3 the 2-D surface fill, bit 4 the 2-D beam-gap rays
+// (fill_surfaces_between_returns, clear_beam_gaps: the reference is then the kOctoMap method's own fill and gap
+// rays on insertPointCloud); then int16 triplets: per scan its origin, then
 // its points (explicit mode) or, in fan mode, the bytes that set the fan's ranges.
 // Contract: both mappers accept or refuse the same scans, and their trees are byte-identical (OcTree::write:
 // structure and every log-odds) after every scan.
@@ -71,6 +73,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   config.dimensions = (flags & 16) != 0 ? 2 : 3;
   config.slab_z = 0.25;
   config.resolution = kResolutions[scale_byte & 7];
+  config.fill_surfaces_between_returns = (range_byte & 8) != 0;
+  config.clear_beam_gaps = (range_byte & 16) != 0;
   const float scale = kScales[(scale_byte >> 3) & 7];
   const double max_range = kRanges[range_byte & 7];
   const bool fan = (flags & 32) != 0;
@@ -127,8 +131,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     if (fullBytes(fast.octree()) != fullBytes(reference.octree())) {
       std::fprintf(stderr, "scan %d: the fast tree differs from OctoMap's (resolution %g, max_range %g, threads %d, "
-                   "pipeline %d, discretize %d, %d-D, %zu points)\n", s, config.resolution, max_range, config.threads,
-                   int(config.pipeline), int(config.discretize), config.dimensions, scan.points.size());
+                   "pipeline %d, discretize %d, %d-D, fill %d, gap rays %d, %zu points)\n", s, config.resolution, max_range,
+                   config.threads, int(config.pipeline), int(config.discretize), config.dimensions,
+                   int(config.fill_surfaces_between_returns), int(config.clear_beam_gaps), scan.points.size());
       std::abort();
     }
   }
