@@ -13,7 +13,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <functional>
+#include <limits>
 #include <fstream>
 #include <memory>
 #include <malloc.h>
@@ -135,6 +138,62 @@ int timeWorldBuilds(const std::string& path) {
   return 0;
 }
 
+// --planar-corridor: a 2-D scanner (720 beams, 0.5 degrees, 66 m: the paper-scale default) driven down the middle of
+// a 2 m corridor 100 m long, a scan every 0.5 m; the mapper as the component configures it for 2-D (0.1 m, the
+// beam-gap rays, 2 threads, pipelined) with and without the surface fill, and OctoMap's insertPointCloud of the same
+// scans. The fill is what a face seen at a grazing angle costs (docs/world-model.md).
+int timePlanarCorridor(int scans) {
+  constexpr double kHalfWidth = 1.0, kLength = 100.0, kRange = 66.0;
+  std::vector<Scan> corridor_scans;
+  for (int k = 0; k < scans; ++k) {
+    const double ox = 0.5 * k;
+    Scan scan;
+    scan.origin = {static_cast<float>(ox), 0.0f, 0.0f};
+    scan.max_range = kRange;
+    for (int i = 0; i < 720; ++i) {
+      const double a = i * 0.5 * M_PI / 180.0, c = std::cos(a), sn = std::sin(a);
+      double t = std::numeric_limits<double>::infinity();
+      if (std::abs(sn) > 1e-12) t = kHalfWidth / std::abs(sn);                     // a side wall
+      if (c > 1e-12) t = std::min(t, (kLength - ox) / c);                         // the far end
+      if (c < -1e-12) t = std::min(t, (ox + 5.0) / -c);                           // the near end
+      if (t <= kRange) scan.points.push_back({static_cast<float>(ox + t * c), static_cast<float>(t * sn), 0.0f});
+    }
+    corridor_scans.push_back(std::move(scan));
+  }
+  std::printf("| 2-D corridor, %d scans of 720 beams, 0.1 m | ms per scan, mean | max |\n|---|---|---|\n", scans);
+  auto time = [&](const char* name, const std::function<void(const Scan&)>& insert) {
+    double total = 0.0, worst = 0.0;
+    for (const Scan& scan : corridor_scans) {
+      const auto started = Clock::now();
+      insert(scan);
+      const double s = secondsSince(started);
+      total += s;
+      worst = std::max(worst, s);
+    }
+    std::printf("| %s | %.2f | %.2f |\n", name, 1000.0 * total / scans, 1000.0 * worst);
+    return total;
+  };
+  MapperConfig config;
+  config.dimensions = 2;
+  config.resolution = 0.1;
+  config.clear_beam_gaps = true;
+  config.threads = 2;
+  config.pipeline = true;
+  OccupancyMapper plain(config);
+  const double without = time("mapper, beam-gap rays (fill off)", [&](const Scan& s) { plain.insert(s); });
+  config.fill_surfaces_between_returns = true;
+  OccupancyMapper filling(config);
+  const double with = time("mapper, beam-gap rays + surface fill (the component's default)", [&](const Scan& s) { filling.insert(s); });
+  octomap::OcTree reference(0.1);
+  time("OctoMap insertPointCloud (no gap rays, no fill)", [&](const Scan& s) {
+    octomap::Pointcloud cloud;
+    for (const Point3f& p : s.points) cloud.push_back(p.x, p.y, 0.0f);
+    reference.insertPointCloud(cloud, octomap::point3d(s.origin.x, s.origin.y, 0.0f), s.max_range);
+  });
+  std::printf("\nfill on / off: %.2fx\n", with / without);
+  return 0;
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"OctoMap insertion and occupancy queries: OctoMap's own paths vs ddsnav's mapper, same scans"};
   std::vector<std::string> pattern_names{"16x1800", "64x1800"};
@@ -162,8 +221,13 @@ int main(int argc, char** argv) {
                  "only time the planner's world built from this .bt (a mission's map.bt, `ddsnav bench-mission --keep-recordings`): "
                  "plain and with the 3-D defaults, in the map's own box")
       ->check(CLI::ExistingFile);
+  bool planar_corridor = false;
+  app.add_flag("--planar-corridor", planar_corridor,
+               "only time 2-D insertion down a 2 m corridor (--scans scans, 0.5 m apart): the mapper with and without the "
+               "surface fill, and OctoMap");
   CLI11_PARSE(app, argc, argv);
   if (!world_map.empty()) return timeWorldBuilds(world_map);
+  if (planar_corridor) return timePlanarCorridor(scans);
 
   std::vector<Pattern> patterns;
   try {
