@@ -414,24 +414,7 @@ TEST(Mapper, AFaceFillYieldsToAnOpeningBeamsHaveLookedThrough) {
 // opening between them and hits that wall 5 cm below the face's line. With fill_surfaces_between_returns every cell
 // of the wall's face between its hits is occupied; the opening is not closed.
 TEST(Mapper, FaceSeenAtAGrazingAngleIsFilledBetweenItsHitsButNotAcrossAnOpening) {
-  struct Segment {
-    double x0, y0, x1, y1;
-  };
-  const Segment segments[] = {{3.0, 1.2, 20.0, 1.2}, {2.0, -1.25, 8.75, -1.25}, {9.25, -20.0, 9.25, -1.25}};
-  Scan scan;
-  scan.origin = {0.0f, 0.0f, 0.0f};
-  scan.max_range = 30.0;
-  for (int i = 0; i < 720; ++i) {
-    const double a = i * 0.5 * M_PI / 180.0, c = std::cos(a), sn = std::sin(a);
-    double t = std::numeric_limits<double>::infinity();
-    for (const Segment& g : segments) {
-      const double vx = g.x1 - g.x0, vy = g.y1 - g.y0, across = c * vy - sn * vx;
-      if (std::abs(across) < 1e-12) continue;
-      const double along = (g.x0 * vy - g.y0 * vx) / across, u = (g.x0 * sn - g.y0 * c) / across;
-      if (along > 0.0 && u >= 0.0 && u <= 1.0) t = std::min(t, along);
-    }
-    if (t <= scan.max_range) scan.points.push_back({static_cast<float>(t * c), static_cast<float>(t * sn), 0.0f});
-  }
+  const Scan scan = planarScan({{3.0, 1.2, 20.0, 1.2}, {2.0, -1.25, 8.75, -1.25}, {9.25, -20.0, 9.25, -1.25}}, 0.0, 0.0);
   InsertResult plain_result, result;
   const auto plain_mapper = mapped2d(scan, [](MapperConfig&) {}, plain_result);
   const auto filling_mapper = mapped2d(scan, [](MapperConfig& c) { c.fill_surfaces_between_returns = true; }, result);

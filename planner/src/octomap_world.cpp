@@ -252,7 +252,6 @@ class OctoMapWorld final : public CollisionWorld {
     return true;
   }
 
-  // See occludedSurfaceContinuation (collision_world.hpp).
   // See robotInObservedFreeSpace (collision_world.hpp).
   std::optional<bool> robotObservedFree(const Vec3& p) const {
     if (dims_ != 2 || !knowsObservedFree() || !p.allFinite()) return std::nullopt;
@@ -271,6 +270,7 @@ class OctoMapWorld final : public CollisionWorld {
     return true;
   }
 
+  // See occludedSurfaceContinuation (collision_world.hpp).
   OccludedContinuation occludedContinuation(const Vec3& viewpoint, double max_length) const {
     OccludedContinuation out;
     out.cell_size = resolution_;

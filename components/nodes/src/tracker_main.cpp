@@ -28,7 +28,6 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <future>
 #include <numbers>
@@ -604,7 +603,7 @@ class TrackerComponent : public runtime::Component {
       const sim::RangeSensorConfig sensor = sim::chooseSensor(scenario_).config;
       const double fov = std::clamp(sensor.horizontal_fov_deg, 1e-3, 360.0) * std::numbers::pi / 180.0;
       const double bin = std::clamp(fov / std::max(1, sensor.columns), 1e-4, std::numbers::pi / 8);
-      scan_view_config_ = {bin, sensor.max_range, fov};
+      empty_scan_view_.emplace(bin, sensor.max_range, fov);
     } catch (const std::exception& e) {
       spdlog::warn("stop_within_observed: no default sensor for this scenario ({}): the map alone says what was observed", e.what());
       return;
@@ -612,10 +611,10 @@ class TrackerComponent : public runtime::Component {
     clouds_sub_ = subscribe(runtime::topics::points, [this](const msg::PointCloud& cloud) {
       const auto origin = nodes::fromMsg(cloud.sensor_origin());
       if (cloud.header().frame_id() != nodes::kWorldFrame || cloud.xyz().size() % 3 != 0 || !origin.allFinite() || !vehicle_) return;
-      std::vector<planner::Vec3> points;
-      points.reserve(cloud.xyz().size() / 3);
-      for (const auto& p : nodes::pointsOf(cloud)) points.emplace_back(p.cast<double>());
-      auto view = std::make_shared<tracker::ScanFreeSpace>(scan_view_config_[0], scan_view_config_[1], scan_view_config_[2]);
+      const auto& xyz = cloud.xyz();
+      std::vector<planner::Vec3> points(xyz.size() / 3);
+      for (std::size_t i = 0; i < points.size(); ++i) points[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
+      auto view = std::make_shared<tracker::ScanFreeSpace>(*empty_scan_view_);
       view->update(origin, vehicle_->heading, points);
       std::lock_guard lock(scan_view_mutex_);
       scan_view_ = std::move(view);
@@ -999,7 +998,7 @@ class TrackerComponent : public runtime::Component {
   std::chrono::steady_clock::time_point unanswered_sent_{};
   int unanswered_copies_ = 0;  // copies of the unanswered request sent (logged once)
   bus::Subscription state_sub_, path_sub_, clouds_sub_;
-  std::array<double, 3> scan_view_config_{};  // bin (rad), max range (m), field of view (rad)
+  std::optional<tracker::ScanFreeSpace> empty_scan_view_;  // the default sensor's bins, range and field of view
   mutable std::mutex scan_view_mutex_;
   std::shared_ptr<const tracker::ScanFreeSpace> scan_view_;  // the newest scan, stop_within_observed
   runtime::Timer control_;
