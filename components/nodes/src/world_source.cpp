@@ -98,6 +98,12 @@ bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unk
   return unknown == planner::UnknownSpace::Optimistic && since_first_obstacles_s >= first_map_wait_s;
 }
 
+std::optional<std::int64_t> firstMapWaitStart(std::optional<std::int64_t> started_ns, std::int64_t now_ns) {
+  if (started_ns) return started_ns;
+  if (now_ns > 0) return now_ns;
+  return std::nullopt;
+}
+
 WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario,
                          double preferred_unknown_margin_m, bool preferred_on_demand)
     : kind_(world.kind),
@@ -153,7 +159,7 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
         return;
       }
       obstacles_ = a;
-      if (!first_obstacles_ns_) first_obstacles_ns_ = clock_.nowNs();
+      first_obstacles_ns_ = firstMapWaitStart(first_obstacles_ns_, clock_.nowNs());
     }
     if (on_obstacles_) on_obstacles_();
   });

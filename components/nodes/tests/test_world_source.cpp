@@ -28,6 +28,15 @@ TEST(FusedWorldReady, WaitsForTheFirstMapThenGoesOptimisticAfterTheWait) {
   EXPECT_FALSE(nodes::fusedWorldReady(true, false, UnknownSpace::Conservative, 1e6, 5.0));
 }
 
+TEST(FusedWorldReady, TheWaitForTheFirstMapStartsWithTheClock) {
+  // Obstacles before the first clock sample (the component clock reads 0) do not start it: counted from 0, the
+  // wait had passed at once.
+  EXPECT_EQ(nodes::firstMapWaitStart(std::nullopt, 0), std::nullopt);
+  EXPECT_EQ(nodes::firstMapWaitStart(std::nullopt, 7'000'000'000), 7'000'000'000);
+  // Once started it stays where it started.
+  EXPECT_EQ(nodes::firstMapWaitStart(7'000'000'000, 9'000'000'000), 7'000'000'000);
+}
+
 // The mapper's map of a wall at x = 5 (y, z in 1 .. 3) seen from (2, 2, 2).
 msg::OccupancyMap wallMessage() {
   mapper::MapperConfig config;
