@@ -368,6 +368,35 @@ Scan planarScan(const std::vector<std::array<double, 4>>& segments, double ox, d
   return scan;
 }
 
+// A return the sensor could not measure is no gap to fill with rays beside it. Down a corridor (faces y = +-0.8 for x in
+// [3, 40], open beyond), the beam at 1.5 degrees grazes the upper face at x = 30.55 and its last hit; the beams below
+// it pass the corridor's end. With that return dropped (NaN) the gap's first ray runs where it did and on beyond its
+// hit, through the inside of the wall: the cells behind the face stay unobserved, as without gap rays.
+TEST(Mapper, NoGapRayBesideAReturnTheSensorCouldNotMeasure) {
+  const std::vector<std::array<double, 4>> corridor = {{3.0, 0.8, 40.0, 0.8}, {3.0, -0.8, 40.0, -0.8}};
+  Scan scan = planarScan(corridor, 0.0, 0.0, 66.0);
+  // The beams from 0 degrees up; 0, 0.5 and 1 degree return nothing, so the first return is the 1.5-degree one.
+  ASSERT_NEAR(scan.points.front().x, 0.8 / std::tan(1.5 * M_PI / 180.0), 1e-3);
+  scan.points.front() = {std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f};
+  MapperConfig config;
+  config.dimensions = 2;
+  config.resolution = 0.1;
+  config.clear_beam_gaps = true;
+  OccupancyMapper mapper(config);
+  const InsertResult result = mapper.insert(scan);
+  ASSERT_TRUE(result.inserted);
+  EXPECT_EQ(result.dropped_non_finite, 1u);
+  for (const auto& [x, y] : {std::pair{31.5, 0.85}, std::pair{33.0, 0.85}, std::pair{36.0, 0.95}})
+    EXPECT_EQ(mapper.octree().search(x, y, 0.0), nullptr) << x << " " << y;  // behind the face: never observed
+  // The same scan with the return measured: its gap (-1.5 .. 1.5 degrees) is cleared down the corridor's middle.
+  OccupancyMapper measured(config);
+  const InsertResult whole = measured.insert(planarScan(corridor, 0.0, 0.0, 66.0));
+  EXPECT_GE(whole.gap_rays, 5u);
+  const octomap::OcTreeNode* beyond = measured.octree().search(50.0, 0.05, 0.0);
+  ASSERT_NE(beyond, nullptr);
+  EXPECT_FALSE(measured.octree().isNodeOccupied(beyond));
+}
+
 // The fill yields to space observed free with confidence. A wall along y = 1.2 with a 0.6 m opening (x 16 .. 16.6)
 // that the grazing scan from the origin has no beam through, a wall y = 3 behind it: seen three times from below
 // the opening first, the opening stays free under the grazing scans; seen once, or not at all, it is filled as the
