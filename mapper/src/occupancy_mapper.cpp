@@ -273,8 +273,18 @@ std::size_t addSurfaceFill(const std::vector<Beam>& beams, double step, const oc
   };
   std::vector<bool> on_line(n);
   for (std::size_t i = 0; i < n; ++i) on_line[i] = onLine(i);
+  // Both ends of the segment must be on the surface: each on the line of its neighbours, or with no return beyond
+  // it to test (a missing beam; the scan's edge). One end alone is not enough: a beam that passes a wall's convex
+  // end at a grazing angle runs on nearly along the wall's line and may hit the surface behind it on that line (a
+  // corridor turning off past the end: stunnel_v1_0.5's connector, its wall's last two hits and the ceiling 2 m
+  // beyond the corner within 2 mm of one line). That return's own neighbours lie on the surface it really hit,
+  // not on the wall's line, so the segment to it is not filled and the turn stays open.
+  const auto surfaceEnd = [&](std::size_t end, std::size_t beyond_gap_after) {
+    return on_line[end % n] || !neighbours(beyond_gap_after);
+  };
   for (std::size_t i = 0; i < n && out.size() < limit; ++i) {
     if (!neighbours(i) || !(on_line[i] || on_line[(i + 1) % n])) continue;
+    if (!surfaceEnd(i, i + n - 1) || !surfaceEnd(i + 1, i + 1)) continue;
     const auto [ax, ay] = at(i);
     const auto [bx, by] = at(i + 1);
     const double length = std::hypot(bx - ax, by - ay);

@@ -473,5 +473,24 @@ TEST(Mapper, FaceSeenAtAGrazingAngleIsFilledBetweenItsHitsButNotAcrossAnOpening)
                std::invalid_argument);
 }
 
+// A corridor's upper wall y = 0.4 (x 3 .. 20) ends at a convex corner; the corridor turns up past it, and a wall
+// x = 22.92 closes its far end. The 1-degree beam passes the corner and hits that far wall exactly on the upper
+// wall's line (y = 0.4), so the wall's last hits (2 and 1.5 degrees) and that return are collinear. The fill must
+// not run on across the turn (x 20 .. 22.9): the return's own neighbours are on the far wall, not on the line.
+TEST(Mapper, FaceFillStopsAtAConvexEndWhoseBeamHitsASurfaceBehindOnItsLine) {
+  const double far_x = 0.4 / std::tan(1.0 * M_PI / 180.0);  // 22.92: where the 1-degree beam meets y = 0.4
+  const Scan scan = planarScan({{3.0, 0.4, 20.0, 0.4}, {far_x, -5.0, far_x, 5.0}}, 0.0, 0.0, 66.0);
+  InsertResult result;
+  const auto mapper = mapped2d(scan, [](MapperConfig& c) { c.fill_surfaces_between_returns = true; }, result);
+  ASSERT_TRUE(result.inserted);
+  EXPECT_GT(result.surface_fill, 0u);
+  const auto occupied = [&](double x, double y) {
+    const octomap::OcTreeNode* n = mapper->octree().search(x, y, 0.0);
+    return n != nullptr && mapper->octree().isNodeOccupied(n);
+  };
+  for (double x = 20.55; x < far_x - 0.3; x += 0.1) EXPECT_FALSE(occupied(x, 0.45)) << x;  // the turn stays open
+  for (double x = 7.65; x < 15.2; x += 0.1) EXPECT_TRUE(occupied(x, 0.45)) << x;   // the face between its hits
+}
+
 }  // namespace
 }  // namespace ddsnav::mapper

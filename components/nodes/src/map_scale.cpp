@@ -39,6 +39,6 @@ double radiusOf(const planner::Scenario& scenario) {
 double defaultStructureExtent(const planner::Scenario& scenario) { return std::min(10.0, 25.0 * radiusOf(scenario)); }
 double defaultUnknownMargin(const planner::Scenario& scenario) { return std::min(1.0, 2.0 * radiusOf(scenario)); }
 
-double defaultHiddenContinuation(const planner::Scenario& scenario) { return std::min(5.0, 10.0 * radiusOf(scenario)); }
+double defaultHiddenContinuation(const planner::Scenario& scenario) { return std::min(15.0, 30.0 * radiusOf(scenario)); }
 
 }  // namespace ddsnav::nodes

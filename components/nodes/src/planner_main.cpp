@@ -64,7 +64,7 @@ class PlannerComponent : public runtime::Component {
               "hidden_continuation_m",
               {.min = 0, .max = 100, .unit = "m",
                .doc = "2-D map and fused worlds: plan first with seen surfaces continued this far into space hidden from the vehicle "
-                      "(where something in front hides them), then without (docs/world-model.md); 0: off; default min(5 m, 10 x the "
+                      "(where something in front hides them), then without (docs/world-model.md); 0: off; default min(15 m, 30 x the "
                       "robot radius)"})),
           improve_for_s(p.declare<double>(
               "improve_for_s", 0.0,

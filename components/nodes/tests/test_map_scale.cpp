@@ -70,7 +70,7 @@ TEST(MapScale, BoundedForAnyInput) {
 TEST(MapScale, LengthsFollowTheRobotUpToThePapersValues) {
   planner::Scenario s;
   for (const auto& [radius, extent, margin, continuation] :
-       {std::tuple{0.1, 2.5, 0.2, 1.0}, std::tuple{0.4, 10.0, 0.8, 4.0}, std::tuple{0.5, 10.0, 1.0, 5.0}, std::tuple{2.0, 10.0, 1.0, 5.0}}) {
+       {std::tuple{0.1, 2.5, 0.2, 3.0}, std::tuple{0.4, 10.0, 0.8, 12.0}, std::tuple{0.5, 10.0, 1.0, 15.0}, std::tuple{2.0, 10.0, 1.0, 15.0}}) {
     s.robot_radius = radius;
     EXPECT_DOUBLE_EQ(defaultStructureExtent(s), extent) << radius;
     EXPECT_DOUBLE_EQ(defaultUnknownMargin(s), margin) << radius;

@@ -77,9 +77,10 @@ struct MapperConfig {
   // 2-D: a face seen at a grazing angle is hit by neighbouring beams metres apart (a corridor's wall 20 m ahead,
   // every 2.5-7 m), and a planner takes the unseen stretches between the hits for open space — and plans through
   // the wall (docs/world-model.md, "Faces seen at a grazing angle"). With this on, the segment between two
-  // neighbouring returns (one angular step apart) is marked occupied, with no ray, when the return before or after
-  // them lies on their line (its range within half the resolution of where its beam meets the line) and it is at most max_surface_fill_m long (0: the scan's
-  // max_range / 8), and so is the segment moved one voxel away from the scanner (the face's far side: rays grazing
+  // neighbouring returns (one angular step apart) is marked occupied, with no ray, when both lie on one surface —
+  // each on the line of its own neighbours (its range within half the resolution of where its beam meets the line),
+  // or with no return beyond it to test, and one at least on the line — and it is at most max_surface_fill_m long
+  // (0: the scan's max_range / 8), and so is the segment moved one voxel away from the scanner (the face's far side: rays grazing
   // the face on their way to farther hits observe the voxels it cuts through free). Only voxels never observed are
   // filled, this scan's rays included: a voxel a beam once saw through is never filled again, and a filled one takes
   // one hit, so a few beams through it clear it. An opening between two such hits is one no beam saw through: when

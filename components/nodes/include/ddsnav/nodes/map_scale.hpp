@@ -36,7 +36,7 @@ MapScale mapScaleFor(const planner::Scenario& scenario, double sensor_range);
 //
 //   structure_extent_m     = min(10 m, 25 r)   perception: a longer cluster is structure, left to the map
 //   unknown_margin_m       = min(1 m, 2 r)     planner and tracker: unseen space this close to a seen surface
-//   hidden_continuation_m  = min(5 m, 10 r)    planner: a seen surface continued into space hidden from the vehicle
+//   hidden_continuation_m  = min(15 m, 30 r)   planner: a seen surface continued into space hidden from the vehicle
 double defaultStructureExtent(const planner::Scenario& scenario);
 double defaultUnknownMargin(const planner::Scenario& scenario);
 double defaultHiddenContinuation(const planner::Scenario& scenario);
