@@ -64,7 +64,8 @@ class MapperComponent : public runtime::Component {
       // angle").
       config.fill_surfaces_between_returns = p.declare<bool>(
           "fill_surfaces_between_returns", true,
-          {.doc = "2-D: mark occupied the segment between neighbouring returns when a third lies on their line, except where "
+          {.doc = "2-D: mark occupied the segment between neighbouring returns when both lie on one surface with the returns "
+                  "beside them, except where "
                   "beams have looked through with confidence (a wall seen at a grazing angle is hit every few metres, and the "
                   "planner took the stretches between for open space: docs/world-model.md)"});
       config.max_surface_fill_m = p.declare<double>(
