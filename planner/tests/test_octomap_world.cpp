@@ -710,6 +710,31 @@ TEST(OctoMapWorld, ASeenSurfaceGoesOnWhereSomethingInFrontHidesIt) {
   for (const Vec3& c : occludedSurfaceContinuation(*seen_map, Vec3(2.0, 1.3, 0.0), 5.0).cells) ADD_FAILURE() << c.transpose();
 }
 
+// A face whose last hits fell one row up (as a grazed face's do: its line is at a cell boundary) has an axis a few
+// degrees off; walked along, it leaves the face's row for the row in front, observed free, within a metre or two.
+// The face y in [0, 0.1), x in [0, 3); its last 0.2 m also hit in the row above; that row and the next observed free
+// beyond, a wall at y = 1.5 (x 2.5 .. 6) hiding the face's continuation from the viewpoint (1.5, 3). The
+// continuation must go on in the face's row (moving across at most two cells) well beyond where the tilt meets the
+// free row.
+TEST(OctoMapWorld, AContinuationFollowsTheFaceWhenItsTiltedAxisMeetsSpaceObservedFree) {
+  octomap::OcTree tree(0.1);
+  for (double x = 0.05; x < 3.0; x += 0.1) tree.updateNode(x, 0.05, 0.05, true);
+  for (const double x : {2.85, 2.95}) tree.updateNode(x, 0.15, 0.05, true);
+  for (double x = 0.05; x < 2.8; x += 0.1) tree.updateNode(x, 0.15, 0.05, false);
+  for (double x = 3.05; x < 9.0; x += 0.1)
+    for (const double y : {0.15, 0.25}) tree.updateNode(x, y, 0.05, false);
+  for (double x = 2.55; x < 6.0; x += 0.1) tree.updateNode(x, 1.55, 0.05, true);
+  OctoMapWorldOptions knows_unobserved;
+  knows_unobserved.unknown_margin_m = 0.05;  // below one cell: no margin, but the free leaves are loaded
+  const auto map = makeOctoMapWorld(2, Vec3(-10, -10, 0), Vec3(20, 20, 0), 0.2, toBytes(tree), knows_unobserved);
+  double farthest_in_row = 0.0;
+  for (const Vec3& c : occludedSurfaceContinuation(*map, Vec3(1.5, 3.0, 0.0), 5.0).cells) {
+    EXPECT_FALSE(c.y() > 0.1 && c.y() < 0.3 && c.x() > 3.0) << "on space observed free: " << c.transpose();
+    if (c.y() > -0.25 && c.y() < 0.1) farthest_in_row = std::max(farthest_in_row, c.x());
+  }
+  EXPECT_GT(farthest_in_row, 6.0);  // without moving across: stops near x = 4, where the tilted axis meets y = 0.1
+}
+
 // The same walls seen by a coarse scanner (4 degrees between beams): the face is sampled every 0.2 m or so, not
 // in every cell, and rays from the hidden stretch slip between the short wall's samples. The stretch is
 // continued all the same (a scanner's view of a wall 38 m away, bugtrap_0.6, was not continued at all).
