@@ -239,8 +239,9 @@ std::size_t addBeamGapRays(const std::vector<Beam>& beams, double step, const oc
 }
 
 // MapperConfig::fill_surfaces_between_returns: points every half voxel on the segments between neighbouring returns
-// (`beams` and `step` from sortedBeams) that lie on one straight surface — the return before or after them is on
-// their line, within `tolerance` along its beam — up to max_length long; returns how many (at most `limit`).
+// (`beams` and `step` from sortedBeams) that lie on one straight surface — both on the line of their own neighbours
+// (or with no return beyond them to test), within `tolerance` along the beam, one at least on it — up to max_length
+// long; returns how many (at most `limit`).
 std::size_t addSurfaceFill(const std::vector<Beam>& beams, double step, const octomap::point3d& origin,
                            double resolution, double tolerance, double max_length, std::size_t limit,
                            std::vector<octomap::point3d>& out) {

@@ -398,10 +398,10 @@ class OctoMapWorld final : public CollisionWorld {
         // On along the axis through never-observed cells hidden from the viewpoint; the first observed cell or
         // the first one in plain sight (merely not hit by a ray yet) ends it.
         const SurfaceLine line{double(c.x) + 0.5, double(c.y) + 0.5, ax, ay};
-        // The axis of a face one or two cells thick is known to a degree or two, and over metres the walk drifts
-        // off the face's row: on to the space in front, observed free, where it would stop (bugtrap_0.4's neck wall:
-        // its last 4 m left open because the walk left the wall's row for the neck's at a 1.6-degree tilt). Met by
-        // a cell observed free, the walk moves one cell across, away from the viewpoint, when that one is
+        // The axis of a face one or two cells thick is known to a degree or so, and over metres the walk drifts off
+        // the face's row: on to the space in front, observed free, where it would stop (bugtrap_0.4's neck wall, its
+        // hits in two rows, axis 0.7-0.8 degrees off: its last 4 m left open because the walk entered the neck's row).
+        // Met by a cell observed free, the walk moves one cell across, away from the viewpoint, when that one is
         // unobserved and hidden — at most kMaxContinuationShift cells in all.
         double nx = -ay, ny = ax;  // the surface's normal, pointing away from the viewpoint
         if (nx * (double(c.x) + 0.5 - vx) + ny * (double(c.y) + 0.5 - vy) < 0.0) nx = -nx, ny = -ny;
@@ -412,13 +412,15 @@ class OctoMapWorld final : public CollisionWorld {
           const double px = double(c.x) + 0.5 + t * ax + shift * nx, py = double(c.y) + 0.5 + t * ay + shift * ny;
           std::int64_t x = static_cast<std::int64_t>(std::floor(px)), y = static_cast<std::int64_t>(std::floor(py));
           if (x == last_x && y == last_y) continue;
-          if (shift < kMaxContinuationShift && observed(x, y) && !observedOccupied(x, y)) {
+          bool moved_across = false;  // onto a cell already judged unobserved and hidden
+          if (shift < kMaxContinuationShift && observedFree({x, y, 0})) {
             const std::int64_t across_x = static_cast<std::int64_t>(std::floor(px + nx));
             const std::int64_t across_y = static_cast<std::int64_t>(std::floor(py + ny));
-            if (!observed(across_x, across_y) && hidden(across_x, across_y, line)) ++shift, x = across_x, y = across_y;
+            moved_across = !observed(across_x, across_y) && hidden(across_x, across_y, line);
+            if (moved_across) ++shift, x = across_x, y = across_y;
           }
           last_x = x, last_y = y;
-          if (observed(x, y) || !hidden(x, y, line)) break;
+          if (!moved_across && (observed(x, y) || !hidden(x, y, line))) break;
           if (out.cells.size() >= kMaxContinuationCells) return;
           if (taken.insert((std::uint64_t(x + 4 * kCellLimit) << 32) | std::uint64_t(y + 4 * kCellLimit)).second)
             out.cells.emplace_back((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_, 0.0);

@@ -396,7 +396,9 @@ TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForc
     ++checked;
     blocked += below;
     ASSERT_EQ(world->isFree(p), !below) << p.transpose();
-    if (below) EXPECT_LT(world->clearance(p), 0.0);
+    if (below) {
+      EXPECT_LT(world->clearance(p), 0.0);
+    }
   }
   EXPECT_GT(blocked, 1000);  // both answers were exercised
   EXPECT_GT(checked - blocked, 1000);
@@ -710,8 +712,8 @@ TEST(OctoMapWorld, ASeenSurfaceGoesOnWhereSomethingInFrontHidesIt) {
   for (const Vec3& c : occludedSurfaceContinuation(*seen_map, Vec3(2.0, 1.3, 0.0), 5.0).cells) ADD_FAILURE() << c.transpose();
 }
 
-// A face whose last hits fell one row up (as a grazed face's do: its line is at a cell boundary) has an axis a few
-// degrees off; walked along, it leaves the face's row for the row in front, observed free, within a metre or two.
+// A face whose hits near its end fall in two rows (a grazed face's do when its line is at a cell boundary) has an
+// axis a degree or more off; walked along, it leaves the face's row for the row in front, observed free, within metres.
 // The face y in [0, 0.1), x in [0, 3); its last 0.2 m also hit in the row above; that row and the next observed free
 // beyond, a wall at y = 1.5 (x 2.5 .. 6) hiding the face's continuation from the viewpoint (1.5, 3). The
 // continuation must go on in the face's row (moving across at most two cells) well beyond where the tilt meets the

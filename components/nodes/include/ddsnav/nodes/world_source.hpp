@@ -58,7 +58,8 @@ bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unk
 // component on `clock: topic` reads 0 until the first clock sample, and obstacles (transient local) can arrive
 // before it: a wait started at 0 had already passed at the first request, so the planner planned on the obstacles
 // alone while the map was still being discovered — through walls the tracker's map held (the first one to three
-// plans of 4 of 24 2-D missions checked, 2026-12-05: a race with discovery). The wait starts at the first obstacles that arrive with the clock running.
+// plans of 4 of 24 2-D missions checked, 2026-12-05: a race with discovery). The wait starts at the first obstacles
+// that arrive with the clock running.
 std::optional<std::int64_t> firstMapWaitStart(std::optional<std::int64_t> started_ns, std::int64_t now_ns);
 
 class WorldSource {
