@@ -7,7 +7,7 @@
 namespace ddsnav::nodes {
 
 double WorldTier::share(double left) const {
-  double share = left / 10;
+  double share = solve_s_.empty() ? std::min(left / 10, kShareBeforeASolve_s) : left / 10;
   double floor = 0.05;
   if (!solve_s_.empty()) {
     std::vector<double> sorted(solve_s_.begin(), solve_s_.end());

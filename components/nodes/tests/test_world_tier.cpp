@@ -5,13 +5,14 @@
 namespace ddsnav::nodes {
 namespace {
 
-TEST(WorldTier, ATenthOfTheBudgetCutByEightPerFailureDownTo50Ms) {
+TEST(WorldTier, ATenthOfTheBudgetUpTo100MsCutByEightPerFailureDownTo50Ms) {
   WorldTier tier;
-  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.5);
+  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.1);  // a tenth would be 0.5 s
+  EXPECT_DOUBLE_EQ(tier.share(0.8), 0.08);
   tier.failed();
-  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.0625);
+  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.05);  // 0.0125 without the floor
   tier.failed();
-  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.05);  // 0.0078 without the floor
+  EXPECT_DOUBLE_EQ(tier.share(5.0), 0.05);
   for (int i = 0; i < 100; ++i) tier.failed();
   EXPECT_DOUBLE_EQ(tier.share(5.0), 0.05);
   EXPECT_DOUBLE_EQ(tier.share(0.3), 0.03);  // never more than a tenth of what is left
