@@ -21,6 +21,38 @@ struct Cell {
   std::uint32_t parent = kNoParent;
   std::int8_t free_point = kNotLookedUp;  // which of the cell's probe points is free (Lattice::probe), or kNone
   bool closed = false;
+  bool seen = false;  // looked up (DenseCells counts these)
+};
+
+// The cells the search has looked up, by lattice index. A lattice of at most kDenseCells cells (a 2-D world of
+// 128 x 128 m at a 0.5 m robot) holds them all in one array, allocated once per search; a larger one in a hash map
+// of the cells seen. Why: on a recorded bugtrap_0.4 map the hash map's lookups, rehashes and allocations took 60 % of
+// a search (perf), and in the planner the search gave up after 30 ms with the preferred world still undecided.
+constexpr std::size_t kDenseCells = std::size_t(1) << 18;  // 4 MB of cells
+
+class DenseCells {
+ public:
+  explicit DenseCells(std::size_t n) : cells_(n) {}
+  Cell& operator[](std::uint32_t index) {
+    Cell& c = cells_[index];
+    if (!c.seen) c.seen = true, ++seen_;
+    return c;
+  }
+  std::size_t size() const { return seen_; }
+
+ private:
+  std::vector<Cell> cells_;
+  std::size_t seen_ = 0;
+};
+
+class SparseCells {
+ public:
+  SparseCells() { cells_.reserve(4096); }
+  Cell& operator[](std::uint32_t index) { return cells_[index]; }
+  std::size_t size() const { return cells_.size(); }
+
+ private:
+  std::unordered_map<std::uint32_t, Cell> cells_;
 };
 
 class Lattice {
@@ -48,8 +80,8 @@ class Lattice {
   // the robot is free at one of them: the corners halve the spacing at which a passage is resolved for a fifth (a
   // ninth) of the cost of a lattice twice as fine.
   int probes() const { return three_d_ ? 9 : 5; }
-  Vec3 probe(std::uint32_t index, int k) const {
-    Vec3 c = centre(index);
+  Vec3 probe(std::uint32_t index, int k) const { return probeAround(centre(index), k); }
+  Vec3 probeAround(Vec3 c, int k) const {
     if (k == 0) return c;
     const int corner = k - 1;
     c.x() += (corner & 1 ? 0.5 : -0.5) * cell_;
@@ -57,7 +89,8 @@ class Lattice {
     if (three_d_) c.z() += (corner & 4 ? 0.5 : -0.5) * cell_;
     return c;
   }
-  // Calls fn(neighbour index) for the 8 / 26 neighbours inside the lattice.
+  // Calls fn(neighbour index, its centre) for the 8 / 26 neighbours inside the lattice (the centre without the
+  // divisions centre(index) takes: the search looks up every neighbour of every cell it expands).
   template <class Fn>
   void forNeighbours(std::uint32_t index, Fn&& fn) const {
     const std::int64_t i = index % nx_, j = (index / nx_) % ny_, k = index / (nx_ * ny_);
@@ -68,7 +101,9 @@ class Lattice {
           if (x == 0 && y == 0 && z == 0) continue;
           const std::int64_t a = i + x, b = j + y, c = k + z;
           if (a < 0 || b < 0 || c < 0 || a >= nx_ || b >= ny_ || c >= nz_) continue;
-          fn(static_cast<std::uint32_t>(a + std::int64_t(nx_) * (b + std::int64_t(ny_) * c)));
+          Vec3 at = world_.boundsMin() + cell_ * Vec3(double(a) + 0.5, double(b) + 0.5, three_d_ ? double(c) + 0.5 : 0.0);
+          if (!three_d_) at.z() = 0.0;
+          fn(static_cast<std::uint32_t>(a + std::int64_t(nx_) * (b + std::int64_t(ny_) * c)), at);
         }
   }
 
@@ -77,41 +112,22 @@ class Lattice {
   double cell_;
   bool three_d_;
   std::uint32_t nx_ = 1, ny_ = 1, nz_ = 1;
+
+ public:
+  std::size_t size() const { return std::size_t(nx_) * ny_ * nz_; }
 };
 
 void checkFinite(const Vec3& v, const char* what) {
   if (!v.allFinite()) throw std::invalid_argument(std::string("findCoarseRoute: ") + what + " is not finite");
 }
 
-}  // namespace
-
-CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, const Vec3& goal_in, double goal_radius,
-                            const CoarseRouteOptions& options) {
-  const auto started = std::chrono::steady_clock::now();
+template <class Cells>
+CoarseRoute search(const CollisionWorld& world, const Lattice& lattice, double cell, const Vec3& start, const Vec3& goal, double goal_radius,
+                   const CoarseRouteOptions& options, Cells& cells, std::chrono::steady_clock::time_point started) {
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(); };
-  checkFinite(start_in, "the start");
-  checkFinite(goal_in, "the goal");
-  if (!std::isfinite(goal_radius) || goal_radius < 0.0) throw std::invalid_argument("findCoarseRoute: goal_radius must be finite and >= 0");
-  if (!(options.heuristic_weight >= 1.0 && options.heuristic_weight <= 100.0))
-    throw std::invalid_argument("findCoarseRoute: heuristic_weight must be in [1, 100]");
-  if (!(options.cell_m >= 0.0 && options.cell_m <= 1e6)) throw std::invalid_argument("findCoarseRoute: cell_m must be in [0, 1e6] m");
   const bool three_d = world.dimensions() == 3;
-  Vec3 start = start_in, goal = goal_in;
-  if (!three_d) start.z() = goal.z() = 0.0;
-  const Vec3 lo = world.boundsMin(), hi = world.boundsMax();
-  for (int a = 0; a < (three_d ? 3 : 2); ++a)
-    if (start[a] < lo[a] || start[a] > hi[a]) throw std::invalid_argument("findCoarseRoute: the start is outside the bounds");
-
-  // The spacing: as asked, or half the robot radius, coarsened to the cell budget (the bounds' volume over it).
-  const Vec3 extent = hi - lo;
-  const double volume = three_d ? extent.x() * extent.y() * extent.z() : extent.x() * extent.y();
-  const double budget = static_cast<double>(std::max<std::size_t>(options.max_lattice_cells, 1));
-  double cell = options.cell_m > 0.0 ? options.cell_m : 0.5 * world.robotRadius();
-  cell = std::max({cell, std::pow(volume / budget, three_d ? 1.0 / 3.0 : 0.5), 1e-3});
-
   CoarseRoute route;
   route.cell_m = cell;
-  const Lattice lattice(world, cell);
   // Moves join free probe points of neighbouring cells, at most two cell diagonals apart. They are not checked
   // between their ends while a wall could not lie there unseen (free at both ends means nothing within the robot
   // radius of either: a move up to twice the radius long cannot cross an obstacle, whatever its thickness) — the
@@ -120,14 +136,12 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, c
   const bool check_segments = diagonal > world.robotRadius();
   const double goal_reach = std::max(goal_radius, cell);
 
-  std::unordered_map<std::uint32_t, Cell> cells;
-  cells.reserve(4096);
   using Entry = std::pair<double, std::uint32_t>;  // (g + h, index)
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   auto heuristic = [&](const Vec3& c) { return options.heuristic_weight * std::max(0.0, (c - goal).norm() - goal_reach); };
-  auto passable = [&](std::uint32_t index, Cell& c) {
+  auto passable = [&](const Vec3& centre, Cell& c) {
     for (int k = 0; c.free_point == kNotLookedUp && k < lattice.probes(); ++k)
-      if (world.isFree(lattice.probe(index, k))) c.free_point = static_cast<std::int8_t>(k);
+      if (world.isFree(lattice.probeAround(centre, k))) c.free_point = static_cast<std::int8_t>(k);
     if (c.free_point == kNotLookedUp) c.free_point = kNone;
     return c.free_point != kNone;
   };
@@ -156,10 +170,10 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, c
       break;
     }
     const double g_here = here.g;
-    lattice.forNeighbours(index, [&](std::uint32_t next) {
+    lattice.forNeighbours(index, [&](std::uint32_t next, const Vec3& centre) {
       Cell& n = cells[next];
-      if (n.closed || !passable(next, n)) return;
-      const Vec3 to = point(next);
+      if (n.closed || !passable(centre, n)) return;
+      const Vec3 to = lattice.probeAround(centre, n.free_point);
       const double g = g_here + (to - at).norm();
       if (g >= n.g) return;
       if (check_segments && !world.isSegmentFree(at, to)) return;
@@ -181,6 +195,41 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, c
   for (std::size_t i = 1; i < route.waypoints.size(); ++i) route.length_m += (route.waypoints[i] - route.waypoints[i - 1]).norm();
   return route;
 }
+
+}  // namespace
+
+CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, const Vec3& goal_in, double goal_radius,
+                            const CoarseRouteOptions& options) {
+  const auto started = std::chrono::steady_clock::now();
+  checkFinite(start_in, "the start");
+  checkFinite(goal_in, "the goal");
+  if (!std::isfinite(goal_radius) || goal_radius < 0.0) throw std::invalid_argument("findCoarseRoute: goal_radius must be finite and >= 0");
+  if (!(options.heuristic_weight >= 1.0 && options.heuristic_weight <= 100.0))
+    throw std::invalid_argument("findCoarseRoute: heuristic_weight must be in [1, 100]");
+  if (!(options.cell_m >= 0.0 && options.cell_m <= 1e6)) throw std::invalid_argument("findCoarseRoute: cell_m must be in [0, 1e6] m");
+  const bool three_d = world.dimensions() == 3;
+  Vec3 start = start_in, goal = goal_in;
+  if (!three_d) start.z() = goal.z() = 0.0;
+  const Vec3 lo = world.boundsMin(), hi = world.boundsMax();
+  for (int a = 0; a < (three_d ? 3 : 2); ++a)
+    if (start[a] < lo[a] || start[a] > hi[a]) throw std::invalid_argument("findCoarseRoute: the start is outside the bounds");
+
+  // The spacing: as asked, or half the robot radius, coarsened to the cell budget (the bounds' volume over it).
+  const Vec3 extent = hi - lo;
+  const double volume = three_d ? extent.x() * extent.y() * extent.z() : extent.x() * extent.y();
+  const double budget = static_cast<double>(std::max<std::size_t>(options.max_lattice_cells, 1));
+  double cell = options.cell_m > 0.0 ? options.cell_m : 0.5 * world.robotRadius();
+  cell = std::max({cell, std::pow(volume / budget, three_d ? 1.0 / 3.0 : 0.5), 1e-3});
+
+  const Lattice lattice(world, cell);
+  if (lattice.size() <= kDenseCells) {
+    DenseCells cells(lattice.size());
+    return search(world, lattice, cell, start, goal, goal_radius, options, cells, started);
+  }
+  SparseCells cells;
+  return search(world, lattice, cell, start, goal, goal_radius, options, cells, started);
+}
+
 
 void guideAlong(PlanProblem& problem, const CoarseRoute& route, double bias) {
   if (route.outcome != CoarseRoute::Outcome::found || problem.world == nullptr) return;
