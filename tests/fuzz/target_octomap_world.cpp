@@ -1,11 +1,15 @@
 // Fuzz target: the map world's reader of OcTree::writeBinary bytes (what map/octomap carries) and the
-// queries a planner makes of the world it builds. The first input byte picks 2-D or 3-D and the
-// unknown-space option, the rest are the octree bytes.
+// queries a planner makes of the world it builds: point, segment, clearance and neighbour queries, perception's
+// ellipses clipped to what the map observed (2-D) and a lattice route search. The first input byte picks 2-D or 3-D
+// and the unknown-space option, the rest are the octree bytes.
 // Contract: std::runtime_error naming makeOctoMapWorld, or a world that answers every query.
 #include "fuzz_input.hpp"
 
+#include <ddsnav/planner/coarse_route.hpp>
 #include <ddsnav/planner/collision_world.hpp>
 #include <ddsnav/planner/scenario.hpp>
+
+#include <Eigen/Geometry>
 
 #include <stdexcept>
 
@@ -36,5 +40,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   (void)world->isSegmentFree(s.start, s.goal);
   (void)world->clearance(s.goal);
   (void)world->obstaclesNear(s.start, 2.0);
+  // Ellipses at the start, the goal and between them, one tilted: clipped against whatever the bytes made observed.
+  std::vector<EllipsoidObstacle> ellipses(3);
+  const Vec3 points[3] = {s.start, s.goal, 0.5 * (s.start + s.goal)};
+  for (std::size_t i = 0; i < ellipses.size(); ++i) {
+    ellipses[i].id = static_cast<int>(i);
+    ellipses[i].center = points[i];
+    ellipses[i].semi_axes = Vec3(1.5, 0.3, 0.3);
+  }
+  ellipses[2].axes = Eigen::AngleAxisd(0.7, Vec3::UnitZ()).toRotationMatrix();
+  const auto clipped = clipToObservedSpace(*world, ellipses);
+  if (clipped.clipped.size() != ellipses.size()) __builtin_trap();
+  CoarseRouteOptions lattice;
+  lattice.time_limit_s = 0.05;
+  (void)findCoarseRoute(*world, s.start, s.goal, s.goal_radius, lattice);
   return 0;
 }
