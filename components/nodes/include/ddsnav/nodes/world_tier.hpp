@@ -2,9 +2,9 @@
 // A world the planner tries before the plain map (the unknown margin, the hidden continuation; docs/world-model.md)
 // and its share of a request's budget, from what its recent searches took.
 //
-// The share: a tenth of what is left, 0.1 s at most before a search there has succeeded (a world tried for the first
-// time, with the worlds searched at once, held a bugtrap_0.4 replan 0.3 s failing), an eighth of that for each
-// failure since the last success (down to 50 ms);
+// The share: a tenth of what is left, 0.1 s at most before a search there has succeeded (the continuation world,
+// tried for the first time with 0.28 s of preferred_worlds_s left, held bugtrap_0.4 replans that long failing), an
+// eighth of that for each failure since the last success (down to 50 ms);
 // once solves there have succeeded, at most 3 x their median (at least 20 ms), also after failures, and down to
 // that (at most 0.1 s). Where such a world closes an unseen passage the vehicle must take, it finds nothing and the
 // whole share is waited for before the next world is tried: 0.5 s of a 5 s budget on stunnel_1.0, the worst replan
