@@ -70,12 +70,13 @@ class Lattice {
     auto clampTo = [](double v, std::uint32_t n) { return static_cast<std::uint32_t>(std::clamp(std::floor(v), 0.0, double(n - 1))); };
     return clampTo(c.x(), nx_) + nx_ * (clampTo(c.y(), ny_) + ny_ * (three_d_ ? clampTo(c.z(), nz_) : 0));
   }
-  Vec3 centre(std::uint32_t index) const {
-    const std::uint32_t i = index % nx_, j = (index / nx_) % ny_, k = index / (nx_ * ny_);
-    Vec3 c = world_.boundsMin() + cell_ * Vec3(i + 0.5, j + 0.5, three_d_ ? k + 0.5 : 0.0);
+  Vec3 centre(std::uint32_t index) const { return centre(index % nx_, (index / nx_) % ny_, index / (nx_ * ny_)); }
+  Vec3 centre(std::int64_t i, std::int64_t j, std::int64_t k) const {
+    Vec3 c = world_.boundsMin() + cell_ * Vec3(double(i) + 0.5, double(j) + 0.5, three_d_ ? double(k) + 0.5 : 0.0);
     if (!three_d_) c.z() = 0.0;
     return c;
   }
+  std::size_t size() const { return std::size_t(nx_) * ny_ * nz_; }
   // Probe point k of a cell: its centre (k = 0), then its corners (1-4 in 2-D, 1-8 in 3-D). A cell is passable when
   // the robot is free at one of them: the corners halve the spacing at which a passage is resolved for a fifth (a
   // ninth) of the cost of a lattice twice as fine.
@@ -101,9 +102,7 @@ class Lattice {
           if (x == 0 && y == 0 && z == 0) continue;
           const std::int64_t a = i + x, b = j + y, c = k + z;
           if (a < 0 || b < 0 || c < 0 || a >= nx_ || b >= ny_ || c >= nz_) continue;
-          Vec3 at = world_.boundsMin() + cell_ * Vec3(double(a) + 0.5, double(b) + 0.5, three_d_ ? double(c) + 0.5 : 0.0);
-          if (!three_d_) at.z() = 0.0;
-          fn(static_cast<std::uint32_t>(a + std::int64_t(nx_) * (b + std::int64_t(ny_) * c)), at);
+          fn(static_cast<std::uint32_t>(a + std::int64_t(nx_) * (b + std::int64_t(ny_) * c)), centre(a, b, c));
         }
   }
 
@@ -112,9 +111,6 @@ class Lattice {
   double cell_;
   bool three_d_;
   std::uint32_t nx_ = 1, ny_ = 1, nz_ = 1;
-
- public:
-  std::size_t size() const { return std::size_t(nx_) * ny_ * nz_; }
 };
 
 void checkFinite(const Vec3& v, const char* what) {

@@ -253,21 +253,24 @@ class OctoMapWorld final : public CollisionWorld {
         const double s = (c - centre).dot(major);
         const bool along_the_stretch = s >= s_min - grow && s <= s_max + grow;
         const Cell cell{x, y, 0};
-        const bool seen_through = observedFree(cell) || (!observedOccupied(cell) && betweenBeams(cell));
+        const bool seen_through =
+            observedFree(cell) || (!observedOccupied(cell) && betweenBeams(x, y, [&](std::int64_t i, std::int64_t j) { return observedFree({i, j, 0}); }));
         if (along_the_stretch || !seen_through || occupiedWithin(x, y, 1)) cells.emplace_back(c.x(), c.y(), 0.0);
       }
     return true;
   }
 
-  // A 2-D cell with cells observed free on both sides of it along a row, a column or a diagonal, within kBeamGap cells
-  // each way: if never observed itself, a gap between a scanner's beams (they fan out: 0.5 degree apart is 0.14 m at
-  // 16 m). The unknown margin's rule too (blockUnknownNearOccupied, on its dense tiles).
+  // A 2-D cell (x, y) with cells observed free (`observed_free(x, y)`) on both sides of it along a row, a column or a
+  // diagonal, within kBeamGap cells each way: if never observed itself, a gap between a scanner's beams (they fan out:
+  // 0.5 degree apart is 0.14 m at 16 m). The unknown margin's rule (blockUnknownNearOccupied, on its dense tiles) and
+  // the ellipse clipping's.
   static constexpr std::int64_t kBeamGap = 2;
-  bool betweenBeams(const Cell& c) const {
+  template <class ObservedFree>
+  static bool betweenBeams(std::int64_t x, std::int64_t y, ObservedFree&& observed_free) {
     for (const auto& [ux, uy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{1, -1}}) {
       bool ahead = false, behind = false;
-      for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observedFree({c.x + k * ux, c.y + k * uy, 0});
-      for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observedFree({c.x - k * ux, c.y - k * uy, 0});
+      for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observed_free(x + k * ux, y + k * uy);
+      for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observed_free(x - k * ux, y - k * uy);
       if (ahead && behind) return true;
     }
     return false;
@@ -774,20 +777,11 @@ class OctoMapWorld final : public CollisionWorld {
         }
       }
       auto observedFreeAt = [&](std::int64_t x, std::int64_t y) { return (at(x, y) & (kOccupied | kKnown)) == kKnown; };
-      auto betweenBeams = [&](std::int64_t x, std::int64_t y) {
-        for (const auto& [ux, uy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}, std::pair{1, -1}}) {
-          bool ahead = false, behind = false;
-          for (std::int64_t k = 1; k <= kBeamGap && !ahead; ++k) ahead = observedFreeAt(x + k * ux, y + k * uy);
-          for (std::int64_t k = 1; k <= kBeamGap && ahead && !behind; ++k) behind = observedFreeAt(x - k * ux, y - k * uy);
-          if (ahead && behind) return true;
-        }
-        return false;
-      };
       for (std::int64_t ny = 0; ny < th; ++ny)
         for (std::int64_t nx = 0; nx < tw; ++nx) {
           if (!candidate[static_cast<std::size_t>(ny * tw + nx)]) continue;
           const std::int64_t x = t_lo.x + nx, y = t_lo.y + ny;
-          if (at(x, y) & (kOccupied | kKnown) || betweenBeams(x, y)) continue;
+          if (at(x, y) & (kOccupied | kKnown) || betweenBeams(x, y, observedFreeAt)) continue;
           marks[pack(x >> 3, y >> 3, 0)] |= std::uint64_t(1) << bitOf({x, y, 0});
         }
     }

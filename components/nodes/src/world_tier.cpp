@@ -7,9 +7,11 @@
 namespace ddsnav::nodes {
 
 double WorldTier::share(double left) const {
-  double share = solve_s_.empty() ? std::min(left / 10, kShareBeforeASolve_s) : left / 10;
+  double share = left / 10;
   double floor = 0.05;
-  if (!solve_s_.empty()) {
+  if (solve_s_.empty()) {
+    share = std::min(share, kShareBeforeASolve_s);
+  } else {
     std::vector<double> sorted(solve_s_.begin(), solve_s_.end());
     std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
     const double typical = std::max(0.02, 3.0 * sorted[sorted.size() / 2]);
