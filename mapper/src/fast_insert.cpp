@@ -533,15 +533,18 @@ bool traceRay(const octomap::OcTree& tree, const octomap::point3d& origin, const
 #endif
 }
 
-// One thread's share of OccupancyOcTreeBase::computeUpdate, with the same tests in the same precision.
+// One thread's share of OccupancyOcTreeBase::computeUpdate, with the same tests in the same precision. With
+// `clear_only` the points are ends of rays cleared up to them, whatever max_range, their end voxel not marked.
 void markRays(const octomap::OcTree& tree, const octomap::point3d* points, std::size_t count,
-              const octomap::point3d& origin, double max_range, BrickMap& map) {
+              const octomap::point3d& origin, double max_range, BrickMap& map, bool clear_only = false) {
   octomap::OcTreeKey key_origin, key;
   if (!tree.coordToKeyChecked(origin, key_origin)) return;  // OctoMap: every ray fails
   const std::uint64_t code_origin = mortonCode(key_origin);
   for (std::size_t i = 0; i < count; ++i) {
     const octomap::point3d& p = points[i];
-    if (max_range < 0.0 || (p - origin).norm() <= max_range) {
+    if (clear_only) {
+      traceRay(tree, origin, key_origin, code_origin, p, map);
+    } else if (max_range < 0.0 || (p - origin).norm() <= max_range) {
       traceRay(tree, origin, key_origin, code_origin, p, map);
       if (tree.coordToKeyChecked(p, key)) map.markOccupied(key);
     } else {
@@ -615,7 +618,8 @@ std::size_t BrickMap::memoryUsage() const {
 
 InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                          const octomap::point3d& origin, double max_range, bool discretize, int threads,
-                         ScanKeys& keys, const std::vector<octomap::point3d>* surface_cells) {
+                         ScanKeys& keys, const std::vector<octomap::point3d>* surface_cells,
+                         const std::vector<octomap::point3d>* clear_rays) {
   const std::vector<octomap::point3d>* cloud = &points;
   std::vector<std::uint64_t>& sort_buffer = keys.sorted;
   if (discretize) {
@@ -650,15 +654,23 @@ InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap:
   std::vector<BrickMap>& maps = keys.maps;
   if (maps.size() < static_cast<std::size_t>(n_threads)) maps.resize(n_threads);
   for (BrickMap& m : maps) m.clear();
-  const std::size_t n = cloud->size();
-  if (n_threads == 1 || n < 2048) {
-    markRays(tree, cloud->data(), n, origin, max_range, maps[0]);
+  // The scan's points, then the clear rays: one index space [0, n + m), so that both are shared between threads.
+  const std::size_t n = cloud->size(), m = clear_rays != nullptr ? clear_rays->size() : 0;
+  const auto mark = [&](std::size_t begin, std::size_t end, BrickMap& map) {
+    if (begin < n) markRays(tree, cloud->data() + begin, std::min(end, n) - begin, origin, max_range, map);
+    if (end > n) {
+      const std::size_t from = std::max(begin, n) - n;
+      markRays(tree, clear_rays->data() + from, end - n - from, origin, max_range, map, /*clear_only=*/true);
+    }
+  };
+  if (n_threads == 1 || n + m < 2048) {
+    mark(0, n + m, maps[0]);
   } else {
     constexpr std::size_t kRun = 512;
     std::atomic<std::size_t> next{0};
     auto work = [&](int t) {
-      for (std::size_t begin = next.fetch_add(kRun); begin < n; begin = next.fetch_add(kRun)) {
-        markRays(tree, cloud->data() + begin, std::min(kRun, n - begin), origin, max_range, maps[t]);
+      for (std::size_t begin = next.fetch_add(kRun); begin < n + m; begin = next.fetch_add(kRun)) {
+        mark(begin, std::min(begin + kRun, n + m), maps[t]);
       }
     };
     std::vector<std::thread> workers;
@@ -707,11 +719,12 @@ std::size_t ScanKeys::memoryUsage() const {
 
 InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                                   const octomap::point3d& origin, double max_range, bool discretize, int threads,
-                                  bool pipelined, const std::vector<octomap::point3d>* surface_cells) {
+                                  bool pipelined, const std::vector<octomap::point3d>* surface_cells,
+                                  const std::vector<octomap::point3d>* clear_rays) {
   if (!pipelined) {
     finish();  // a pipelined update may still be running
     ScanKeys& keys = keys_[0];
-    InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells);
+    InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells, clear_rays);
     const auto started = std::chrono::steady_clock::now();
     counts.walk_threads = applyKeys(tree, keys, threads);
     counts.seconds_tree = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -720,7 +733,7 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   // The previous scan's tree update runs on the background thread while this scan's keys are computed
   // into the other buffer (key computation never reads a node).
   ScanKeys& keys = keys_[fill_];
-  InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells);
+  InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells, clear_rays);
   const auto waited = std::chrono::steady_clock::now();
   finish();
   counts.seconds_wait = std::chrono::duration<double>(std::chrono::steady_clock::now() - waited).count();

@@ -130,9 +130,12 @@ inline std::optional<bool> fillUpdate(std::optional<float> log_odds_before, bool
 // an earlier scan changes the tree.
 // `surface_cells` (may be null): points whose voxels are marked occupied as well, with no ray, by fillUpdate's rule
 // (cells a scan's returns imply but no beam hit: MapperConfig::fill_surfaces_between_returns).
+// `clear_rays` (may be null): ends of rays cleared up to them, whatever max_range, their end voxel not marked (the
+// rays of beams that returned nothing: MapperConfig::clear_beam_gaps); a return's voxel they cross stays a hit.
 InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                          const octomap::point3d& origin, double max_range, bool discretize, int threads, ScanKeys& keys,
-                         const std::vector<octomap::point3d>* surface_cells = nullptr);
+                         const std::vector<octomap::point3d>* surface_cells = nullptr,
+                         const std::vector<octomap::point3d>* clear_rays = nullptr);
 // Stage 2: applies the keys to the tree; returns the number of threads that walked it.
 int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads);
 
@@ -150,7 +153,8 @@ class FastInserter {
   // same as without pipelining: every scan's update is the same, applied in the same order.
   InsertCounts insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                       const octomap::point3d& origin, double max_range, bool discretize, int threads,
-                      bool pipelined = false, const std::vector<octomap::point3d>* surface_cells = nullptr);
+                      bool pipelined = false, const std::vector<octomap::point3d>* surface_cells = nullptr,
+                      const std::vector<octomap::point3d>* clear_rays = nullptr);
   // Waits until every handed-over tree update is applied; rethrows an exception it raised.
   void finish();
   std::size_t memoryUsage() const;

@@ -147,7 +147,6 @@ void applySensorModel(octomap::OcTree& tree, const MapperConfig& c) {
 }
 
 namespace {
-constexpr std::size_t kGapRayClasses = 4;  // gap rays cleared to max_range, / 2, / 4, / 8
 
 // A planar scan's return as seen from its origin.
 struct Beam {
@@ -173,22 +172,16 @@ struct OccupancyMapper::Impl {
   std::vector<bool> beside_invalid;  // per cleaned point: a non-finite point next to it in the cloud
   std::vector<Beam> beams;           // clear_beam_gaps' scratch space
   std::vector<double> gaps;
-  std::array<std::vector<octomap::point3d>, kGapRayClasses> gap_rays;
+  std::vector<std::pair<double, std::size_t>> by_elevation;  // 3-D clear_beam_gaps' scratch space
+  std::vector<octomap::point3d> gap_rays;  // the ends of clear_beam_gaps' rays
   std::vector<octomap::point3d> surface_fill;  // fill_surfaces_between_returns' points
 };
 
 namespace {
-// A planar scan's returns sorted by bearing, into `beams` (`beside_invalid` per point, as the mapper's Impl keeps it);
-// returns the scanner's angular step, the 10th percentile of the gaps between distinct neighbouring bearings (most
-// neighbours are one step apart; gaps where beams returned nothing are several), or 0 when there are too few returns
-// to tell. `gaps` is scratch space.
-double sortedBeams(const std::vector<octomap::point3d>& points, const std::vector<bool>& beside_invalid, const octomap::point3d& origin,
-                   std::vector<Beam>& beams, std::vector<double>& gaps) {
-  beams.clear();
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const double dx = double(points[i].x()) - origin.x(), dy = double(points[i].y()) - origin.y();
-    if (dx * dx + dy * dy > 1e-12) beams.push_back({std::atan2(dy, dx), std::sqrt(dx * dx + dy * dy), beside_invalid[i]});
-  }
+// `beams` sorted by bearing; returns the scanner's angular step, the 10th percentile of the gaps between distinct
+// neighbouring bearings (most neighbours are one step apart; gaps where beams returned nothing are several), or 0
+// when there are too few returns to tell. `gaps` is scratch space.
+double sortAndStep(std::vector<Beam>& beams, std::vector<double>& gaps) {
   if (beams.size() < 8) return 0.0;
   std::sort(beams.begin(), beams.end());
   gaps.clear();
@@ -200,16 +193,27 @@ double sortedBeams(const std::vector<octomap::point3d>& points, const std::vecto
   return gaps[tenth] > 1e-6 ? gaps[tenth] : 0.0;
 }
 
-// MapperConfig::clear_beam_gaps: the rays through the gaps of a planar scan's bearings (`beams` and `step` from
-// sortedBeams), by the length they are cleared to (class k: max_range / 2^k), as points beyond it; returns how many.
-std::size_t addBeamGapRays(const std::vector<Beam>& beams, double step, const octomap::point3d& origin,
-                           double max_range, double max_gap, std::array<std::vector<octomap::point3d>, kGapRayClasses>& rays_by_class) {
+// A planar scan's returns sorted by bearing, into `beams` (`beside_invalid` per point, as the mapper's Impl keeps it);
+// returns the scanner's angular step (sortAndStep).
+double sortedBeams(const std::vector<octomap::point3d>& points, const std::vector<bool>& beside_invalid, const octomap::point3d& origin,
+                   std::vector<Beam>& beams, std::vector<double>& gaps) {
+  beams.clear();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double dx = double(points[i].x()) - origin.x(), dy = double(points[i].y()) - origin.y();
+    if (dx * dx + dy * dy > 1e-12) beams.push_back({std::atan2(dy, dx), std::sqrt(dx * dx + dy * dy), beside_invalid[i]});
+  }
+  return sortAndStep(beams, gaps);
+}
+
+// MapperConfig::clear_beam_gaps: the rays through the gaps of one ring's bearings (`beams` and `step` from
+// sortAndStep; `elevation` the ring's, 0 for a planar scan), as their ends (cleared up to them); returns how many, at
+// most `limit`.
+std::size_t addBeamGapRays(const std::vector<Beam>& beams, double step, double elevation, const octomap::point3d& origin,
+                           double max_range, double max_gap, std::size_t limit, std::vector<octomap::point3d>& ray_ends) {
   // A ray is cleared to twice the farther of the returns bounding its gap, as far as max_range (far enough to see
-  // past what the neighbours hit, without a 66 m ray for every gap by a near wall): rounded up to max_range / 2^k,
-  // one insertion per such class, the points beyond it (the inserter clears such a ray to its max_range and marks
-  // no occupied cell, OctoMap's rule).
+  // past what the neighbours hit, without a 66 m ray for every gap by a near wall).
   if (!(step > 0.0)) return 0;
-  const std::size_t limit = beams.size();  // at most as many rays as the scan had returns
+  const double across = std::cos(elevation), up = std::sin(elevation);
   std::size_t added = 0;
   for (std::size_t i = 0; i < beams.size() && added < limit; ++i) {
     const double g = bearingGapAfter(beams, i);
@@ -224,16 +228,55 @@ std::size_t addBeamGapRays(const std::vector<Beam>& beams, double step, const oc
     // in a mission's map), and no hidden continuation or unknown margin could close the wall there again.
     const Beam& next = beams[(i + 1) % beams.size()];
     if (beams[i].beside_invalid || next.beside_invalid) continue;
-    const double wanted = 2.0 * std::max(beams[i].range, next.range);
-    std::size_t k = 0;
-    while (k + 1 < kGapRayClasses && max_range / double(std::size_t(1) << (k + 1)) >= wanted) ++k;
-    const double reach = 2.0 * max_range / double(std::size_t(1) << k);
+    const double reach = std::min(max_range, 2.0 * std::max(beams[i].range, next.range));
     const auto rays = static_cast<std::size_t>(std::floor(g / step - 0.5));
     for (std::size_t r = 1; r <= rays && added < limit; ++r, ++added) {
       const double a = beams[i].bearing + g * double(r) / double(rays + 1);
-      rays_by_class[k].emplace_back(static_cast<float>(origin.x() + reach * std::cos(a)),
-                                    static_cast<float>(origin.y() + reach * std::sin(a)), origin.z());
+      ray_ends.emplace_back(static_cast<float>(origin.x() + reach * across * std::cos(a)),
+                            static_cast<float>(origin.y() + reach * across * std::sin(a)), static_cast<float>(origin.z() + reach * up));
     }
+  }
+  return added;
+}
+
+// MapperConfig::clear_beam_gaps in 3-D: a spinning lidar's returns grouped by ring (their elevation seen from the
+// origin: a ring's beams share one, up to the float rounding of the points), and each ring's gaps cleared as a
+// planar scan's (addBeamGapRays, `limit` rays in all). A cloud that is not made of rings (more than kMaxRings
+// distinct elevations) gets none: a gap then means nothing.
+std::size_t addRingGapRays(const std::vector<octomap::point3d>& points, const std::vector<bool>& beside_invalid,
+                           const octomap::point3d& origin, double max_range, double max_gap, std::size_t limit,
+                           std::vector<std::pair<double, std::size_t>>& by_elevation, std::vector<Beam>& beams,
+                           std::vector<double>& gaps, std::vector<octomap::point3d>& ray_ends) {
+  constexpr std::size_t kMaxRings = 256;
+  // Two beams of one ring differ in elevation by the points' float rounding (1e-7 of their coordinates, a few
+  // micro-radians at the ranges mapped); rings of real lidars are a tenth of a degree apart or more.
+  constexpr double kSameRing = 2e-4;  // rad
+  by_elevation.clear();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double dx = double(points[i].x()) - origin.x(), dy = double(points[i].y()) - origin.y(), dz = double(points[i].z()) - origin.z();
+    const double horizontal = std::sqrt(dx * dx + dy * dy);
+    if (horizontal > 1e-6) by_elevation.emplace_back(std::atan2(dz, horizontal), i);
+  }
+  std::sort(by_elevation.begin(), by_elevation.end());
+  std::size_t rings = 0;
+  for (std::size_t i = 0; i < by_elevation.size(); ++i)
+    if (i == 0 || by_elevation[i].first - by_elevation[i - 1].first > kSameRing) ++rings;
+  if (rings > kMaxRings) return 0;
+  std::size_t added = 0;
+  for (std::size_t first = 0; first < by_elevation.size();) {
+    std::size_t last = first + 1;
+    while (last < by_elevation.size() && by_elevation[last].first - by_elevation[last - 1].first <= kSameRing) ++last;
+    beams.clear();
+    double elevation_sum = 0.0;
+    for (std::size_t k = first; k < last; ++k) {
+      const octomap::point3d& p = points[by_elevation[k].second];
+      const double dx = double(p.x()) - origin.x(), dy = double(p.y()) - origin.y(), dz = double(p.z()) - origin.z();
+      beams.push_back({std::atan2(dy, dx), std::sqrt(dx * dx + dy * dy + dz * dz), beside_invalid[by_elevation[k].second]});
+      elevation_sum += by_elevation[k].first;
+    }
+    const double step = sortAndStep(beams, gaps);
+    added += addBeamGapRays(beams, step, elevation_sum / double(last - first), origin, max_range, max_gap, limit - added, ray_ends);
+    first = last;
   }
   return added;
 }
@@ -369,70 +412,79 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
     return result;
   }
 
-  for (auto& rays : impl_->gap_rays) rays.clear();
+  impl_->gap_rays.clear();
   impl_->surface_fill.clear();
   if (config_.dimensions == 2 && (config_.clear_beam_gaps || config_.fill_surfaces_between_returns)) {
     const double step = sortedBeams(cleaned, beside_invalid, origin, impl_->beams, impl_->gaps);
-    if (config_.clear_beam_gaps)
-      result.gap_rays = addBeamGapRays(impl_->beams, step, origin, scan.max_range, config_.max_clear_gap_rad, impl_->gap_rays);
+    if (config_.clear_beam_gaps)  // at most as many rays as the scan had returns
+      result.gap_rays = addBeamGapRays(impl_->beams, step, 0.0, origin, scan.max_range, config_.max_clear_gap_rad, cleaned.size(),
+                                       impl_->gap_rays);
     if (config_.fill_surfaces_between_returns) {
       const double max_length = config_.max_surface_fill_m > 0.0 ? config_.max_surface_fill_m : scan.max_range / 8.0;
       // At most 8 points per return: a scan's whole fill stays within a few times its own work.
       result.surface_fill = addSurfaceFill(impl_->beams, step, origin, config_.resolution, 0.5 * config_.resolution, max_length,
                                            8 * cleaned.size(), impl_->surface_fill);
     }
+  } else if (config_.dimensions == 3 && config_.clear_beam_gaps) {
+    result.gap_rays = addRingGapRays(cleaned, beside_invalid, origin, scan.max_range, config_.max_clear_gap_rad, cleaned.size(),
+                                     impl_->by_elevation, impl_->beams, impl_->gaps, impl_->gap_rays);
   }
 
-  // One insertion of `points` cut at `range`: the scan's points (with the surface fill's voxels marked occupied,
-  // no ray), then each class of gap rays (their own range).
-  const auto insertPoints = [&](const std::vector<octomap::point3d>& points, double range, const std::vector<octomap::point3d>* fill) {
-    if (config_.method == InsertMethod::kFast) {
-      const detail::InsertCounts counts =
-          impl_->inserter.insert(tree, points, origin, range, config_.discretize, config_.threads, config_.pipeline, fill);
-      result.free_cells += counts.free_cells;
-      result.occupied_cells += counts.occupied_cells;
-      result.seconds_rays += counts.seconds_rays;
-      result.seconds_merge += counts.seconds_merge;
-      result.seconds_tree += counts.seconds_tree;
-      result.seconds_wait += counts.seconds_wait;
-      result.walk_threads = std::max(result.walk_threads, counts.walk_threads);
-    } else {
-      finish();
-      // The fill's voxels as they were before the scan (detail::fillUpdate decides on that; search finds a pruned
-      // parent leaf too).
-      std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>> fill_before;
-      if (fill != nullptr) {
-        octomap::KeySet cells;
-        octomap::OcTreeKey key;
-        for (const octomap::point3d& p : *fill)
-          if (tree.coordToKeyChecked(p, key)) cells.insert(key);
-        for (const octomap::OcTreeKey& k : cells) {
-          const octomap::OcTreeNode* n = tree.search(k);
-          fill_before.emplace_back(k, n != nullptr ? std::optional(n->getLogOdds()) : std::nullopt);
-        }
-      }
-      octomap::Pointcloud cloud;
-      cloud.reserve(points.size());
-      for (const octomap::point3d& p : points) cloud.push_back(p);
-      tree.insertPointCloud(cloud, origin, range, /*lazy_eval=*/false, config_.discretize);
-      if (fill != nullptr) {
-        octomap::KeySet returns;  // a fill voxel with a return in it took a plain hit
-        octomap::OcTreeKey key;
-        for (const octomap::point3d& p : points)
-          if ((range < 0.0 || (p - origin).norm() <= range) && tree.coordToKeyChecked(p, key)) returns.insert(key);
-        for (const auto& [k, before] : fill_before) {
-          if (returns.count(k) != 0) continue;
-          const octomap::OcTreeNode* after = tree.search(k);
-          const bool crossed = after != nullptr && (!before || after->getLogOdds() != *before);
-          if (detail::fillUpdate(before, crossed, tree.getProbMissLog()).value_or(false))
-            tree.setNodeValue(k, before.value_or(0.0f) + tree.getProbHitLog(), /*lazy_eval=*/false);
-        }
+  // One insertion: the scan's points cut at max_range, the surface fill's voxels marked occupied with no ray, and the
+  // gap rays cleared to their ends (a voxel a return of this scan hit stays a hit: occupied wins, OctoMap's rule).
+  const std::vector<octomap::point3d>* fill = impl_->surface_fill.empty() ? nullptr : &impl_->surface_fill;
+  const std::vector<octomap::point3d>* clear_rays = impl_->gap_rays.empty() ? nullptr : &impl_->gap_rays;
+  if (config_.method == InsertMethod::kFast) {
+    const detail::InsertCounts counts = impl_->inserter.insert(tree, cleaned, origin, scan.max_range, config_.discretize,
+                                                               config_.threads, config_.pipeline, fill, clear_rays);
+    result.free_cells += counts.free_cells;
+    result.occupied_cells += counts.occupied_cells;
+    result.seconds_rays += counts.seconds_rays;
+    result.seconds_merge += counts.seconds_merge;
+    result.seconds_tree += counts.seconds_tree;
+    result.seconds_wait += counts.seconds_wait;
+    result.walk_threads = std::max(result.walk_threads, counts.walk_threads);
+  } else {
+    finish();
+    // The fill's voxels as they were before the scan (detail::fillUpdate decides on that; search finds a pruned
+    // parent leaf too).
+    std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>> fill_before;
+    if (fill != nullptr) {
+      octomap::KeySet cells;
+      octomap::OcTreeKey key;
+      for (const octomap::point3d& p : *fill)
+        if (tree.coordToKeyChecked(p, key)) cells.insert(key);
+      for (const octomap::OcTreeKey& k : cells) {
+        const octomap::OcTreeNode* n = tree.search(k);
+        fill_before.emplace_back(k, n != nullptr ? std::optional(n->getLogOdds()) : std::nullopt);
       }
     }
-  };
-  insertPoints(cleaned, scan.max_range, impl_->surface_fill.empty() ? nullptr : &impl_->surface_fill);
-  for (std::size_t k = 0; k < kGapRayClasses && result.gap_rays > 0; ++k)
-    if (!impl_->gap_rays[k].empty()) insertPoints(impl_->gap_rays[k], scan.max_range / double(std::size_t(1) << k), nullptr);
+    // OcTree::insertPointCloud's own steps (lazy_eval = false), with the gap rays' cells added to the free ones.
+    octomap::Pointcloud cloud;
+    cloud.reserve(cleaned.size());
+    for (const octomap::point3d& p : cleaned) cloud.push_back(p);
+    octomap::KeySet free_cells, occupied_cells;
+    if (config_.discretize) tree.computeDiscreteUpdate(cloud, origin, free_cells, occupied_cells, scan.max_range);
+    else tree.computeUpdate(cloud, origin, free_cells, occupied_cells, scan.max_range);
+    if (clear_rays != nullptr) {
+      octomap::KeyRay ray;
+      for (const octomap::point3d& end : *clear_rays)
+        if (tree.computeRayKeys(origin, end, ray))
+          for (const octomap::OcTreeKey& k : ray)
+            if (occupied_cells.count(k) == 0) free_cells.insert(k);
+    }
+    for (const octomap::OcTreeKey& k : free_cells) tree.updateNode(k, false, /*lazy_eval=*/false);
+    for (const octomap::OcTreeKey& k : occupied_cells) tree.updateNode(k, true, /*lazy_eval=*/false);
+    if (fill != nullptr) {
+      for (const auto& [k, before] : fill_before) {
+        if (occupied_cells.count(k) != 0) continue;  // a fill voxel with a return in it took a plain hit
+        const octomap::OcTreeNode* after = tree.search(k);
+        const bool crossed = after != nullptr && (!before || after->getLogOdds() != *before);
+        if (detail::fillUpdate(before, crossed, tree.getProbMissLog()).value_or(false))
+          tree.setNodeValue(k, before.value_or(0.0f) + tree.getProbHitLog(), /*lazy_eval=*/false);
+      }
+    }
+  }
   result.inserted = true;
   // kOctoMap does not report its cell counts; assume it changed something.
   changed_ = changed_ || config_.method == InsertMethod::kOctoMap || result.free_cells + result.occupied_cells > 0;

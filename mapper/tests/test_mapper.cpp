@@ -342,7 +342,7 @@ TEST(Mapper, BeamsThatReturnNothingClearTheGapsBetweenReturns) {
   holed.points.erase(holed.points.begin() + 100);
   OccupancyMapper holed_mapper(config);
   EXPECT_EQ(holed_mapper.insert(holed).gap_rays, result.gap_rays);
-  // The flag is 2-D only, and a bad gap limit is refused.
+  // A bad gap limit is refused.
   config.max_clear_gap_rad = 0.0;
   EXPECT_THROW(OccupancyMapper{config}, std::invalid_argument);
 }
@@ -396,6 +396,65 @@ TEST(Mapper, NoGapRayBesideAReturnTheSensorCouldNotMeasure) {
   ASSERT_NE(beyond, nullptr);
   EXPECT_FALSE(measured.octree().isNodeOccupied(beyond));
 }
+
+// A 3-D lidar (16 rings 2 degrees apart, 512 columns) facing a wall x = 10 with a 3 x 3 m window in it: the beams
+// through the window return nothing (open space beyond). With clear_beam_gaps each ring's gap is cleared like a
+// planar scan's, so the window is observed free along the rings that cross it; without, it stays unknown. A cloud
+// that is not made of rings (random elevations) gets no gap rays.
+TEST(Mapper, ThreeDimensionalBeamsThatReturnNothingClearEachRingsGaps) {
+  Scan scan;
+  scan.origin = {0.0f, 0.0f, 0.0f};
+  scan.max_range = 30.0;
+  constexpr double kDeg = M_PI / 180.0;
+  std::vector<double> ring_elevations;
+  for (int r = 0; r < 16; ++r) {
+    const double e = (-15.0 + 2.0 * r) * kDeg;
+    ring_elevations.push_back(e);
+    for (int c = 0; c < 512; ++c) {
+      const double a = c * 2.0 * M_PI / 512.0;
+      const double dx = std::cos(e) * std::cos(a), dy = std::cos(e) * std::sin(a), dz = std::sin(e);
+      if (dx <= 1e-9) continue;
+      const double t = 10.0 / dx, y = t * dy, z = t * dz;
+      const bool in_wall = std::abs(y) <= 20.0 && std::abs(z) <= 10.0;
+      const bool in_window = std::abs(y) < 1.5 && std::abs(z) < 1.5;
+      if (in_wall && !in_window && t <= scan.max_range) scan.points.push_back({10.0f, static_cast<float>(y), static_cast<float>(z)});
+    }
+  }
+  MapperConfig config;
+  config.dimensions = 3;
+  config.resolution = 0.1;
+  OccupancyMapper plain(config);
+  ASSERT_TRUE(plain.insert(scan).inserted);
+  config.clear_beam_gaps = true;
+  OccupancyMapper clearing(config);
+  const InsertResult result = clearing.insert(scan);
+  ASSERT_TRUE(result.inserted);
+  // Eight rings cross the window (elevations -7 .. 7 degrees), each over about 17 degrees: 24 rays a ring.
+  EXPECT_GE(result.gap_rays, 8u * 20u);
+  EXPECT_LE(result.gap_rays, 8u * 26u);
+  const auto state = [](const octomap::OcTree& tree, double x, double y, double z) {
+    const octomap::OcTreeNode* n = tree.search(x, y, z);
+    return n == nullptr ? '?' : tree.isNodeOccupied(n) ? '#' : '.';
+  };
+  for (const double e : ring_elevations) {
+    const double z = 10.05 * std::tan(e);
+    if (std::abs(z) >= 1.4) continue;
+    for (const double x : {10.05, 15.0}) {  // in the window, and beyond it
+      EXPECT_EQ(state(plain.octree(), x, 0.02, x * std::tan(e)), '?') << x << " " << e;
+      EXPECT_EQ(state(clearing.octree(), x, 0.02, x * std::tan(e)), '.') << x << " " << e;
+    }
+  }
+  for (const Point3f& p : scan.points) ASSERT_EQ(state(clearing.octree(), p.x, p.y, p.z), '#') << p.y << " " << p.z;  // the wall stays
+  EXPECT_EQ(state(clearing.octree(), -5.0, 0.0, 0.0), '?');   // behind the lidar: a blind half, not a gap
+  // The same returns at random elevations: no rings, no gaps to speak of.
+  Scan scattered = scan;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> jitter(-0.3f, 0.3f);
+  for (Point3f& p : scattered.points) p.z += jitter(rng);
+  OccupancyMapper scattered_mapper(config);
+  EXPECT_EQ(scattered_mapper.insert(scattered).gap_rays, 0u);
+}
+
 
 // The fill yields to space observed free with confidence. A wall along y = 1.2 with a 0.6 m opening (x 16 .. 16.6)
 // that the grazing scan from the origin has no beam through, a wall y = 3 behind it: seen three times from below

@@ -694,7 +694,7 @@ class OctoMapWorld final : public CollisionWorld {
     }
     if (solid_below_surface_) {
       loadColumnTops();
-      if (!free_leaves) loadFreeUnderMargin(bytes, free_lo, free_hi);
+      if (!free_leaves) loadFreeUnderColumnTops(bytes, free_lo, free_hi);
     }
   }
 
@@ -865,17 +865,38 @@ class OctoMapWorld final : public CollisionWorld {
     const std::size_t i = columnIndex(c.x, c.y);
     const std::int32_t top = column_top_[i];
     if (top == kNoColumnTop || c.z > top) return 0.0;
-    // Above the column's own surface, under a neighbour's within the margin: space observed free stays free, when
-    // the robot's radius below it was observed free too (unsampled skin right under a path is what the margin is for).
-    if (!column_own_top_.empty() && c.z > column_own_top_[i] && freeBelow(c)) return 0.0;
+    // Space observed free stays free, when the robot's radius below it was observed free too: above the column's own
+    // surface, under a neighbour's within the margin (unsampled skin right under a path is what the margin is for),
+    // and under the column's own surface, where a ray crossed it — a window, the space under an overhang. A hill's
+    // inside is never crossed: rays end on its skin.
+    if (freeBelow(c)) return 0.0;
     return std::max(0.0, (static_cast<double>(top) + 1.0) * resolution_ - p.z());
   }
-  // c and the cells under it down to the robot radius (one at least) were observed free.
+  // c and the cells under it down to the robot radius (one at least) were observed free — or, never observed, lie
+  // between cells observed free in their column (a lidar's rings cross a wall's window as horizontal lines of free
+  // voxels, 2 degrees apart: 0.9 m at 25 m).
   bool freeBelow(const Cell& c) const {
     const std::int64_t depth = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(radius_ * factor_ - 1e-9)));
     for (std::int64_t k = 0; k <= depth; ++k)
-      if (!observedFree({c.x, c.y, c.z - k})) return false;
+      if (const Cell below{c.x, c.y, c.z - k}; !observedFree(below) && !betweenRings(below)) return false;
     return true;
+  }
+  // A never-observed cell whose column holds, within kRingGap_m above and below it, cells observed free before any
+  // observed occupied one: the gap between two rings' rays. A hill's inside has the skin above it and nothing
+  // observed below; a slab's, its hit faces.
+  bool betweenRings(const Cell& c) const {
+    constexpr double kRingGap_m = 1.0;
+    if (observedOccupied(c)) return false;
+    const std::int64_t reach = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(kRingGap_m * factor_)));
+    const auto freeFirst = [&](std::int64_t step) {
+      for (std::int64_t k = 1; k <= reach; ++k) {
+        const Cell n{c.x, c.y, c.z + step * k};
+        if (observedFree(n)) return true;
+        if (observedOccupied(n)) return false;
+      }
+      return false;
+    };
+    return freeFirst(1) && freeFirst(-1);
   }
   // The free leaves were loaded: a cell in no brick, or with its known bit clear, was never observed.
   bool knowsObservedFree() const { return unknown_blocked_ || unknown_margin_ > 0.0 || keep_observed_free_; }
@@ -892,37 +913,31 @@ class OctoMapWorld final : public CollisionWorld {
     return (((b->known[bit >> 6] & ~b->occupied[bit >> 6]) >> (bit & 63)) & 1u) != 0;
   }
 
-  // The free leaves' voxels where the surface margin would block (above a column's own surface, under its
-  // dilated top) become known, so that the margin yields to space observed free (depthBelowSurface). Only
-  // there: the free leaves of a 3-D map fill the whole observed volume. A second pass over the bytes; leaves are
-  // checked against 8 x 8-column blocks first (the z span of their margin zones), then column by column.
-  // Stops, leaving the margin as it is, before the bricks reach 90 % of max_bricks.
-  void loadFreeUnderMargin(const std::vector<std::uint8_t>& bytes, const Cell& free_lo, const Cell& free_hi) {
-    if (column_own_top_.empty()) return;
+  // The free leaves' voxels the column rule would block (under a column's top, its own or the one the surface margin
+  // widened) become known, so that the rule yields to space observed free (depthBelowSurface). Only there: the free
+  // leaves of a 3-D map fill the whole observed volume, and under a terrain's surface lie few (its inside is never
+  // observed). A second pass over the bytes; leaves are checked against 8 x 8-column blocks first (the highest top of
+  // each), then column by column. Stops, leaving the rule as it is, before the bricks reach 90 % of max_bricks.
+  void loadFreeUnderColumnTops(const std::vector<std::uint8_t>& bytes, const Cell& free_lo, const Cell& free_hi) {
+    if (column_top_.empty()) return;
     const std::int64_t ny = static_cast<std::int64_t>(column_top_.size()) / column_nx_;
-    // Per block of 8 x 8 column cells, the z span of its margin zones (small enough to stay in cache: most
-    // leaves are rejected there, before the column arrays are read).
+    // Per block of 8 x 8 column cells, the highest top (small enough to stay in cache: most leaves, the air above
+    // the surface, are rejected there, before the column arrays are read).
     constexpr int kBlock = 3;  // log2 of the block's width in column cells
     const std::int64_t bnx = ((column_nx_ - 1) >> kBlock) + 1, bny = ((ny - 1) >> kBlock) + 1;
     std::vector<std::int32_t> block_top(static_cast<std::size_t>(bnx * bny), kNoColumnTop);
-    std::vector<std::int32_t> block_bottom(static_cast<std::size_t>(bnx * bny), std::numeric_limits<std::int32_t>::max());
     for (std::int64_t y = 0; y < ny; ++y)
       for (std::int64_t x = 0; x < column_nx_; ++x) {
         const std::size_t i = static_cast<std::size_t>(y * column_nx_ + x);
-        if (column_top_[i] == kNoColumnTop || column_top_[i] == column_own_top_[i]) continue;  // no margin here
         const std::size_t b = static_cast<std::size_t>((y >> kBlock) * bnx + (x >> kBlock));
         block_top[b] = std::max(block_top[b], column_top_[i]);
-        block_bottom[b] = std::min(block_bottom[b], column_own_top_[i] == kNoColumnTop ? kNoColumnTop : column_own_top_[i] + 1);
       }
     const std::int32_t highest = *std::max_element(block_top.begin(), block_top.end());
     if (highest == kNoColumnTop) return;
-    // The z span [z0, z1] of column cell i's margin zone met by a leaf spanning [lo_z, hi_z]; empty when z0 > z1.
+    // The z span [z0, z1] of column cell i under its top met by a leaf spanning [lo_z, hi_z]; empty when z0 > z1.
     const auto zone = [&](std::size_t i, std::int64_t lo_z, std::int64_t hi_z, std::int64_t& z0, std::int64_t& z1) {
-      const std::int32_t top = column_top_[i], own = column_own_top_[i];
-      z0 = 1, z1 = 0;
-      if (top == kNoColumnTop || top == own) return;  // no margin here
-      z0 = std::max<std::int64_t>(lo_z, own == kNoColumnTop ? lo_z : std::int64_t(own) + 1);
-      z1 = std::min<std::int64_t>(hi_z, top);
+      z0 = lo_z;
+      z1 = std::min<std::int64_t>(hi_z, column_top_[i]);  // kNoColumnTop: below every leaf
     };
     const std::size_t brick_budget = max_bricks_ - max_bricks_ / 10;
     bool stopped = false;
@@ -935,7 +950,7 @@ class OctoMapWorld final : public CollisionWorld {
         const Cell c{std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit, std::int64_t(corner[2]) - kCellLimit};
         if (!inRange(c, free_lo, free_hi) || c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return;
         const std::size_t b = static_cast<std::size_t>(((c.y - column_lo_.y) >> kBlock) * bnx + ((c.x - column_lo_.x) >> kBlock));
-        if (c.z > block_top[b] || c.z < block_bottom[b]) return;
+        if (c.z > block_top[b]) return;
         std::int64_t z0 = 0, z1 = 0;
         zone(columnIndex(c.x, c.y), c.z, c.z, z0, z1);
         if (z0 > z1) return;
@@ -962,7 +977,7 @@ class OctoMapWorld final : public CollisionWorld {
       const std::int64_t gy0 = (lo.y - column_lo_.y) >> column_shift_, gy1 = (hi.y - column_lo_.y) >> column_shift_;
       for (std::int64_t by = gy0 >> kBlock; by <= (gy1 >> kBlock); ++by)
         for (std::int64_t bx = gx0 >> kBlock; bx <= (gx1 >> kBlock); ++bx) {
-          if (block_top[static_cast<std::size_t>(by * bnx + bx)] < lo.z || block_bottom[static_cast<std::size_t>(by * bnx + bx)] > hi.z) continue;  // no margin zone of the block meets the leaf
+          if (block_top[static_cast<std::size_t>(by * bnx + bx)] < lo.z) continue;  // the leaf is above the block's every top
           for (std::int64_t gy = std::max(gy0, by << kBlock); gy <= std::min(gy1, ((by + 1) << kBlock) - 1); ++gy)
             for (std::int64_t gx = std::max(gx0, bx << kBlock); gx <= std::min(gx1, ((bx + 1) << kBlock) - 1); ++gx) {
               std::int64_t z0 = 0, z1 = 0;

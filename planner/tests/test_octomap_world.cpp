@@ -410,11 +410,11 @@ TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForc
   EXPECT_THROW(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), bad), std::invalid_argument);
 }
 
-// Space observed free is not blocked by the margin: a point above its own column's surface, under a neighbour's
-// within the margin, is free when its voxel and the robot radius under it (a voxel at least) were observed free,
-// and blocked as before otherwise. Below its own column's surface it stays solid, free or not (a lidar sees a
-// hill's skin, not its inside).
-TEST(OctoMapWorld, SurfaceMarginYieldsToSpaceObservedFreeAsABruteForceScanSays) {
+// Space observed free is not blocked by the column rule: a point under a top within the margin — a neighbour's, or
+// its own column's (a window, the space under an overhang: rays crossed it; a hill's inside is never crossed) — is
+// free when its voxel and the robot radius under it (a voxel at least) were observed free or lie between cells
+// observed free in their column (the gap between a lidar's rings), and blocked otherwise.
+TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) {
   octomap::OcTree tree(0.1);
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-3.0f, 3.0f), uz(0.0f, 4.0f);
@@ -433,29 +433,72 @@ TEST(OctoMapWorld, SurfaceMarginYieldsToSpaceObservedFreeAsABruteForceScanSays) 
           if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
         }
   }
+  // Overhangs: observed free space under 15 of the hits.
+  for (int h = 0; h < 15; ++h)
+    for (float x = hits[h].x() - 0.3f; x < hits[h].x() + 0.3f; x += 0.1f)
+      for (float y = hits[h].y() - 0.3f; y < hits[h].y() + 0.3f; y += 0.1f)
+        for (float z = hits[h].z() - 1.2f; z < hits[h].z() - 0.15f; z += 0.1f) {
+          const octomap::OcTreeNode* n = tree.search(x, y, z);
+          if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
+        }
+  // Windows seen by a lidar's rings: under 15 more hits, layers of free voxels 4 cells apart (unknown between).
+  for (int h = 15; h < 30; ++h)
+    for (float x = hits[h].x() - 0.3f; x < hits[h].x() + 0.3f; x += 0.1f)
+      for (float y = hits[h].y() - 0.3f; y < hits[h].y() + 0.3f; y += 0.1f)
+        for (float z = hits[h].z() - 1.2f; z < hits[h].z() - 0.15f; z += 0.4f) {
+          const octomap::OcTreeNode* n = tree.search(x, y, z);
+          if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
+        }
   const auto world = marginWorld(tree);
   auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
   std::uniform_real_distribution<double> q(-4.5, 4.5), qz(-0.5, 4.5);
-  int yielded = 0, blocked = 0;
+  int between_rings = 0;
+  int yielded = 0, yielded_under_own = 0, blocked = 0;
   for (int i = 0; i < 40000; ++i) {
     const Vec3 p(q(rng), q(rng), qz(rng));
     const octomap::OcTreeNode* node = tree.search(p.x(), p.y(), p.z());
     if (node != nullptr && tree.isNodeOccupied(node)) continue;
-    bool below = false, below_own = false;  // under a top within the margin; under (or next above) its own column's
+    bool below = false, below_own = false;  // under a top within the margin; under its own column's
     for (const auto& h : hits) {
       const double top = (std::floor(h.z() / 0.1) + 1) * 0.1;
       if (p.z() < top && std::labs(cell(h.x()) - cell(p.x())) <= 8 && std::labs(cell(h.y()) - cell(p.y())) <= 8) below = true;
-      if (p.z() - 0.1 < top && cell(h.x()) == cell(p.x()) && cell(h.y()) == cell(p.y())) below_own = true;
+      if (p.z() < top && cell(h.x()) == cell(p.x()) && cell(h.y()) == cell(p.y())) below_own = true;
     }
-    // Its voxel and the one under it (the robot radius, at least a voxel) observed free.
-    const octomap::OcTreeNode* under = tree.search(p.x(), p.y(), p.z() - 0.1);
-    const bool observed_free = node != nullptr && under != nullptr && !tree.isNodeOccupied(under);
-    const bool expect_blocked = below && (below_own || !observed_free);
+    // Its voxel and the one under it (the robot radius, at least a voxel) observed free, or never observed with
+    // cells observed free first within 1 m above and below it in its column (the world knows the free cells under
+    // the column's widened top only).
+    const long cx = cell(p.x()), cy = cell(p.y()), cz = cell(p.z());
+    long widened_top = std::numeric_limits<long>::min();
+    for (const auto& h : hits)
+      if (std::labs(cell(h.x()) - cx) <= 8 && std::labs(cell(h.y()) - cy) <= 8) widened_top = std::max(widened_top, cell(h.z()));
+    const auto state = [&](long z) {  // 'o' occupied, 'f' free (as the world knows it), '?' never observed
+      const octomap::OcTreeNode* n = tree.search((cx + 0.5) * 0.1, (cy + 0.5) * 0.1, (z + 0.5) * 0.1);
+      if (n == nullptr) return '?';
+      if (tree.isNodeOccupied(n)) return 'o';
+      return z <= widened_top ? 'f' : '?';
+    };
+    const auto free_first = [&](long z, long step) {
+      for (long k = 1; k <= 10; ++k) {
+        const char st = state(z + step * k);
+        if (st != '?') return st == 'f';
+      }
+      return false;
+    };
+    const auto free_or_between_rings = [&](long z) {
+      const char st = state(z);
+      return st == 'f' || (st == '?' && free_first(z, 1) && free_first(z, -1));
+    };
+    const bool observed_free = free_or_between_rings(cz) && free_or_between_rings(cz - 1);
+    between_rings += below && observed_free && (state(cz) == '?' || state(cz - 1) == '?');
+    const bool expect_blocked = below && !observed_free;
     yielded += below && !expect_blocked;
+    yielded_under_own += below_own && !expect_blocked;
     blocked += expect_blocked;
     ASSERT_EQ(world->isFree(p), !expect_blocked) << p.transpose() << " below " << below << " own " << below_own << " free " << observed_free;
   }
   EXPECT_GT(yielded, 200);  // every case was exercised
+  EXPECT_GT(yielded_under_own, 8);
+  EXPECT_GT(between_rings, 50);  // under the 15 overhangs (their hits' own columns: 0.1 m wide)
   EXPECT_GT(blocked, 1000);
 }
 

@@ -52,8 +52,9 @@ class MapperComponent : public runtime::Component {
       config.clamping_max = p.declare<double>("clamping_max", d.clamping_max, {.doc = "upper clamping bound of a leaf's probability"});
       config.clear_beam_gaps = p.declare<bool>(
           "clear_beam_gaps", true,
-          {.doc = "2-D: clear the space of beams that returned nothing, in gaps of the scan's bearings up to max_clear_gap_deg "
-                  "wide, to max_range (a corridor seen end-on onto open space was never observed free: docs/world-model.md)"});
+          {.doc = "clear the space of beams that returned nothing, in gaps of the scan's bearings (in 3-D of each lidar ring's) up to "
+                  "max_clear_gap_deg wide, to max_range (a corridor seen end-on onto open space, a window in a wall, was never "
+                  "observed free: docs/world-model.md)"});
       config.max_clear_gap_rad = p.declare<double>("max_clear_gap_deg", 20.0,
                                                    {.above = 0, .max = 180, .unit = "deg",
                                                     .doc = "widest gap between returns cleared (a wider one, a blind sector, stays unknown)"}) *

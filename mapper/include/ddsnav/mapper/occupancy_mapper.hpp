@@ -64,14 +64,17 @@ struct MapperConfig {
   // the same as without pipelining. Uses one more thread than `threads` (the tree thread).
   bool pipeline = false;
   std::size_t max_points = 4'000'000;  // larger scans are rejected, not truncated
-  // 2-D: a beam that returns nothing leaves no point, so the space it crossed stayed unknown — a 2.4 m corridor
+  // A beam that returns nothing leaves no point, so the space it crossed stayed unknown — a 2.4 m corridor
   // looked down end-on, onto open space, was never observed free, and the planner's unknown margin closed it
   // (docs/world-model.md, "Beams that return nothing"). With this on, every gap in the scan's bearings wider than
-  // 3.5 of its angular step (three beams missing: fewer are invalid returns) (the 10th percentile of the gaps between neighbouring bearings) and at most
-  // max_clear_gap_rad is filled with rays at that step, ending in no occupied cell and cleared to twice the farther
-  // of the returns bounding the gap (rounded up to max_range / 2^k, at most max_range). A
-  // wider gap (a field of view's blind sector, or open space on a side) stays unknown. Off by default: the tree
-  // then is exactly OctoMap's insertPointCloud of the points.
+  // 3.5 of its angular step (three beams missing: fewer are invalid returns; the step is the 10th percentile of the
+  // gaps between neighbouring bearings) and at most max_clear_gap_rad is filled with rays at that step, ending in no
+  // occupied cell and cleared to twice the farther of the returns bounding the gap (at most max_range), in the scan's
+  // own insertion (a voxel one of its returns hit stays a hit). A wider gap (a field of view's blind sector, or open space on a side) stays unknown. In 3-D the
+  // returns are grouped into the lidar's rings (one elevation each, seen from the origin) and each ring's gaps are
+  // cleared so: a window in a wall is then observed free along the rings through it (a cloud of more than 256
+  // elevations is not a ring scan and gets none). Off by default: the tree then is exactly OctoMap's
+  // insertPointCloud of the points.
   bool clear_beam_gaps = false;
   double max_clear_gap_rad = 0.35;  // 20 degrees
   // 2-D: a face seen at a grazing angle is hit by neighbouring beams metres apart (a corridor's wall 20 m ahead,
