@@ -194,6 +194,18 @@ int timePlanarCorridor(int scans) {
   return 0;
 }
 
+// `scans` scans of `lidar` in `city`, the vehicle 1 m further (and 0.3 m to the side every other scan) each time,
+// cut at max_range.
+std::vector<Scan> streetScans(const CityBlock& city, const LidarPattern& lidar, int scans, double max_range, unsigned seed) {
+  std::vector<Scan> out;
+  for (int i = 0; i < scans; ++i) {
+    Scan s = simulateScan(city, lidar, {float(i) * 1.0f, 0.3f * float(i % 2), 1.8f}, 100 * seed + i);
+    s.max_range = max_range;
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
 // --ring-gaps: the simulator's default 3-D lidar (16 rings x 512 columns, +-15 degrees) driven through a city block,
 // a scan every metre, into the mapper as the component configures it for 3-D (2 threads, pipelined) with and
 // without clear_beam_gaps' per-ring gap rays: what clearing a ring's beams that returned nothing (sky between
@@ -205,12 +217,7 @@ int timeRingGaps(int scans, double resolution, double max_range, unsigned seed) 
   lidar.columns = 512;
   lidar.sim_range = max_range;
   lidar.range_noise = 0.02;
-  std::vector<Scan> ring_scans;
-  for (int i = 0; i < scans; ++i) {
-    Scan s = simulateScan(city, lidar, {float(i) * 1.0f, 0.3f * float(i % 2), 1.8f}, 100 * seed + i);
-    s.max_range = max_range;
-    ring_scans.push_back(std::move(s));
-  }
+  const std::vector<Scan> ring_scans = streetScans(city, lidar, scans, max_range, seed);
   std::printf("| 3-D lidar 16x512, %d scans, %.2f m, range %.1f m, city block seed %u | ms per scan, mean | max | gap rays per scan |\n"
               "|---|---|---|---|\n",
               scans, resolution, max_range, seed);
@@ -312,12 +319,7 @@ int main(int argc, char** argv) {
     lidar.min_elevation_deg = pattern.rings >= 32 ? -25.0 : -15.0;
     lidar.max_elevation_deg = 15.0;
     lidar.range_noise = 0.02;
-    std::vector<Scan> scan_list;
-    for (int i = 0; i < scans; ++i) {
-      Scan s = simulateScan(city, lidar, {float(i) * 1.0f, 0.3f * float(i % 2), 1.8f}, 100 * seed + i);
-      s.max_range = max_range;
-      scan_list.push_back(std::move(s));
-    }
+    const std::vector<Scan> scan_list = streetScans(city, lidar, scans, max_range, seed);
     std::size_t points = 0;
     for (const Scan& s : scan_list) points += s.points.size();
 

@@ -423,32 +423,24 @@ TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) {
     hits.emplace_back(u(rng), u(rng), uz(rng));
     tree.updateNode(hits.back(), true);
   }
-  // Observed free space: random boxes of free voxels (not over the hits).
+  // Marks the voxels of the box [lo, hi) free, `step` apart, except the occupied ones (the hits).
+  const auto markFree = [&](const octomap::point3d& lo, const octomap::point3d& hi, float z_step) {
+    for (float x = lo.x(); x < hi.x(); x += 0.1f)
+      for (float y = lo.y(); y < hi.y(); y += 0.1f)
+        for (float z = lo.z(); z < hi.z(); z += z_step) {
+          const octomap::OcTreeNode* n = tree.search(x, y, z);
+          if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
+        }
+  };
+  // Observed free space: random boxes of free voxels.
   for (int b = 0; b < 40; ++b) {
-    const float x0 = u(rng), y0 = u(rng), z0 = uz(rng);
-    for (float x = x0; x < x0 + 0.8f; x += 0.1f)
-      for (float y = y0; y < y0 + 0.8f; y += 0.1f)
-        for (float z = z0; z < z0 + 1.5f; z += 0.1f) {
-          const octomap::OcTreeNode* n = tree.search(x, y, z);
-          if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
-        }
+    const octomap::point3d lo(u(rng), u(rng), uz(rng));
+    markFree(lo, lo + octomap::point3d(0.8f, 0.8f, 1.5f), 0.1f);
   }
-  // Overhangs: observed free space under 15 of the hits.
-  for (int h = 0; h < 15; ++h)
-    for (float x = hits[h].x() - 0.3f; x < hits[h].x() + 0.3f; x += 0.1f)
-      for (float y = hits[h].y() - 0.3f; y < hits[h].y() + 0.3f; y += 0.1f)
-        for (float z = hits[h].z() - 1.2f; z < hits[h].z() - 0.15f; z += 0.1f) {
-          const octomap::OcTreeNode* n = tree.search(x, y, z);
-          if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
-        }
-  // Windows seen by a lidar's rings: under 15 more hits, layers of free voxels 4 cells apart (unknown between).
-  for (int h = 15; h < 30; ++h)
-    for (float x = hits[h].x() - 0.3f; x < hits[h].x() + 0.3f; x += 0.1f)
-      for (float y = hits[h].y() - 0.3f; y < hits[h].y() + 0.3f; y += 0.1f)
-        for (float z = hits[h].z() - 1.2f; z < hits[h].z() - 0.15f; z += 0.4f) {
-          const octomap::OcTreeNode* n = tree.search(x, y, z);
-          if (n == nullptr || !tree.isNodeOccupied(n)) tree.updateNode(x, y, z, false);
-        }
+  // Overhangs: observed free space under 15 of the hits. Windows seen by a lidar's rings: under 15 more, layers of
+  // free voxels 4 cells apart (unknown between).
+  for (int h = 0; h < 30; ++h)
+    markFree(hits[h] + octomap::point3d(-0.3f, -0.3f, -1.2f), hits[h] + octomap::point3d(0.3f, 0.3f, -0.15f), h < 15 ? 0.1f : 0.4f);
   const auto world = marginWorld(tree);
   auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
   std::uniform_real_distribution<double> q(-4.5, 4.5), qz(-0.5, 4.5);
