@@ -5,10 +5,10 @@
 //
 // Input: byte 0 flags (bit 0 discretize, bits 1-2 threads {1, 2, 3, 2}, bit 3 pipeline, bit 4 2-D, bit 5 a
 // dense lidar-like fan of rays instead of explicit points, bits 6-7 scans - 1); byte 1 resolution (bits 0-2)
-// and coordinate scale (bits 3-5); byte 2 max_range (bits 0-2), bit 3 the 2-D surface fill, bit 4 the 2-D beam-gap rays
-// (fill_surfaces_between_returns, clear_beam_gaps: the reference is then the kOctoMap method's own fill and gap
-// rays on insertPointCloud); then int16 triplets: per scan its origin, then
-// its points (explicit mode) or, in fan mode, the bytes that set the fan's ranges.
+// and coordinate scale (bits 3-5); byte 2 max_range (bits 0-2), bit 3 the 2-D surface fill, bit 4 the beam-gap
+// rays, 2-D or per ring in 3-D (the fan's 24 rings) (fill_surfaces_between_returns, clear_beam_gaps: the reference
+// is then the kOctoMap method's own fill and gap rays, in OctoMap's computeUpdate); then int16 triplets: per scan
+// its origin, then its points (explicit mode) or, in fan mode, the bytes that set the fan's ranges.
 // Contract: both mappers accept or refuse the same scans, and their trees are byte-identical (OcTree::write:
 // structure and every log-odds) after every scan.
 #include <ddsnav/mapper/occupancy_mapper.hpp>
