@@ -324,15 +324,20 @@ class TrackerComponent : public runtime::Component {
 
   // Smooths the answer to the current request on the worker (its first piece, when it is long);
   // adoptSmoothed() takes the result.
+  // The world is seen from the path's start, as the planner saw it (its sensor view in 3-D, the hidden continuation's
+  // room around the robot in 2-D). Seen from the vehicle, still behind that start and lower on a climb, the smoother
+  // refused 1-10 plans a run on u_window_3d as "path state ... is in collision" (space above the lidar's fan from
+  // there), none since (docs/benchmarks/mission.md); the replan check judges the trajectory from the vehicle anyway.
   void startSmoothing(const msg::Path& path, const tracker::VehicleState& state) {
     smoother_config_.initial_heading = request_heading_;
     smoother_config_.initial_speed = request_speed_;
     smoother_config_.initial_vz = request_vz_;
     auto pieces = tracker::splitPath(nodes::statesOf(path), piece_length_m_);
+    const Eigen::Vector3d viewpoint = pieces.piece.empty() ? state.position : pieces.piece.front().position;
     Smoothed job;
     job.request_id = path.request_id();
     job.rest = std::move(pieces.rest);
-    runSmoothing(std::move(job), std::move(pieces.piece), state.position, smoother_config_);
+    runSmoothing(std::move(job), std::move(pieces.piece), viewpoint, smoother_config_);
   }
 
   // A long path's next piece, smoothed while the vehicle flies the current one: from the current trajectory's
