@@ -695,6 +695,7 @@ class OctoMapWorld final : public CollisionWorld {
     if (solid_below_surface_) {
       loadColumnTops();
       if (!free_leaves) loadFreeUnderColumnTops(bytes, free_lo, free_hi);
+      if (dropUndersideTops()) widenColumnTops();
     }
   }
 
@@ -820,10 +821,17 @@ class OctoMapWorld final : public CollisionWorld {
         }
       }
     }
-    // Every column takes the highest top within surface_margin_m (a square window: a separable max filter).
+    column_own_top_ = column_top_;
+    widenColumnTops();
+  }
+  // Every column takes the highest own top (column_own_top_) within surface_margin_m (a square window: a separable
+  // max filter) into column_top_; without a margin the two are the same.
+  void widenColumnTops() {
+    column_top_ = column_own_top_;
+    const std::int64_t margin_cells = static_cast<std::int64_t>(std::ceil(surface_margin_ * factor_ - 1e-9));
+    const std::int64_t column_ny = static_cast<std::int64_t>(column_top_.size()) / column_nx_;
     const int radius = static_cast<int>(std::min<std::int64_t>(margin_cells >> column_shift_, 1 << 20));
     if (radius > 0) {
-      column_own_top_ = column_top_;
       std::vector<std::int32_t> line, out;
       for (std::int64_t y = 0; y < column_ny; ++y) {  // rows
         line.assign(column_top_.begin() + y * column_nx_, column_top_.begin() + (y + 1) * column_nx_);
@@ -872,6 +880,40 @@ class OctoMapWorld final : public CollisionWorld {
     if (freeBelow(c)) return 0.0;
     return std::max(0.0, (static_cast<double>(top) + 1.0) * resolution_ - p.z());
   }
+  // A column's top hit from below is no top: a window's head, an overhang's or a bridge's underside, with space
+  // observed free under it, within a ring gap (the first known cell below it, within kRingGap_m, observed free). The
+  // column's own top goes down to the first occupied voxel under that space that is a top (a window's sill, the
+  // ground), or to none; a hill's skin has its never-observed inside under it and stays. Needs the free voxels under
+  // the tops (loadFreeUnderColumnTops) and columns of one voxel (not merged); returns whether any top moved.
+  bool dropUndersideTops() {
+    if (column_shift_ != 0 || column_own_top_.empty()) return false;
+    const std::int64_t reach = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(kRingGap_m * factor_)));
+    const auto freeUnder = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
+      for (std::int64_t k = 1; k <= reach; ++k) {
+        const Cell n{x, y, z - k};
+        if (observedFree(n)) return true;
+        if (observedOccupied(n)) return false;
+      }
+      return false;
+    };
+    bool moved = false;
+    for (std::size_t i = 0; i < column_own_top_.size(); ++i) {
+      std::int32_t& top = column_own_top_[i];
+      if (top == kNoColumnTop) continue;
+      const std::int64_t x = column_lo_.x + static_cast<std::int64_t>(i) % column_nx_, y = column_lo_.y + static_cast<std::int64_t>(i) / column_nx_;
+      std::int64_t z = top;
+      while (z != kNoColumnTop && freeUnder(x, y, z)) {
+        std::int64_t below = z - 1;
+        while (below >= occ_lo_.z && !observedOccupied({x, y, below})) --below;
+        z = below >= occ_lo_.z ? below : kNoColumnTop;
+      }
+      if (z != top) {
+        top = static_cast<std::int32_t>(z);
+        moved = true;
+      }
+    }
+    return moved;
+  }
   // c and the cells under it down to the robot radius (one at least) were observed free — or, never observed, lie
   // between cells observed free in their column (a lidar's rings cross a wall's window as horizontal lines of free
   // voxels, 2 degrees apart: 0.9 m at 25 m).
@@ -885,7 +927,6 @@ class OctoMapWorld final : public CollisionWorld {
   // observed occupied one: the gap between two rings' rays. A hill's inside has the skin above it and nothing
   // observed below; a slab's, its hit faces.
   bool betweenRings(const Cell& c) const {
-    constexpr double kRingGap_m = 1.0;
     if (observedOccupied(c)) return false;
     const std::int64_t reach = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(kRingGap_m * factor_)));
     const auto freeFirst = [&](std::int64_t step) {
@@ -1141,8 +1182,10 @@ class OctoMapWorld final : public CollisionWorld {
   double unknown_margin_;  // m; 2-D: never-observed cells this close to an occupied one are blocked
   bool keep_observed_free_;
   static constexpr std::int32_t kNoColumnTop = std::numeric_limits<std::int32_t>::min();
+  // The gap between two rings of a lidar's rays where they cross a window, at most (2 degrees at 29 m).
+  static constexpr double kRingGap_m = 1.0;
   std::vector<std::int32_t> column_top_;  // solid_below_surface: highest occupied cell z per column cell
-  std::vector<std::int32_t> column_own_top_;  // the same before the surface margin widened it (empty without one)
+  std::vector<std::int32_t> column_own_top_;  // the same before the surface margin widened it, undersides dropped
   std::int64_t column_nx_ = 0;
   Cell column_lo_{}, column_hi_{};  // the column grid's cells: the occupied box widened by surface_margin_m
   int column_shift_ = 0;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
 #include <set>
 #include <sstream>
@@ -413,7 +414,8 @@ TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForc
 // Space observed free is not blocked by the column rule: a point under a top within the margin — a neighbour's, or
 // its own column's (a window, the space under an overhang: rays crossed it; a hill's inside is never crossed) — is
 // free when its voxel and the robot radius under it (a voxel at least) were observed free or lie between cells
-// observed free in their column (the gap between a lidar's rings), and blocked otherwise.
+// observed free in their column (the gap between a lidar's rings), and blocked otherwise. A hit with space observed
+// free under it (within 1 m) is an underside, no top: its column's top is the next hit under it that is a top.
 TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) {
   octomap::OcTree tree(0.1);
   std::mt19937 rng(9);
@@ -443,54 +445,74 @@ TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) {
     markFree(hits[h] + octomap::point3d(-0.3f, -0.3f, -1.2f), hits[h] + octomap::point3d(0.3f, 0.3f, -0.15f), h < 15 ? 0.1f : 0.4f);
   const auto world = marginWorld(tree);
   auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
+  constexpr long kNone = std::numeric_limits<long>::min();
+  // The world knows the free cells under each column's widened top (its highest hit within the margin, 8 cells).
+  const auto widened_top = [&](long x, long y) {
+    long top = kNone;
+    for (const auto& h : hits)
+      if (std::labs(cell(h.x()) - x) <= 8 && std::labs(cell(h.y()) - y) <= 8) top = std::max(top, cell(h.z()));
+    return top;
+  };
+  const auto state = [&](long x, long y, long z) {  // 'o' occupied, 'f' free (as the world knows it), '?' never observed
+    const octomap::OcTreeNode* n = tree.search((x + 0.5) * 0.1, (y + 0.5) * 0.1, (z + 0.5) * 0.1);
+    if (n == nullptr) return '?';
+    if (tree.isNodeOccupied(n)) return 'o';
+    return z <= widened_top(x, y) ? 'f' : '?';
+  };
+  // The first known cell within 1 m from z, up (step 1) or down (-1), is free.
+  const auto free_first = [&](long x, long y, long z, long step) {
+    for (long k = 1; k <= 10; ++k) {
+      const char st = state(x, y, z + step * k);
+      if (st != '?') return st == 'f';
+    }
+    return false;
+  };
+  // A column's own top: its highest hit that is no underside.
+  std::map<std::pair<long, long>, long> own_top;
+  for (const auto& h : hits) {
+    const std::pair<long, long> key{cell(h.x()), cell(h.y())};
+    if (own_top.count(key) != 0) continue;
+    std::vector<long> column;  // the column's hits, highest first
+    for (const auto& g : hits)
+      if (cell(g.x()) == key.first && cell(g.y()) == key.second) column.push_back(cell(g.z()));
+    std::sort(column.rbegin(), column.rend());
+    long top = kNone;
+    for (const long z : column)
+      if (!free_first(key.first, key.second, z, -1)) {
+        top = z;
+        break;
+      }
+    own_top[key] = top;
+  }
+  int undersides = 0;
+  for (const auto& h : hits) undersides += own_top[{cell(h.x()), cell(h.y())}] < cell(h.z());
   std::uniform_real_distribution<double> q(-4.5, 4.5), qz(-0.5, 4.5);
   int between_rings = 0;
-  int yielded = 0, yielded_under_own = 0, blocked = 0;
+  int yielded = 0, blocked = 0;
   for (int i = 0; i < 40000; ++i) {
     const Vec3 p(q(rng), q(rng), qz(rng));
     const octomap::OcTreeNode* node = tree.search(p.x(), p.y(), p.z());
     if (node != nullptr && tree.isNodeOccupied(node)) continue;
-    bool below = false, below_own = false;  // under a top within the margin; under its own column's
-    for (const auto& h : hits) {
-      const double top = (std::floor(h.z() / 0.1) + 1) * 0.1;
-      if (p.z() < top && std::labs(cell(h.x()) - cell(p.x())) <= 8 && std::labs(cell(h.y()) - cell(p.y())) <= 8) below = true;
-      if (p.z() < top && cell(h.x()) == cell(p.x()) && cell(h.y()) == cell(p.y())) below_own = true;
-    }
-    // Its voxel and the one under it (the robot radius, at least a voxel) observed free, or never observed with
-    // cells observed free first within 1 m above and below it in its column (the world knows the free cells under
-    // the column's widened top only).
     const long cx = cell(p.x()), cy = cell(p.y()), cz = cell(p.z());
-    long widened_top = std::numeric_limits<long>::min();
-    for (const auto& h : hits)
-      if (std::labs(cell(h.x()) - cx) <= 8 && std::labs(cell(h.y()) - cy) <= 8) widened_top = std::max(widened_top, cell(h.z()));
-    const auto state = [&](long z) {  // 'o' occupied, 'f' free (as the world knows it), '?' never observed
-      const octomap::OcTreeNode* n = tree.search((cx + 0.5) * 0.1, (cy + 0.5) * 0.1, (z + 0.5) * 0.1);
-      if (n == nullptr) return '?';
-      if (tree.isNodeOccupied(n)) return 'o';
-      return z <= widened_top ? 'f' : '?';
-    };
-    const auto free_first = [&](long z, long step) {
-      for (long k = 1; k <= 10; ++k) {
-        const char st = state(z + step * k);
-        if (st != '?') return st == 'f';
-      }
-      return false;
-    };
+    bool below = false;  // under an own top within the margin
+    for (const auto& [key, top] : own_top)
+      if (top != kNone && cz <= top && std::labs(key.first - cx) <= 8 && std::labs(key.second - cy) <= 8) below = true;
+    // Its voxel and the one under it (the robot radius, at least a voxel) observed free, or never observed with
+    // cells observed free first within 1 m above and below it in its column.
     const auto free_or_between_rings = [&](long z) {
-      const char st = state(z);
-      return st == 'f' || (st == '?' && free_first(z, 1) && free_first(z, -1));
+      const char st = state(cx, cy, z);
+      return st == 'f' || (st == '?' && free_first(cx, cy, z, 1) && free_first(cx, cy, z, -1));
     };
     const bool observed_free = free_or_between_rings(cz) && free_or_between_rings(cz - 1);
-    between_rings += below && observed_free && (state(cz) == '?' || state(cz - 1) == '?');
+    between_rings += below && observed_free && (state(cx, cy, cz) == '?' || state(cx, cy, cz - 1) == '?');
     const bool expect_blocked = below && !observed_free;
     yielded += below && !expect_blocked;
-    yielded_under_own += below_own && !expect_blocked;
     blocked += expect_blocked;
-    ASSERT_EQ(world->isFree(p), !expect_blocked) << p.transpose() << " below " << below << " own " << below_own << " free " << observed_free;
+    ASSERT_EQ(world->isFree(p), !expect_blocked) << p.transpose() << " below " << below << " free " << observed_free;
   }
-  EXPECT_GT(yielded, 200);  // every case was exercised
-  EXPECT_GT(yielded_under_own, 8);
-  EXPECT_GT(between_rings, 50);  // under the 15 overhangs (their hits' own columns: 0.1 m wide)
+  EXPECT_GE(undersides, 20);  // most of the 30 hits with space observed free under them
+  EXPECT_GT(yielded, 200);    // every case was exercised
+  EXPECT_GT(between_rings, 50);
   EXPECT_GT(blocked, 1000);
 }
 
