@@ -148,7 +148,7 @@ void applySensorModel(octomap::OcTree& tree, const MapperConfig& c) {
 
 namespace {
 
-// A planar scan's return as seen from its origin.
+// A return as seen from the scan's origin: its bearing in its ring (a planar scan has one) and its range.
 struct Beam {
   double bearing = 0.0;  // rad
   double range = 0.0;    // m
@@ -172,7 +172,7 @@ struct OccupancyMapper::Impl {
   std::vector<bool> beside_invalid;  // per cleaned point: a non-finite point next to it in the cloud
   std::vector<Beam> beams;           // clear_beam_gaps' scratch space
   std::vector<double> gaps;
-  std::vector<std::pair<double, std::size_t>> by_elevation;  // 3-D clear_beam_gaps' scratch space
+  std::vector<std::pair<double, Beam>> by_elevation;  // 3-D clear_beam_gaps' scratch space: (elevation, beam)
   std::vector<octomap::point3d> gap_rays;  // the ends of clear_beam_gaps' rays
   std::vector<octomap::point3d> surface_fill;  // fill_surfaces_between_returns' points
 };
@@ -245,7 +245,7 @@ std::size_t addBeamGapRays(const std::vector<Beam>& beams, double step, double e
 // distinct elevations) gets none: a gap then means nothing.
 std::size_t addRingGapRays(const std::vector<octomap::point3d>& points, const std::vector<bool>& beside_invalid,
                            const octomap::point3d& origin, double max_range, double max_gap, std::size_t limit,
-                           std::vector<std::pair<double, std::size_t>>& by_elevation, std::vector<Beam>& beams,
+                           std::vector<std::pair<double, Beam>>& by_elevation, std::vector<Beam>& beams,
                            std::vector<double>& gaps, std::vector<octomap::point3d>& ray_ends) {
   constexpr std::size_t kMaxRings = 256;
   // Two beams of one ring differ in elevation by the points' float rounding (1e-7 of their coordinates, a few
@@ -255,7 +255,8 @@ std::size_t addRingGapRays(const std::vector<octomap::point3d>& points, const st
   for (std::size_t i = 0; i < points.size(); ++i) {
     const double dx = double(points[i].x()) - origin.x(), dy = double(points[i].y()) - origin.y(), dz = double(points[i].z()) - origin.z();
     const double horizontal = std::sqrt(dx * dx + dy * dy);
-    if (horizontal > 1e-6) by_elevation.emplace_back(std::atan2(dz, horizontal), i);
+    if (horizontal > 1e-6)
+      by_elevation.emplace_back(std::atan2(dz, horizontal), Beam{std::atan2(dy, dx), std::sqrt(dx * dx + dy * dy + dz * dz), beside_invalid[i]});
   }
   std::sort(by_elevation.begin(), by_elevation.end());
   std::size_t rings = 0;
@@ -269,9 +270,7 @@ std::size_t addRingGapRays(const std::vector<octomap::point3d>& points, const st
     beams.clear();
     double elevation_sum = 0.0;
     for (std::size_t k = first; k < last; ++k) {
-      const octomap::point3d& p = points[by_elevation[k].second];
-      const double dx = double(p.x()) - origin.x(), dy = double(p.y()) - origin.y(), dz = double(p.z()) - origin.z();
-      beams.push_back({std::atan2(dy, dx), std::sqrt(dx * dx + dy * dy + dz * dz), beside_invalid[by_elevation[k].second]});
+      beams.push_back(by_elevation[k].second);
       elevation_sum += by_elevation[k].first;
     }
     const double step = sortAndStep(beams, gaps);

@@ -887,22 +887,13 @@ class OctoMapWorld final : public CollisionWorld {
   // the tops (loadFreeUnderColumnTops) and columns of one voxel (not merged); returns whether any top moved.
   bool dropUndersideTops() {
     if (column_shift_ != 0 || column_own_top_.empty()) return false;
-    const std::int64_t reach = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(kRingGap_m * factor_)));
-    const auto freeUnder = [&](std::int64_t x, std::int64_t y, std::int64_t z) {
-      for (std::int64_t k = 1; k <= reach; ++k) {
-        const Cell n{x, y, z - k};
-        if (observedFree(n)) return true;
-        if (observedOccupied(n)) return false;
-      }
-      return false;
-    };
     bool moved = false;
     for (std::size_t i = 0; i < column_own_top_.size(); ++i) {
       std::int32_t& top = column_own_top_[i];
       if (top == kNoColumnTop) continue;
       const std::int64_t x = column_lo_.x + static_cast<std::int64_t>(i) % column_nx_, y = column_lo_.y + static_cast<std::int64_t>(i) / column_nx_;
       std::int64_t z = top;
-      while (z != kNoColumnTop && freeUnder(x, y, z)) {
+      while (z != kNoColumnTop && freeFirstWithinRingGap({x, y, z}, -1)) {
         std::int64_t below = z - 1;
         while (below >= occ_lo_.z && !observedOccupied({x, y, below})) --below;
         z = below >= occ_lo_.z ? below : kNoColumnTop;
@@ -927,17 +918,17 @@ class OctoMapWorld final : public CollisionWorld {
   // observed occupied one: the gap between two rings' rays. A hill's inside has the skin above it and nothing
   // observed below; a slab's, its hit faces.
   bool betweenRings(const Cell& c) const {
-    if (observedOccupied(c)) return false;
+    return !observedOccupied(c) && freeFirstWithinRingGap(c, 1) && freeFirstWithinRingGap(c, -1);
+  }
+  // Walking c's column up (step 1) or down (-1), the first observed cell within kRingGap_m is observed free.
+  bool freeFirstWithinRingGap(const Cell& c, std::int64_t step) const {
     const std::int64_t reach = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(kRingGap_m * factor_)));
-    const auto freeFirst = [&](std::int64_t step) {
-      for (std::int64_t k = 1; k <= reach; ++k) {
-        const Cell n{c.x, c.y, c.z + step * k};
-        if (observedFree(n)) return true;
-        if (observedOccupied(n)) return false;
-      }
-      return false;
-    };
-    return freeFirst(1) && freeFirst(-1);
+    for (std::int64_t k = 1; k <= reach; ++k) {
+      const Cell n{c.x, c.y, c.z + step * k};
+      if (observedFree(n)) return true;
+      if (observedOccupied(n)) return false;
+    }
+    return false;
   }
   // The free leaves were loaded: a cell in no brick, or with its known bit clear, was never observed.
   bool knowsObservedFree() const { return unknown_blocked_ || unknown_margin_ > 0.0 || keep_observed_free_; }
