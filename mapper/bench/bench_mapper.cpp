@@ -112,12 +112,28 @@ int timeWorldBuilds(const std::string& path) {
   tree.getMetricMin(x0, y0, z0);
   tree.getMetricMax(x1, y1, z1);
   using ddsnav::planner::Vec3;
-  std::printf("| world from %s (%zu bytes, %zu nodes) | ms per build |\n|---|---|\n", path.c_str(), bytes.size(), tree.size());
   constexpr int kBuilds = 5;
+  // The digest of a world's answers (free or not) on a 64 x 64 x 64 lattice over the box: two builds of this
+  // binary, or of two binaries, with the same digest built the same world there.
+  auto digest = [&](const ddsnav::planner::CollisionWorld& world) {
+    std::uint64_t hash = 1469598103934665603ull;  // FNV-1a over the answers
+    constexpr int kSteps = 64;
+    for (int k = 0; k < kSteps; ++k)
+      for (int j = 0; j < kSteps; ++j)
+        for (int i = 0; i < kSteps; ++i) {
+          const Vec3 p(x0 + (x1 - x0) * (i + 0.5) / kSteps, y0 + (y1 - y0) * (j + 0.5) / kSteps, z0 + (z1 - z0) * (k + 0.5) / kSteps);
+          hash = (hash ^ (world.isFree(p) ? 1u : 0u)) * 1099511628211ull;
+        }
+    return hash;
+  };
+  std::printf("| world from %s (%zu bytes, %zu nodes) | ms per build | digest of its answers |\n|---|---|---|\n", path.c_str(), bytes.size(),
+              tree.size());
   auto time = [&](const char* name, int dims, const ddsnav::planner::OctoMapWorldOptions& options) {
     const auto started = Clock::now();
     for (int i = 0; i < kBuilds; ++i) ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
-    std::printf("| %s | %.1f |\n", name, 1000.0 * secondsSince(started) / kBuilds);
+    const double ms = 1000.0 * secondsSince(started) / kBuilds;
+    const auto world = ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
+    std::printf("| %s | %.1f | %016llx |\n", name, ms, static_cast<unsigned long long>(digest(*world)));
   };
   // A 2-D mission's map is one voxel layer: its worlds are the plain map and the planner's preferred world with the
   // unknown margin (1 m, the default for a 0.5 m robot; docs/world-model.md).
