@@ -313,6 +313,7 @@ class TrackerComponent : public runtime::Component {
     std::uint32_t request_id = 0;
     std::optional<tracker::Trajectory> trajectory;  // none: it could not be smoothed (`error` says why)
     std::string error;
+    bool path_in_collision = false;  // why: the path is not collision free on the tracker's world
     std::vector<planner::State> rest;  // the path after the trajectory's end: a long path's later pieces
     // A long path's next piece (not an answer to a request): the trajectory it continues, from its sample at
     // `switch_at`.
@@ -391,6 +392,10 @@ class TrackerComponent : public runtime::Component {
         const auto t2 = std::chrono::steady_clock::now();
         spdlog::debug("{}: world snapshot {:.1f} ms, smoothing {:.1f} ms (wall)", what, std::chrono::duration<double, std::milli>(t1 - t0).count(),
                       std::chrono::duration<double, std::milli>(t2 - t1).count());
+      } catch (const tracker::PathInCollision& e) {
+        job.error = e.what();
+        job.path_in_collision = true;
+        spdlog::warn("cannot smooth {}: {}", what, e.what());
       } catch (const std::exception& e) {
         job.error = e.what();
         spdlog::warn("cannot smooth {}: {}", what, e.what());
@@ -785,7 +790,8 @@ class TrackerComponent : public runtime::Component {
       return std::nullopt;
     }
     if (smoothed.request_id != mission_.requestId()) return std::nullopt;
-    return mission_.pathSmoothed(clock().nowNs(), state, adoptSmoothed(std::move(smoothed), state));
+    const bool in_collision = smoothed.path_in_collision;
+    return mission_.pathSmoothed(clock().nowNs(), state, adoptSmoothed(std::move(smoothed), state), in_collision);
   }
 
   // Between control steps, when a path, a smoothed trajectory or a replan check has just come in: what the
