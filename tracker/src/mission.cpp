@@ -100,12 +100,12 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
   return afterAnswer(now_ns, *state);
 }
 
-MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok, bool path_in_collision) {
+MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok, bool ask_again_at_once) {
   if (!ok) {
     // Why at once: the planner and the tracker get the same maps, and a path the smoother finds in collision was
     // planned on the map before the newest (gart_terrain_3d: a hill's flank seen between the request and the
     // answer; the delayed retries' starts ahead then ran into it, and the vehicle stopped to plan at rest).
-    const bool at_once = path_in_collision && !retried_at_once_;
+    const bool at_once = ask_again_at_once && !retried_at_once_;
     retried_at_once_ = at_once;
     return retryLater(now_ns, "no drivable trajectory after " + std::to_string(attempts_) + " attempts", "",
                       at_once ? 0.0 : config_.plan_retry_delay_s);

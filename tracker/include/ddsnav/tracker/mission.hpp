@@ -86,10 +86,10 @@ class Mission {
 
   // After SmoothPath: whether the path became a trajectory (which the caller now follows). Success resets the
   // attempt count and continues as update() would (normally Drive); failure retries after the delay, or
-  // gives up after max_plan_attempts. A path that was not collision free on the smoother's world
-  // (`path_in_collision`: planned on an older map than the one the smoother has) is asked again at the next
-  // update, once in a row: the planner has that map too by then; a second such failure waits for the delay.
-  MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok, bool path_in_collision = false);
+  // gives up after max_plan_attempts. A failure a new plan may not repeat (`ask_again_at_once`: the path was not
+  // collision free on the smoother's world, planned on an older map than the one the smoother has, so the planner
+  // has that map too by then) is asked again at the next update, once in a row; a second one waits for the delay.
+  MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok, bool ask_again_at_once = false);
 
   // After Drive, with the tracker's status after the step of `dt` seconds: Finished when the vehicle is in
   // the goal region (checkGoal) at the trajectory's end (the controller finished, or progress > 0.95).
@@ -138,7 +138,7 @@ class Mission {
   std::optional<std::string> failure_;
   double since_replan_check_ = 0.0;  // s of driving since the last replan check
   std::int64_t short_ends_ = 0;      // trajectories that ended with the vehicle outside the goal region
-  bool retried_at_once_ = false;     // the last failed attempt was a path in collision, asked again without the delay
+  bool retried_at_once_ = false;     // the last failed attempt was asked again without the delay
 };
 
 }  // namespace ddsnav::tracker
