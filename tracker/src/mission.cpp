@@ -80,7 +80,7 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
     if (!answer->solved) {
       std::string warning = "plan " + std::to_string(request_id_) + " failed";
       if (!answer->failure.empty()) warning += ": " + answer->failure;
-      return retryLater(now_ns, "no plan after " + std::to_string(attempts_) + " attempts", std::move(warning), config_.plan_retry_delay_s);
+      return retryLater(now_ns, "no plan after " + std::to_string(attempts_) + " attempts", std::move(warning));
     }
     // A "solved" path that stops short of the goal region is no way to the goal: the planner's exact flag
     // and the path's own end must both say it gets there.
@@ -90,8 +90,7 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
       if (!answer->path_end) warning += "it has no states";
       else if (!end.reached) warning += "it ends " + metres(end.distance) + " from the goal (goal radius " + metres(config_.goal_radius) + ")";
       else warning += "the planner marks it approximate (exact = false)";
-      return retryLater(now_ns, "no plan to the goal region after " + std::to_string(attempts_) + " attempts", std::move(warning),
-                        config_.plan_retry_delay_s);
+      return retryLater(now_ns, "no plan to the goal region after " + std::to_string(attempts_) + " attempts", std::move(warning));
     }
     MissionDecision d = just(MissionAction::SmoothPath);
     d.request_id = request_id_;
@@ -100,17 +99,8 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
   return afterAnswer(now_ns, *state);
 }
 
-MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok, bool ask_again_at_once) {
-  if (!ok) {
-    // Why at once: the planner and the tracker get the same maps, and a path the smoother finds in collision was
-    // planned on the map before the newest (gart_terrain_3d: a hill's flank seen between the request and the
-    // answer; the delayed retries' starts ahead then ran into it, and the vehicle stopped to plan at rest).
-    const bool at_once = ask_again_at_once && !retried_at_once_;
-    retried_at_once_ = at_once;
-    return retryLater(now_ns, "no drivable trajectory after " + std::to_string(attempts_) + " attempts", "",
-                      at_once ? 0.0 : config_.plan_retry_delay_s);
-  }
-  retried_at_once_ = false;
+MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok) {
+  if (!ok) return retryLater(now_ns, "no drivable trajectory after " + std::to_string(attempts_) + " attempts", "");
   driving_ = true;
   attempts_ = 0;
   return afterAnswer(now_ns, state);
@@ -195,9 +185,9 @@ MissionDecision Mission::fail(std::string cause, std::string warning) {
 
 // A failed attempt (unsolved, or not smoothable): ask again after the retry delay, unless the attempts are
 // used up.
-MissionDecision Mission::retryLater(std::int64_t now_ns, const std::string& cause, std::string warning, double delay_s) {
+MissionDecision Mission::retryLater(std::int64_t now_ns, const std::string& cause, std::string warning) {
   if (attempts_ >= config_.max_plan_attempts) return fail(cause, std::move(warning));
-  retry_at_ns_ = now_ns + secondsToNs(delay_s);
+  retry_at_ns_ = now_ns + secondsToNs(config_.plan_retry_delay_s);
   MissionDecision d = just(MissionAction::Wait);
   d.warning = std::move(warning);
   return d;

@@ -70,7 +70,6 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
 
 void checkPathFree(const std::vector<Vec3>& points, const CollisionWorld& world) {
   const int dims = world.dimensions();
-  const auto fail = [](const std::string& what) { throw PathInCollision("smoother: " + what); };
   if (!world.isFree(points.front()))
     fail("path start " + fmt(points.front(), dims) + " is in collision or out of bounds (robot radius " +
          std::to_string(world.robotRadius()) + ")");

@@ -181,38 +181,6 @@ TEST(Mission, UnsmoothablePathsAreRetriedAndEndTheMissionAfterMaxAttempts) {
   EXPECT_FALSE(m.driving());
 }
 
-// A path in collision on the smoother's world was planned on an older map: asked again at the next update, not after
-// the retry delay; a second one in a row waits for the delay (a world the planner and the tracker see differently
-// must not be asked every control step).
-TEST(Mission, APathInCollisionIsAskedAgainAtOnceOnceInARow) {
-  Mission m = started();
-  ASSERT_EQ(m.update(0, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(0, at(0), false, /*ask_again_at_once=*/true).action, MissionAction::Wait);
-  const auto again = m.update(1, at(0), true, std::nullopt);
-  ASSERT_EQ(again.action, MissionAction::RequestPlan);
-  EXPECT_EQ(again.reason, "retrying");
-  ASSERT_EQ(m.update(2, at(0), true, answer(2, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(2, at(0), false, /*ask_again_at_once=*/true).action, MissionAction::Wait);
-  EXPECT_EQ(m.update(3, at(0), true, std::nullopt).action, MissionAction::Wait);
-  EXPECT_EQ(m.update(kSecond + 2, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
-  // A drivable trajectory ends the run of failures: the next path in collision is asked again at once.
-  ASSERT_EQ(m.update(kSecond + 3, at(0), true, answer(3, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(kSecond + 3, at(0), true).action, MissionAction::Drive);
-  const auto replan = m.replanAhead(kSecond + 4, at(0), "trajectory_blocked");
-  ASSERT_EQ(m.update(kSecond + 5, at(0), true, answer(replan.request_id, true)).action, MissionAction::SmoothPath);
-  m.pathSmoothed(kSecond + 5, at(0), false, /*ask_again_at_once=*/true);
-  EXPECT_EQ(m.update(kSecond + 6, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
-}
-
-// Any other failure to smooth waits for the retry delay.
-TEST(Mission, AnUnsmoothablePathIsAskedAgainAfterTheDelay) {
-  Mission m = started();
-  ASSERT_EQ(m.update(0, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(0, at(0), false).action, MissionAction::Wait);
-  EXPECT_EQ(m.update(1, at(0), true, std::nullopt).action, MissionAction::Wait);
-  EXPECT_EQ(m.update(kSecond, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
-}
-
 TEST(Mission, DrivableTrajectoryResetsTheAttempts) {
   Mission m = started();
   ASSERT_EQ(m.update(0, at(0), true, answer(1, false)).action, MissionAction::Wait);

@@ -313,7 +313,6 @@ class TrackerComponent : public runtime::Component {
     std::uint32_t request_id = 0;
     std::optional<tracker::Trajectory> trajectory;  // none: it could not be smoothed (`error` says why)
     std::string error;
-    bool path_in_collision = false;  // why: the path is not collision free on the tracker's world
     std::vector<planner::State> rest;  // the path after the trajectory's end: a long path's later pieces
     // A long path's next piece (not an answer to a request): the trajectory it continues, from its sample at
     // `switch_at`.
@@ -392,10 +391,6 @@ class TrackerComponent : public runtime::Component {
         const auto t2 = std::chrono::steady_clock::now();
         spdlog::debug("{}: world snapshot {:.1f} ms, smoothing {:.1f} ms (wall)", what, std::chrono::duration<double, std::milli>(t1 - t0).count(),
                       std::chrono::duration<double, std::milli>(t2 - t1).count());
-      } catch (const tracker::PathInCollision& e) {
-        job.error = e.what();
-        job.path_in_collision = true;
-        spdlog::warn("cannot smooth {}: {}", what, e.what());
       } catch (const std::exception& e) {
         job.error = e.what();
         spdlog::warn("cannot smooth {}: {}", what, e.what());
@@ -790,12 +785,7 @@ class TrackerComponent : public runtime::Component {
       return std::nullopt;
     }
     if (smoothed.request_id != mission_.requestId()) return std::nullopt;
-    // A path in collision on the tracker's world is asked again at once (once in a row): planned on the map before
-    // the newest. Not one that could only start at rest at a moving start: asked again at once, the next one was
-    // refused too within 0.2 s, and the vehicle stopped to plan at rest (bugtrap_0.6: three stops, 2.17x the
-    // oracle's time, against 1.09-1.32x with the delay).
-    const bool in_collision = smoothed.path_in_collision;
-    return mission_.pathSmoothed(clock().nowNs(), state, adoptSmoothed(std::move(smoothed), state), in_collision);
+    return mission_.pathSmoothed(clock().nowNs(), state, adoptSmoothed(std::move(smoothed), state));
   }
 
   // Between control steps, when a path, a smoothed trajectory or a replan check has just come in: what the

@@ -86,10 +86,8 @@ class Mission {
 
   // After SmoothPath: whether the path became a trajectory (which the caller now follows). Success resets the
   // attempt count and continues as update() would (normally Drive); failure retries after the delay, or
-  // gives up after max_plan_attempts. A failure a new plan may not repeat (`ask_again_at_once`: the path was not
-  // collision free on the smoother's world, planned on an older map than the one the smoother has, so the planner
-  // has that map too by then) is asked again at the next update, once in a row; a second one waits for the delay.
-  MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok, bool ask_again_at_once = false);
+  // gives up after max_plan_attempts.
+  MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok);
 
   // After Drive, with the tracker's status after the step of `dt` seconds: Finished when the vehicle is in
   // the goal region (checkGoal) at the trajectory's end (the controller finished, or progress > 0.95).
@@ -125,7 +123,7 @@ class Mission {
  private:
   MissionDecision request(std::int64_t now_ns, const VehicleState& from, std::string reason);
   MissionDecision fail(std::string cause, std::string warning);
-  MissionDecision retryLater(std::int64_t now_ns, const std::string& cause, std::string warning, double delay_s);
+  MissionDecision retryLater(std::int64_t now_ns, const std::string& cause, std::string warning);
   MissionDecision afterAnswer(std::int64_t now_ns, const VehicleState& state);
 
   MissionConfig config_;
@@ -138,7 +136,6 @@ class Mission {
   std::optional<std::string> failure_;
   double since_replan_check_ = 0.0;  // s of driving since the last replan check
   std::int64_t short_ends_ = 0;      // trajectories that ended with the vehicle outside the goal region
-  bool retried_at_once_ = false;     // the last failed attempt was asked again without the delay
 };
 
 }  // namespace ddsnav::tracker

@@ -22,12 +22,6 @@ class SmoothingError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
-// The path itself is not collision free on the world it is smoothed on (a state or an edge): planned on another
-// world than this one, typically an older map.
-class PathInCollision : public SmoothingError {
- public:
-  using SmoothingError::SmoothingError;
-};
 
 struct SmootherConfig {
   double sample_dt = 0.05;       // s between trajectory samples
