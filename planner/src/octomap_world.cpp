@@ -1002,9 +1002,9 @@ class OctoMapWorld final : public CollisionWorld {
   // observed). A second pass over the bytes, only through the subtrees (load's index, kSubtreeDepth) that reach under
   // the highest top of their footprint: the air above a terrain, most of a 3-D map's nodes, is not read again (a
   // 60 x 60 x 25 m terrain's map, 15.6 M nodes: the world's build took 238 ms with the pass through the whole tree,
-  // 133 ms this way; `ddsnav-bench-mapper --world-map`). Leaves are checked
-  // against 8 x 8-column blocks first (the highest top of each), then column by column. Stops, leaving the rule as it
-  // is, before the bricks reach 90 % of max_bricks.
+  // 131 ms this way; `ddsnav-bench-mapper --world-map`). Leaves are checked against 8 x 8-column blocks first (the
+  // highest top of each), then column by column. Stops, leaving the rule as it is, before the bricks reach 90 % of
+  // max_bricks.
   void loadFreeUnderColumnTops(const std::vector<std::uint8_t>& bytes, const std::vector<BinaryOcTreeReader::Subtree>& subtrees,
                                const std::vector<BinaryOcTreeReader::CoarseFreeLeaf>& coarse_free, const Cell& free_lo,
                                const Cell& free_hi) {
@@ -1085,7 +1085,7 @@ class OctoMapWorld final : public CollisionWorld {
         }
     };
     for (const auto& leaf : coarse_free) free_leaf(leaf.corner, leaf.depth, /*occupied=*/false);
-    // A subtree whose cube starts above every top of its footprint's blocks holds no voxel under a top.
+    // A subtree whose cube starts above every column top of its footprint holds no voxel under a top.
     const auto reachesUnderATop = [&](const BinaryOcTreeReader::Subtree& subtree) {
       constexpr std::int64_t kSize = std::int64_t(1) << (16 - kSubtreeDepth);
       const std::int64_t z = std::int64_t(subtree.corner[2]) - kCellLimit;
