@@ -4,7 +4,10 @@
 // OctoMap result it claims to equal before its time is reported.
 #include "ddsnav/mapper/occupancy_mapper.hpp"
 #include "ddsnav/mapper/synthetic_scan.hpp"
+#include "ddsnav/planner/coarse_route.hpp"
 #include "ddsnav/planner/collision_world.hpp"
+#include "ddsnav/planner/planner.hpp"
+#include "ddsnav/planner/scenario.hpp"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -99,7 +102,10 @@ int queryMismatches(const octomap::OcTree& a, const octomap::OcTree& b, int poin
 
 // --world-map: the planner's world from a recorded map, built 5 times each way (the mean per build). The 3-D defaults
 // are solid below the surface with a 1 m margin yielding to space observed free (docs/world-model.md).
-int timeWorldBuilds(const std::string& path) {
+// With `route` (x0 y0 z0 x1 y1 z1), also the lattice route search between the two points on each world (the planner's
+// per-request search, docs/planners.md "Lattice routes"), without its time limit.
+// With a scenario too, gart-lazy from the route's start to its end, seeds 1-10, with the route as its guide and without.
+int timeWorldBuilds(const std::string& path, const std::vector<double>& route, const std::string& scenario_path) {
   std::ifstream in(path, std::ios::binary);
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
   octomap::OcTree tree(0.1);
@@ -126,14 +132,55 @@ int timeWorldBuilds(const std::string& path) {
         }
     return hash;
   };
-  std::printf("| world from %s (%zu bytes, %zu nodes) | ms per build | digest of its answers |\n|---|---|---|\n", path.c_str(), bytes.size(),
-              tree.size());
+  std::printf("| world from %s (%zu bytes, %zu nodes) | ms per build | digest of its answers | ns per isFree (the digest's 262 144) |\n|---|---|---|---|\n",
+              path.c_str(), bytes.size(), tree.size());
   auto time = [&](const char* name, int dims, const ddsnav::planner::OctoMapWorldOptions& options) {
     const auto started = Clock::now();
     for (int i = 0; i < kBuilds; ++i) ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
     const double ms = 1000.0 * secondsSince(started) / kBuilds;
     const auto world = ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
-    std::printf("| %s | %.1f | %016llx |\n", name, ms, static_cast<unsigned long long>(digest(*world)));
+    const auto queried = Clock::now();
+    const std::uint64_t answers = digest(*world);
+    const double ns_per_query = 1e9 * secondsSince(queried) / (64.0 * 64.0 * 64.0);
+    std::printf("| %s | %.1f | %016llx | %.0f |\n", name, ms, static_cast<unsigned long long>(answers), ns_per_query);
+    if (route.size() == 6) {
+      ddsnav::planner::CoarseRouteOptions options;
+      options.time_limit_s = 60.0;
+      const auto found = ddsnav::planner::findCoarseRoute(*world, Vec3(route[0], route[1], route[2]), Vec3(route[3], route[4], route[5]),
+                                                          1.0, options);
+      const char* outcome = found.outcome == ddsnav::planner::CoarseRoute::Outcome::found ? "found"
+                            : found.outcome == ddsnav::planner::CoarseRoute::Outcome::none ? "none" : "gave up";
+      std::printf("|   lattice route: %s, %.1f m, %zu cells expanded in %.1f ms (%.2f us per cell) | | | |\n", outcome,
+                  found.length_m, found.expanded, 1e3 * found.time_s, 1e6 * found.time_s / std::max<std::size_t>(found.expanded, 1));
+      if (!scenario_path.empty()) {
+        const auto scenario = ddsnav::planner::loadScenario(scenario_path);
+        for (const double bias : {0.0, 0.3, 0.6, 0.9}) {
+          std::vector<double> times;
+          std::vector<std::size_t> iterations;
+          int solved = 0;
+          for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+            auto planner = ddsnav::planner::makePlanner("gart-lazy");
+            ddsnav::planner::PlanProblem problem;
+            problem.world = world.get();
+            problem.start.position = Vec3(route[0], route[1], route[2]);
+            problem.goal = Vec3(route[3], route[4], route[5]);
+            problem.goal_radius = scenario.goal_radius;
+            problem.vehicle = scenario.vehicle;
+            problem.seed = seed;
+            problem.time_limit_s = 2.0;
+            if (bias > 0.0) ddsnav::planner::guideAlong(problem, found, bias);
+            const auto result = planner->solve(problem);
+            solved += result.solved ? 1 : 0;
+            times.push_back(1e3 * result.stats.time_s);
+            iterations.push_back(result.stats.iterations);
+          }
+          std::sort(times.begin(), times.end());
+          std::sort(iterations.begin(), iterations.end());
+          std::printf("|   gart-lazy, guide bias %.1f: %d of 10 solved in 2 s; ms median %.0f, max %.0f; iterations median %zu, max %zu | | | |\n",
+                      bias, solved, times[5], times.back(), iterations[5], iterations.back());
+        }
+      }
+    }
   };
   // A 2-D mission's map is one voxel layer: its worlds are the plain map and the planner's preferred world with the
   // unknown margin (1 m, the default for a 0.5 m robot; docs/world-model.md).
@@ -299,8 +346,14 @@ int main(int argc, char** argv) {
   app.add_flag("--ring-gaps", ring_gaps,
                "only time 3-D insertion of a 16x512 lidar in the city block (--scans, --resolutions' first, --max-range, --seed): "
                "the mapper with and without the per-ring gap rays");
+  std::vector<double> route;
+  app.add_option("--route", route, "with --world-map: also time the lattice route search from X0,Y0,Z0 to X1,Y1,Z1 on each world")
+      ->delimiter(',')->expected(6);
+  std::string route_scenario;
+  app.add_option("--route-scenario", route_scenario, "with --route: also solve with gart-lazy and this scenario's vehicle, guided and not")
+      ->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
-  if (!world_map.empty()) return timeWorldBuilds(world_map);
+  if (!world_map.empty()) return timeWorldBuilds(world_map, route, route_scenario);
   if (ring_gaps) return timeRingGaps(scans, resolutions.front(), max_range, first_seed);
   if (planar_corridor) return timePlanarCorridor(scans);
 

@@ -39,7 +39,7 @@ TEST(CoarseRoute, GoesThroughTheGapWithEveryWaypointFree) {
   const auto world = wallWorld(30, 33);
   const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0);
   ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
-  EXPECT_DOUBLE_EQ(route.cell_m, 0.25);
+  EXPECT_DOUBLE_EQ(route.cell_m, 0.5 / std::sqrt(2.0)) << "a 3 m gap is found on the coarser lattice, searched first";
   EXPECT_EQ(route.waypoints.front(), kStart);
   EXPECT_LE((route.waypoints.back() - kGoal).norm(), 1.0);
   bool through_gap = false;
@@ -60,9 +60,11 @@ TEST(CoarseRoute, AClosedWorldHasNoneAfterTheReachableCellsAreSearched) {
   const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0, options);
   EXPECT_EQ(route.outcome, CoarseRoute::Outcome::none);
   EXPECT_TRUE(route.waypoints.empty());
-  // The lower half: 200 x ~94 cells free of the wall and the bounds' edge.
-  EXPECT_GT(route.expanded, 15000u);
-  EXPECT_LT(route.expanded, 200u * 100u);
+  EXPECT_DOUBLE_EQ(route.cell_m, 0.25) << "\"none\" comes from the finer lattice";
+  // The lower half on both lattices: 200 x ~94 cells of 0.25 m free of the wall and the bounds' edge, and half as many
+  // of 0.35 m.
+  EXPECT_GT(route.expanded, 15000u + 7500u);
+  EXPECT_LT(route.expanded, 200u * 100u + 142u * 71u);
 }
 
 TEST(CoarseRoute, ResolvesAGapOnlyItsCornerProbesFit) {
@@ -74,6 +76,7 @@ TEST(CoarseRoute, ResolvesAGapOnlyItsCornerProbesFit) {
   ASSERT_TRUE(world->isFree(Vec3(25.0, 25, 0)));
   const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0);
   ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  EXPECT_DOUBLE_EQ(route.cell_m, 0.25) << "0.1 m of play: the coarser lattice has no route, the finer one has";
   for (const Vec3& p : route.waypoints) {
     if (p.y() >= 24.0 && p.y() <= 26.0) {  // inside the wall's thickness
       EXPECT_NEAR(p.x(), 25.0, 0.05 + 1e-9) << p.transpose();

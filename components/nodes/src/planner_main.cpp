@@ -27,6 +27,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <ctime>
 #include <deque>
 #include <map>
 #include <optional>
@@ -36,6 +37,13 @@
 using namespace ddsnav;
 
 namespace {
+
+// This thread's CPU time: beside the wall time a search took, it tells a slow search from a starved one.
+double threadCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
 
 class PlannerComponent : public runtime::Component {
  public:
@@ -406,16 +414,26 @@ class PlannerComponent : public runtime::Component {
     // The lattice route (docs/planners.md, "Lattice routes"): milliseconds where the sampler may need a second, it
     // tells a closed world (skipped before the plain map) and guides the samples through an open one.
     if (route_lattice_s_ > 0.0) {
+      // Bounded by the work done (this thread's CPU time), with a wall cap of three times that: in a mission at speed 4
+      // the searches of a request got 10-60 % of a core (bugtrap_0.4, 2026-12-06: 3.5-20 ms of CPU in 25-34 ms), and
+      // a search bounded in wall time alone gave up before the trap's cells were expanded in every request. The time
+      // it takes beyond half the world's share lengthens that share instead of starving the guided search after it.
       planner::CoarseRouteOptions lattice;
-      lattice.time_limit_s = std::min(route_lattice_s_, 0.5 * time_limit_s);
+      lattice.cpu_time_limit_s = std::min(route_lattice_s_, 0.5 * time_limit_s);
+      lattice.time_limit_s = std::min(3.0 * route_lattice_s_, time_limit_s);
       lattice.stop = stop;
+      const double cpu_before = threadCpuSeconds();
       const planner::CoarseRoute route =
           planner::findCoarseRoute(*world, problem.start.position, problem.goal, problem.goal_radius, lattice);
+      const double cpu_s = threadCpuSeconds() - cpu_before;
       if (tier && route.outcome == planner::CoarseRoute::Outcome::none) return notSearched(Skipped::no_route, route.time_s);
       if (route.outcome == planner::CoarseRoute::Outcome::gave_up && !stop.stop_requested())
-        spdlog::info("request {}: no lattice route within {:.1f} ms ({} cells of {:.2f} m); sampling without a guide", request.request_id(),
-                     1e3 * route.time_s, route.expanded, route.cell_m);
-      time_limit_s = std::max(time_limit_s - route.time_s, 1e-3);
+        spdlog::info("request {}: no lattice route within {:.1f} ms ({:.1f} ms on this thread's CPU; {} cells of {:.2f} m); sampling "
+                     "without a guide", request.request_id(), 1e3 * route.time_s, 1e3 * cpu_s, route.expanded, route.cell_m);
+      if (route.outcome == planner::CoarseRoute::Outcome::found)
+        spdlog::info("request {}: lattice route of {:.1f} m in {:.1f} ms ({:.1f} ms of CPU; {} cells of {:.2f} m) guides the samples",
+                     request.request_id(), route.length_m, 1e3 * route.time_s, 1e3 * cpu_s, route.expanded, route.cell_m);
+      time_limit_s = std::max(time_limit_s - std::min(route.time_s, 0.5 * time_limit_s), 1e-3);
       planner::guideAlong(problem, route, params_.guide_bias);
     }
     problem.vehicle = scenario_.vehicle;

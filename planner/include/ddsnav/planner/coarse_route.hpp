@@ -15,8 +15,9 @@
 namespace ddsnav::planner {
 
 struct CoarseRouteOptions {
-  // Lattice spacing; 0: half the robot radius (with the corners probed too, a passage with a quarter of the radius
-  // of play for the robot is resolved), coarsened until the bounds hold at most max_lattice_cells.
+  // Lattice spacing, coarsened until the bounds hold at most max_lattice_cells. 0: two lattices, the first with cells
+  // whose diagonal is the robot radius, then, only if that one has no route, half the robot radius (with the corners
+  // probed too, a passage with a quarter of the radius of play for the robot is resolved).
   double cell_m = 0.0;
   // Weighted A*: the route is at most this many times longer than the lattice's shortest, and is found after
   // expanding far fewer cells where obstacles stand across the straight line (a guide need not be shortest).
@@ -25,7 +26,10 @@ struct CoarseRouteOptions {
   // Cells the search may hold (looked up or queued, ~40 bytes each) before it gives up: the memory bound (a 3-D
   // expansion looks at 26 neighbours).
   std::size_t max_cells_seen = std::size_t(1) << 21;
-  double time_limit_s = 0.05;
+  double time_limit_s = 0.05;  // wall time
+  // > 0: the search also ends after this much of the calling thread's CPU time. A planner on a busy machine bounds
+  // the search by the work it does (cells looked at) and caps its latency with time_limit_s.
+  double cpu_time_limit_s = 0.0;
   std::stop_token stop;
 };
 
@@ -37,8 +41,8 @@ struct CoarseRoute {
   };
   Outcome outcome = Outcome::gave_up;
   std::vector<Vec3> waypoints;  // cell centres, start first (found only; z = 0 in 2-D)
-  double cell_m = 0.0;          // the lattice spacing used
-  std::size_t expanded = 0;     // cells taken off the open list
+  double cell_m = 0.0;          // the lattice spacing used (the last one searched)
+  std::size_t expanded = 0;     // cells taken off the open list (of both lattices when two were searched)
   double length_m = 0.0;        // along the waypoints (found only)
   double time_s = 0.0;
 };
