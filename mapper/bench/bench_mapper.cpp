@@ -144,16 +144,21 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
     const double ns_per_query = 1e9 * secondsSince(queried) / (64.0 * 64.0 * 64.0);
     std::printf("| %s | %.1f | %016llx | %.0f |\n", name, ms, static_cast<unsigned long long>(answers), ns_per_query);
     if (route.size() == 6) {
-      ddsnav::planner::CoarseRouteOptions options;
-      options.time_limit_s = 60.0;
+      ddsnav::planner::CoarseRouteOptions lattice;
+      lattice.time_limit_s = 60.0;
       const auto found = ddsnav::planner::findCoarseRoute(*world, Vec3(route[0], route[1], route[2]), Vec3(route[3], route[4], route[5]),
-                                                          1.0, options);
+                                                          1.0, lattice);
       const char* outcome = found.outcome == ddsnav::planner::CoarseRoute::Outcome::found ? "found"
                             : found.outcome == ddsnav::planner::CoarseRoute::Outcome::none ? "none" : "gave up";
       std::printf("|   lattice route: %s, %.1f m, %zu cells expanded in %.1f ms (%.2f us per cell) | | | |\n", outcome,
                   found.length_m, found.expanded, 1e3 * found.time_s, 1e6 * found.time_s / std::max<std::size_t>(found.expanded, 1));
       if (!scenario_path.empty()) {
         const auto scenario = ddsnav::planner::loadScenario(scenario_path);
+        // As the planner component queries it (`world: fused`): the map beside perception's ellipses, here none.
+        std::shared_ptr<const ddsnav::planner::CollisionWorld> structure =
+            ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
+        const auto fused = ddsnav::planner::makeFusedWorld(
+            structure, ddsnav::planner::makeEllipsoidWorld(dims, structure->boundsMin(), structure->boundsMax(), 0.5, {}));
         for (const double bias : {0.0, 0.3, 0.6, 0.9}) {
           std::vector<double> times;
           std::vector<std::size_t> iterations;
@@ -161,7 +166,7 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
           for (std::uint64_t seed = 1; seed <= 10; ++seed) {
             auto planner = ddsnav::planner::makePlanner("gart-lazy");
             ddsnav::planner::PlanProblem problem;
-            problem.world = world.get();
+            problem.world = fused.get();
             problem.start.position = Vec3(route[0], route[1], route[2]);
             problem.goal = Vec3(route[3], route[4], route[5]);
             problem.goal_radius = scenario.goal_radius;
