@@ -640,6 +640,20 @@ void fillReport(Trajectory& traj, const CollisionWorld& world, bool clearance) {
       if (dt > 1e-9) r.max_accel = std::max(r.max_accel, std::abs(v1 - v0) / dt);
     }
   }
+  // Slow stretches between the first and the last fast sample.
+  auto speed3 = [&](std::size_t i) { return std::hypot(s[i].speed, s[i].vz); };
+  double top = 0.0;
+  for (std::size_t i = 0; i < s.size(); ++i) top = std::max(top, speed3(i));
+  const double slow = 0.25 * top;
+  std::size_t first = s.size(), last = 0;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (speed3(i) >= slow) first = std::min(first, i), last = i;
+  double slowest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = first + 1; i < s.size() && i <= last; ++i) {
+    if (speed3(i) >= slow) continue;
+    r.slow_s += s[i].time - s[i - 1].time;
+    if (speed3(i) < slowest) slowest = speed3(i), r.slowest_at = s[i].position;
+  }
   if (!clearance) return;
   // The clearance is 1-Lipschitz in the position: a sample nearer to a measured one than that one's clearance
   // minus the least so far cannot be below the least, so it is not measured and the minimum stays exact. In open

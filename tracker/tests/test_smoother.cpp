@@ -192,6 +192,16 @@ TEST(Smoother, NoRoundingStopsAndTurnsInPlace) {
   EXPECT_LT(closest, 1e-3);  // it goes through the corner
   EXPECT_LE(t.report.max_heading_jump, 0.85 * cfg.sample_dt + 1e-9);
   expectDrivable(t, *world, limits(), cfg);
+  // The stop at the corner is what the report's slow time counts, and where.
+  EXPECT_GT(t.report.slow_s, 0.5);
+  EXPECT_LT((t.report.slowest_at - Vec3(12, 2, 0)).norm(), 0.5) << t.report.slowest_at.transpose();
+}
+
+TEST(Smoother, AStraightRunHasNoSlowTimeOnTheWay) {
+  auto sc = scenario2d(20, 0.3, "");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto t = smoothPath(pathOf({{2, 2, 0}, {18, 2, 0}}), *world, limits());
+  EXPECT_EQ(t.report.slow_s, 0.0) << "the start's acceleration and the end's braking are not slow stretches";
 }
 
 TEST(Smoother, BadInputGivesClearErrors) {

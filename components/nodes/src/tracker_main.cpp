@@ -452,8 +452,13 @@ class TrackerComponent : public runtime::Component {
 
   // ", braking to rest in 6.2 m (no lead-in at speed: ...)" for a trajectory whose lead-in brakes; empty otherwise.
   static std::string brakingNote(const tracker::TrajectoryReport& report) {
-    if (!(report.lead_in_braking > 0)) return {};
-    return fmt::format(", braking to rest in {:.1f} m (no lead-in at speed: {})", report.lead_in_braking, report.lead_in_failure);
+    std::string note;
+    if (report.lead_in_braking > 0)
+      note = fmt::format(", braking to rest in {:.1f} m (no lead-in at speed: {})", report.lead_in_braking, report.lead_in_failure);
+    if (report.slow_s >= 0.5)
+      note += fmt::format(", {:.1f} s below a quarter of its top speed on the way (slowest at ({:.1f}, {:.1f}, {:.1f}))", report.slow_s,
+                          report.slowest_at.x(), report.slowest_at.y(), report.slowest_at.z());
+    return note;
   }
 
   // The smoothed answer becomes the trajectory to follow (now, or at its predicted start); false when it

@@ -60,6 +60,11 @@ struct TrajectoryReport {
   double max_vz = 0.0;                 // m/s
   double max_accel = 0.0;              // m/s^2, along the path, between samples
   double max_heading_jump = 0.0;       // rad between consecutive samples
+  // Time the trajectory spends below a quarter of its top speed (horizontal and vertical together) between the first
+  // and the last moment it is faster: corners the smoother could only tighten, where the vehicle nearly stops. 0 when
+  // it never slows down in between; the start's acceleration and the end's braking do not count.
+  double slow_s = 0.0;
+  Vec3 slowest_at = Vec3::Zero();      // the slowest such sample's position (when slow_s > 0)
   double min_clearance = std::numeric_limits<double>::infinity();  // m, robot boundary to obstacles
   std::size_t samples_in_collision = 0;  // always 0 for a trajectory the smoother returns
   // A moving start (initial_speed > 0) whose lead-in at speed did not fit: why, for the longest and the shortest
