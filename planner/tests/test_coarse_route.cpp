@@ -99,6 +99,19 @@ TEST(CoarseRoute, GivesUpAtItsLimitsAndNotBefore) {
   EXPECT_EQ(findCoarseRoute(*world, kStart, kGoal, 1.0, stopped).outcome, CoarseRoute::Outcome::gave_up);
 }
 
+TEST(CoarseRoute, ACpuTimeLimitEndsTheSearchAndANegativeOneIsRefused) {
+  const auto world = wallWorld(0, 0);  // closed: without a limit both lattices' lower halves are searched
+  CoarseRouteOptions tiny;
+  tiny.time_limit_s = 10.0;
+  tiny.cpu_time_limit_s = 1e-9;  // spent by the first check, after 256 expansions at most
+  const CoarseRoute cut = findCoarseRoute(*world, kStart, kGoal, 1.0, tiny);
+  EXPECT_EQ(cut.outcome, CoarseRoute::Outcome::gave_up);
+  EXPECT_LE(cut.expanded, 257u);
+  CoarseRouteOptions negative;
+  negative.cpu_time_limit_s = -1.0;
+  EXPECT_THROW(findCoarseRoute(*world, kStart, kGoal, 1.0, negative), std::invalid_argument);
+}
+
 TEST(CoarseRoute, AStartInsideTheGoalRegionIsItsOwnRoute) {
   const auto world = wallWorld(30, 33);
   const CoarseRoute route = findCoarseRoute(*world, kStart, kStart + Vec3(0.5, 0, 0), 1.0);
