@@ -37,7 +37,9 @@ const Vec3 kStart(10, 5, 0), kGoal(40, 45, 0);
 
 TEST(CoarseRoute, GoesThroughTheGapWithEveryWaypointFree) {
   const auto world = wallWorld(30, 33);
-  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0);
+  CoarseRouteOptions options;
+  options.time_limit_s = 10.0;  // a loaded machine must not cut it short
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0, options);
   ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
   EXPECT_DOUBLE_EQ(route.cell_m, 0.5 / std::sqrt(2.0)) << "a 3 m gap is found on the coarser lattice, searched first";
   EXPECT_EQ(route.waypoints.front(), kStart);
@@ -74,7 +76,9 @@ TEST(CoarseRoute, ResolvesAGapOnlyItsCornerProbesFit) {
   ASSERT_FALSE(world->isFree(Vec3(24.875, 25, 0)));
   ASSERT_FALSE(world->isFree(Vec3(25.125, 25, 0)));
   ASSERT_TRUE(world->isFree(Vec3(25.0, 25, 0)));
-  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0);
+  CoarseRouteOptions options;
+  options.time_limit_s = 10.0;  // both lattices are searched: not to be cut short on a slow (sanitizer) build
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0, options);
   ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
   EXPECT_DOUBLE_EQ(route.cell_m, 0.25) << "0.1 m of play: the coarser lattice has no route, the finer one has";
   for (const Vec3& p : route.waypoints) {
