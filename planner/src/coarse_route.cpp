@@ -237,7 +237,11 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, c
     SparseCells cells;
     return search(world, lattice, cell, start, goal, goal_radius, options, cells, started, cpu_started);
   };
-  if (options.cell_m > 0.0) return searchAt(std::max(options.cell_m, smallest));
+  auto withCpu = [&](CoarseRoute route) {
+    route.cpu_s = threadCpuSeconds() - cpu_started;
+    return route;
+  };
+  if (options.cell_m > 0.0) return withCpu(searchAt(std::max(options.cell_m, smallest)));
 
   // By default two lattices, the coarser first: cells whose diagonal is the robot radius (the widest at which moves
   // need no segment checks) hold half the cells of the half-radius lattice in 2-D. From inside bugtrap_0.4's trap the
@@ -246,12 +250,12 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start_in, c
   // searched, in the time left: "none" stays a statement about the finest lattice.
   const double fine = std::max(0.5 * world.robotRadius(), smallest);
   const double coarse = world.robotRadius() / std::sqrt(three_d ? 3.0 : 2.0);
-  if (!(coarse > fine * 1.05)) return searchAt(fine);
+  if (!(coarse > fine * 1.05)) return withCpu(searchAt(fine));
   CoarseRoute first = searchAt(coarse);
-  if (first.outcome != CoarseRoute::Outcome::none) return first;
+  if (first.outcome != CoarseRoute::Outcome::none) return withCpu(std::move(first));
   CoarseRoute second = searchAt(fine);
   second.expanded += first.expanded;
-  return second;
+  return withCpu(std::move(second));
 }
 
 

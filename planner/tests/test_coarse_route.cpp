@@ -63,6 +63,8 @@ TEST(CoarseRoute, AClosedWorldHasNoneAfterTheReachableCellsAreSearched) {
   EXPECT_EQ(route.outcome, CoarseRoute::Outcome::none);
   EXPECT_TRUE(route.waypoints.empty());
   EXPECT_DOUBLE_EQ(route.cell_m, 0.25) << "\"none\" comes from the finer lattice";
+  EXPECT_GT(route.cpu_s, 0.0);
+  EXPECT_LE(route.cpu_s, route.time_s + 1e-3) << "one thread's CPU time within the wall time it took";
   // The lower half on both lattices: 200 x ~94 cells of 0.25 m free of the wall and the bounds' edge, and half as many
   // of 0.35 m.
   EXPECT_GT(route.expanded, 15000u + 7500u);

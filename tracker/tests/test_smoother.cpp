@@ -360,8 +360,11 @@ TEST(Smoother, AMovingStartKeepsItsSpeedAndHeading) {
   cfg.initial_speed = 1.5;
   const Trajectory moving = smoothPath(path, *world, l, cfg);
   expectMovingStart(moving, *world, l, 1.5, 0.0);
-  for (const auto& s : moving.samples)
-    if (s.time > 0 && s.time < moving.duration() - 3.0) EXPECT_GT(s.speed, 0.5) << "stopped at t=" << s.time;
+  for (const auto& s : moving.samples) {
+    if (s.time > 0 && s.time < moving.duration() - 3.0) {
+      EXPECT_GT(s.speed, 0.5) << "stopped at t=" << s.time;
+    }
+  }
   EXPECT_LT(moving.duration(), at_rest.duration());
 }
 

@@ -27,7 +27,6 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
-#include <ctime>
 #include <deque>
 #include <map>
 #include <optional>
@@ -37,13 +36,6 @@
 using namespace ddsnav;
 
 namespace {
-
-// This thread's CPU time: beside the wall time a search took, it tells a slow search from a starved one.
-double threadCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 class PlannerComponent : public runtime::Component {
  public:
@@ -422,17 +414,15 @@ class PlannerComponent : public runtime::Component {
       lattice.cpu_time_limit_s = std::min(route_lattice_s_, 0.5 * time_limit_s);
       lattice.time_limit_s = std::min(3.0 * route_lattice_s_, time_limit_s);
       lattice.stop = stop;
-      const double cpu_before = threadCpuSeconds();
       const planner::CoarseRoute route =
           planner::findCoarseRoute(*world, problem.start.position, problem.goal, problem.goal_radius, lattice);
-      const double cpu_s = threadCpuSeconds() - cpu_before;
       if (tier && route.outcome == planner::CoarseRoute::Outcome::none) return notSearched(Skipped::no_route, route.time_s);
       if (route.outcome == planner::CoarseRoute::Outcome::gave_up && !stop.stop_requested())
         spdlog::info("request {}: no lattice route within {:.1f} ms ({:.1f} ms on this thread's CPU; {} cells of {:.2f} m); sampling "
-                     "without a guide", request.request_id(), 1e3 * route.time_s, 1e3 * cpu_s, route.expanded, route.cell_m);
+                     "without a guide", request.request_id(), 1e3 * route.time_s, 1e3 * route.cpu_s, route.expanded, route.cell_m);
       if (route.outcome == planner::CoarseRoute::Outcome::found)
         spdlog::info("request {}: lattice route of {:.1f} m in {:.1f} ms ({:.1f} ms of CPU; {} cells of {:.2f} m) guides the samples",
-                     request.request_id(), route.length_m, 1e3 * route.time_s, 1e3 * cpu_s, route.expanded, route.cell_m);
+                     request.request_id(), route.length_m, 1e3 * route.time_s, 1e3 * route.cpu_s, route.expanded, route.cell_m);
       time_limit_s = std::max(time_limit_s - std::min(route.time_s, 0.5 * time_limit_s), 1e-3);
       planner::guideAlong(problem, route, params_.guide_bias);
     }

@@ -45,6 +45,7 @@ struct CoarseRoute {
   std::size_t expanded = 0;     // cells taken off the open list (of both lattices when two were searched)
   double length_m = 0.0;        // along the waypoints (found only)
   double time_s = 0.0;
+  double cpu_s = 0.0;  // of the calling thread's CPU time: beside time_s, it tells a slow search from a starved one
 };
 
 // 8-connected (2-D) or 26-connected (3-D) A* between the cells of `world`'s bounds. A cell is passable when the
