@@ -92,9 +92,10 @@ class PlannerComponent : public runtime::Component {
           route_lattice_s(p.declareOptional<double>(
               "route_lattice_s",
               {.min = 0, .max = 10, .unit = "s",
-               .doc = "before each search, look this long at most for a route on a lattice of cells half the robot radius wide: a world "
-                      "tried before the plain map with no route on it is skipped at once, and a route found guides the samples "
-                      "(guide_bias; docs/planners.md, \"Lattice routes\"); 0: no lattice search; default 0.03 s in 2-D, 0 in 3-D"})),
+               .doc = "before each search, look for a route on a lattice (cells a robot radius across diagonally, then half the radius "
+                      "wide) for this much of the planner thread's CPU time, and three times it of wall time, at most: a world tried "
+                      "before the plain map with no route on it is skipped at once, and a route found guides the samples (guide_bias; "
+                      "docs/planners.md, \"Lattice routes\"); 0: no lattice search; default 0.03 s in 2-D, 0 in 3-D"})),
           guide_bias(p.declare<double>("guide_bias", 0.3,
                                        {.min = 0, .max = 1,
                                         .doc = "share of the samples drawn near the lattice route (route_lattice_s) instead of anywhere "
