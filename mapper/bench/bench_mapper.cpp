@@ -22,6 +22,7 @@
 #include <limits>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <malloc.h>
 #include <iostream>
 #include <iterator>
@@ -119,6 +120,8 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
   tree.getMetricMax(x1, y1, z1);
   using ddsnav::planner::Vec3;
   constexpr int kBuilds = 5;
+  std::optional<ddsnav::planner::Scenario> scenario;
+  if (!scenario_path.empty()) scenario = ddsnav::planner::loadScenario(scenario_path);
   // The digest of a world's answers (free or not) on a 64 x 64 x 64 lattice over the box: two builds of this
   // binary, or of two binaries, with the same digest built the same world there.
   auto digest = [&](const ddsnav::planner::CollisionWorld& world) {
@@ -138,7 +141,8 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
     const auto started = Clock::now();
     for (int i = 0; i < kBuilds; ++i) ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
     const double ms = 1000.0 * secondsSince(started) / kBuilds;
-    const auto world = ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
+    const std::shared_ptr<const ddsnav::planner::CollisionWorld> world =
+        ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
     const auto queried = Clock::now();
     const std::uint64_t answers = digest(*world);
     const double ns_per_query = 1e9 * secondsSince(queried) / (64.0 * 64.0 * 64.0);
@@ -152,13 +156,10 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
                             : found.outcome == ddsnav::planner::CoarseRoute::Outcome::none ? "none" : "gave up";
       std::printf("|   lattice route: %s, %.1f m, %zu cells expanded in %.1f ms (%.2f us per cell) | | | |\n", outcome,
                   found.length_m, found.expanded, 1e3 * found.time_s, 1e6 * found.time_s / std::max<std::size_t>(found.expanded, 1));
-      if (!scenario_path.empty()) {
-        const auto scenario = ddsnav::planner::loadScenario(scenario_path);
+      if (scenario) {
         // As the planner component queries it (`world: fused`): the map beside perception's ellipses, here none.
-        std::shared_ptr<const ddsnav::planner::CollisionWorld> structure =
-            ddsnav::planner::makeOctoMapWorld(dims, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, options);
         const auto fused = ddsnav::planner::makeFusedWorld(
-            structure, ddsnav::planner::makeEllipsoidWorld(dims, structure->boundsMin(), structure->boundsMax(), 0.5, {}));
+            world, ddsnav::planner::makeEllipsoidWorld(dims, world->boundsMin(), world->boundsMax(), 0.5, {}));
         for (const double bias : {0.0, 0.3, 0.6, 0.9}) {
           std::vector<double> times;
           std::vector<std::size_t> iterations;
@@ -169,8 +170,8 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
             problem.world = fused.get();
             problem.start.position = Vec3(route[0], route[1], route[2]);
             problem.goal = Vec3(route[3], route[4], route[5]);
-            problem.goal_radius = scenario.goal_radius;
-            problem.vehicle = scenario.vehicle;
+            problem.goal_radius = scenario->goal_radius;
+            problem.vehicle = scenario->vehicle;
             problem.seed = seed;
             problem.time_limit_s = 2.0;
             if (bias > 0.0) ddsnav::planner::guideAlong(problem, found, bias);

@@ -434,7 +434,7 @@ class TrackerComponent : public runtime::Component {
     spdlog::info("trajectory {}, next piece: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s{}, "
                  "{:.0f} m of the path after it, smoothed in {:.3f} s",
                  smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
-                 trajectory.report.min_clearance, trajectory.samples.front().speed, brakingNote(trajectory.report),
+                 trajectory.report.min_clearance, trajectory.samples.front().speed, trajectoryNotes(trajectory.report),
                  planner::pathLength(smoothed.rest), last_piece_smoothing_s_);
     const double due_in_s = smoothed.switch_at - follower_->status().reference_time;
     if (due_in_s > 0) {
@@ -450,8 +450,9 @@ class TrackerComponent : public runtime::Component {
     }
   }
 
-  // ", braking to rest in 6.2 m (no lead-in at speed: ...)" for a trajectory whose lead-in brakes; empty otherwise.
-  static std::string brakingNote(const tracker::TrajectoryReport& report) {
+  // ", braking to rest in 6.2 m (no lead-in at speed: ...)" for a trajectory whose lead-in brakes, ", 1.3 s below a
+  // quarter of its top speed on the way (...)" for one that nearly stops between its fast parts; empty otherwise.
+  static std::string trajectoryNotes(const tracker::TrajectoryReport& report) {
     std::string note;
     if (report.lead_in_braking > 0)
       note = fmt::format(", braking to rest in {:.1f} m (no lead-in at speed: {})", report.lead_in_braking, report.lead_in_failure);
@@ -487,7 +488,7 @@ class TrackerComponent : public runtime::Component {
     const double latency = static_cast<double>(clock().nowNs() - requested_at_ns_) * 1e-9;
     spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s{}, ready {:.3f} s after its request",
                  smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
-                 trajectory.report.min_clearance, trajectory.samples.front().speed, brakingNote(trajectory.report), latency);
+                 trajectory.report.min_clearance, trajectory.samples.front().speed, trajectoryNotes(trajectory.report), latency);
     // The mission's first request may wait for the planner's world (3.3 s of simulated time on gart_terrain_3d):
     // not a planning time to predict replans by.
     if (smoothed.request_id != kFirstRequestId) replan_gate_.planReady(latency);
