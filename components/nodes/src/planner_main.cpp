@@ -408,7 +408,7 @@ class PlannerComponent : public runtime::Component {
     // tells a closed world (skipped before the plain map) and guides the samples through an open one.
     if (route_lattice_s_ > 0.0) {
       // Bounded by the work done (this thread's CPU time), with a wall cap of three times that: in a mission at speed 4
-      // the searches of a request got 10-60 % of a core (bugtrap_0.4, 2026-12-06: 3.5-20 ms of CPU in 25-34 ms), and
+      // the searches of a request got 10-60 % of a core (bugtrap_0.4, 2026-12-06: 3.5-29.6 ms of CPU in 25-38 ms), and
       // a search bounded in wall time alone gave up before the trap's cells were expanded in every request. The time
       // it takes beyond half the world's share lengthens that share instead of starving the guided search after it.
       planner::CoarseRouteOptions lattice;
