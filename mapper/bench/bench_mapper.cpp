@@ -106,7 +106,7 @@ int queryMismatches(const octomap::OcTree& a, const octomap::OcTree& b, int poin
 // With `route` (x0 y0 z0 x1 y1 z1), also the lattice route search between the two points on each world (the planner's
 // per-request search, docs/planners.md "Lattice routes"), without its time limit.
 // With a scenario too, gart-lazy from the route's start to its end, seeds 1-10, with the route as its guide and without.
-int timeWorldBuilds(const std::string& path, const std::vector<double>& route, const std::string& scenario_path) {
+int timeWorldBuilds(const std::string& path, const std::vector<double>& route, const std::string& scenario_path, double wall_cost) {
   std::ifstream in(path, std::ios::binary);
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
   octomap::OcTree tree(0.1);
@@ -150,12 +150,25 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
     if (route.size() == 6) {
       ddsnav::planner::CoarseRouteOptions lattice;
       lattice.time_limit_s = 60.0;
+      lattice.wall_cost = wall_cost;
       const auto found = ddsnav::planner::findCoarseRoute(*world, Vec3(route[0], route[1], route[2]), Vec3(route[3], route[4], route[5]),
                                                           1.0, lattice);
       const char* outcome = found.outcome == ddsnav::planner::CoarseRoute::Outcome::found ? "found"
                             : found.outcome == ddsnav::planner::CoarseRoute::Outcome::none ? "none" : "gave up";
       std::printf("|   lattice route: %s, %.1f m, %zu cells expanded in %.1f ms (%.2f us per cell) | | | |\n", outcome,
                   found.length_m, found.expanded, 1e3 * found.time_s, 1e6 * found.time_s / std::max<std::size_t>(found.expanded, 1));
+      if (found.outcome == ddsnav::planner::CoarseRoute::Outcome::found) {
+        // The route as the planner component answers with it (route_path): shortcut, clearance kept.
+        const auto shortcut_started = Clock::now();
+        const auto path = ddsnav::planner::pathAlongRoute(*world, found, ddsnav::planner::State{Vec3(route[0], route[1], route[2]), 0.0},
+                                                          Vec3(route[3], route[4], route[5]), 1.0);
+        const double shortcut_ms = 1e3 * secondsSince(shortcut_started);
+        double length = 0.0, least_clearance = std::numeric_limits<double>::infinity();
+        for (std::size_t i = 1; i < path.size(); ++i) length += (path[i].position - path[i - 1].position).norm();
+        for (std::size_t i = 1; i + 1 < path.size(); ++i) least_clearance = std::min(least_clearance, world->clearance(path[i].position));
+        std::printf("|   route path: %zu states, %.1f m, least corner clearance %.2f m, in %.1f ms | | | |\n", path.size(), length,
+                    least_clearance, shortcut_ms);
+      }
       if (scenario) {
         // As the planner component queries it (`world: fused`): the map beside perception's ellipses, here none.
         const auto fused = ddsnav::planner::makeFusedWorld(
@@ -358,8 +371,11 @@ int main(int argc, char** argv) {
   std::string route_scenario;
   app.add_option("--route-scenario", route_scenario, "with --route: also solve with gart-lazy and this scenario's vehicle, guided and not")
       ->check(CLI::ExistingFile);
+  double wall_cost = ddsnav::planner::CoarseRouteOptions{}.wall_cost;
+  app.add_option("--wall-cost", wall_cost, "with --route: the lattice's extra cost of a move near a wall (CoarseRouteOptions::wall_cost)")
+      ->check(CLI::Range(0.0, 100.0));
   CLI11_PARSE(app, argc, argv);
-  if (!world_map.empty()) return timeWorldBuilds(world_map, route, route_scenario);
+  if (!world_map.empty()) return timeWorldBuilds(world_map, route, route_scenario, wall_cost);
   if (ring_gaps) return timeRingGaps(scans, resolutions.front(), max_range, first_seed);
   if (planar_corridor) return timePlanarCorridor(scans);
 

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <iostream>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -114,6 +115,10 @@ int main(int argc, char** argv) {
                  "draw this share of the samples along a lattice route found first (as the planner component's guide_bias; "
                  "docs/planners.md, \"Lattice routes\"); 0: uniform sampling")
       ->check(CLI::Range(0.0, 1.0));
+  bool route_path = false;
+  app.add_flag("--route-path", route_path,
+               "also find a lattice route (as --guide-bias does) and answer with it, shortcut, when the planner's path is "
+               "longer or there is none (as the planner component's route_path; docs/planners.md, \"The route as the answer\")");
   app.add_flag("--list-options", list_options, "print the planner's options, their ranges and defaults, and exit");
   CLI11_PARSE(app, argc, argv);
 
@@ -146,7 +151,8 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--kinodynamic needs a 'vehicle' block in " + scenario_file);
     }
 
-    if (guide_bias > 0.0) {
+    std::optional<PlanResult> along_route;
+    if (guide_bias > 0.0 || route_path) {
       CoarseRouteOptions lattice;
       lattice.time_limit_s = time_limit;
       const CoarseRoute route = findCoarseRoute(*world, problem.start.position, problem.goal, problem.goal_radius, lattice);
@@ -157,6 +163,19 @@ int main(int argc, char** argv) {
                                                                    : "gave up",
                     route.length_m, route.expanded, route.time_s);
       guideAlong(problem, route, guide_bias);
+      if (route_path) {
+        std::vector<State> path = pathAlongRoute(*world, route, problem.start, problem.goal, problem.goal_radius);
+        if (!json) std::printf("route path: %s\n", path.empty() ? "none (no route, or a move the world's checks refuse)" : "found");
+        if (!path.empty()) {
+          along_route.emplace();
+          along_route->planner = "lattice-route";
+          along_route->solved = along_route->exact = true;
+          along_route->cost = 0.0;
+          for (std::size_t i = 1; i < path.size(); ++i) along_route->cost += (path[i].position - path[i - 1].position).norm();
+          along_route->path = std::move(path);
+          along_route->stats.time_s = route.time_s;
+        }
+      }
     }
 
     PlanResult result;
@@ -164,6 +183,16 @@ int main(int argc, char** argv) {
       ProgressLine progress(time_limit);
       problem.on_progress = [&progress](std::uint64_t iterations) { progress.update(iterations); };
       result = planner->solve(problem);
+    }
+    if (along_route && (!result.solved || result.cost > along_route->cost)) {
+      if (!json && result.solved)
+        std::printf("%s: found %.1f m; answering with the lattice route, %.1f m\n", result.planner.c_str(), result.cost, along_route->cost);
+      else if (!json)
+        std::printf("%s: found none; answering with the lattice route, %.1f m\n", result.planner.c_str(), along_route->cost);
+      along_route->stats.time_s += result.stats.time_s;
+      along_route->stats.iterations = result.stats.iterations;
+      along_route->tree = std::move(result.tree);
+      result = std::move(*along_route);
     }
 
     if (!svg_file.empty()) {

@@ -17,6 +17,19 @@ bool CollisionWorld::isSegmentFree(const Vec3& a, const Vec3& b) const {
   return true;
 }
 
+bool segmentClearanceAtLeast(const CollisionWorld& world, const Vec3& a, const Vec3& b, double required) {
+  if (required <= 0.0) return true;
+  const double length = (b - a).norm();
+  const Vec3 dir = length > 0 ? Vec3((b - a) / length) : Vec3::Zero();
+  const double min_step = world.checkResolution();
+  for (double t = 0.0;; ) {
+    const double c = world.clearance(a + std::min(t, length) * dir);
+    if (c < required) return false;
+    if (t >= length) return true;
+    t = std::min(length, t + std::max(c - required, min_step));
+  }
+}
+
 std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step,
                                         double wanted_clearance) {
   if (!p.allFinite()) throw std::invalid_argument("nearestFreePosition: the position must be finite");

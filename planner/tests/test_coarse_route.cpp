@@ -187,6 +187,108 @@ PlanProblem problemIn(const CollisionWorld& world) {
   return problem;
 }
 
+// wall_cost: along a wall the route keeps two cells off it where there is room (0.65 m of clearance), for 1 % of
+// length; at 0 it runs the wall's length in the first row passable at a cell centre (0.3 m).
+TEST(CoarseRoute, KeepsOffAWallAlongWhichItRuns) {
+  const auto world = makeScenarioWorld(parseScenario(R"(
+name: along a wall
+dimensions: 2
+bounds: {min: [0, 0], max: [50, 50]}
+robot_radius: 0.5
+start: [5, 22.6]
+goal: [45, 22.6]
+goal_radius: 1.0
+obstacles:
+  - {type: box, min: [0, 20], max: [50, 22]}
+)", "test"));
+  const Vec3 start(5, 22.6, 0), goal(45, 22.6, 0);
+  auto meanClearance = [&](const CoarseRoute& route) {
+    double sum = 0.0;
+    for (const Vec3& p : route.waypoints) sum += world->clearance(p);
+    return sum / static_cast<double>(route.waypoints.size());
+  };
+  CoarseRouteOptions hug;
+  hug.time_limit_s = 10.0;
+  hug.wall_cost = 0.0;
+  const CoarseRoute hugging = findCoarseRoute(*world, start, goal, 1.0, hug);
+  // At or below heuristic_weight - 1 a penalty along a straight run is outweighed by the heuristic: the same route.
+  CoarseRouteOptions weak = hug;
+  weak.wall_cost = 0.5;
+  EXPECT_DOUBLE_EQ(meanClearance(findCoarseRoute(*world, start, goal, 1.0, weak)), meanClearance(hugging));
+  CoarseRouteOptions keep;  // the default wall_cost
+  keep.time_limit_s = 10.0;
+  const CoarseRoute kept = findCoarseRoute(*world, start, goal, 1.0, keep);
+  ASSERT_EQ(hugging.outcome, CoarseRoute::Outcome::found);
+  ASSERT_EQ(kept.outcome, CoarseRoute::Outcome::found);
+  EXPECT_LT(meanClearance(hugging), 0.35);
+  EXPECT_GT(meanClearance(kept), meanClearance(hugging) + 0.25);
+  EXPECT_LT(kept.length_m, 1.02 * hugging.length_m);
+  keep.wall_cost = -1.0;
+  EXPECT_THROW(findCoarseRoute(*world, start, goal, 1.0, keep), std::invalid_argument);
+}
+
+// The route as the answer: a shortcut polyline from the exact start through the gap to the goal region, every edge free,
+// with no more corners than the way needs, and no longer than the route.
+TEST(PathAlongRoute, IsAFreeShortcutPolylineThroughTheGap) {
+  const auto world = wallWorld(30, 33);
+  CoarseRouteOptions options;
+  options.time_limit_s = 10.0;
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 1.0, options);
+  ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  const State start{kStart, 1.0};
+  const std::vector<State> path = pathAlongRoute(*world, route, start, kGoal, 1.0);
+  ASSERT_GE(path.size(), 2u);
+  EXPECT_EQ(path.front().position, kStart);
+  EXPECT_DOUBLE_EQ(path.front().heading, 1.0) << "the start keeps its heading";
+  EXPECT_LE((path.back().position - kGoal).norm(), 1.0);
+  double length = 0.0;
+  bool through_gap = false;
+  for (std::size_t i = 1; i < path.size(); ++i) {
+    const Vec3& a = path[i - 1].position;
+    const Vec3& b = path[i].position;
+    EXPECT_TRUE(world->isSegmentFree(a, b)) << a.transpose() << " -> " << b.transpose();
+    EXPECT_NEAR(path[i].heading, std::atan2(b.y() - a.y(), b.x() - a.x()), 1e-12);
+    length += (b - a).norm();
+    // Where the edge crosses the wall's middle line (y = 25) it is inside the gap.
+    if ((a.y() - 25.0) * (b.y() - 25.0) <= 0.0 && a.y() != b.y()) {
+      const double x = a.x() + (25.0 - a.y()) / (b.y() - a.y()) * (b.x() - a.x());
+      through_gap = through_gap || (x > 30.5 && x < 32.5);
+    }
+  }
+  EXPECT_TRUE(through_gap);
+  EXPECT_LE(length, route.length_m + 1e-9);
+  // The corners are the route's own waypoints: the weighted A* route leaves the gap at its far side, and the shortcut
+  // follows it there (50.4 m against 46.6); the smoother shortcuts again with points between them.
+  EXPECT_LT(length, 1.1 * 46.6) << "shortcut to within 10 % of start -> gap -> goal";
+  EXPECT_LE(path.size(), 6u) << "one corner at the gap needs a few points, not the lattice's staircase";
+}
+
+TEST(PathAlongRoute, EndsAtTheGoalWhenTheLastCellIsOutsideTheGoalRadius) {
+  const auto world = wallWorld(30, 33);
+  CoarseRouteOptions options;
+  options.time_limit_s = 10.0;
+  // A goal radius below the cell: the goal region's cells are those within a cell of the goal.
+  const CoarseRoute route = findCoarseRoute(*world, kStart, kGoal, 0.01, options);
+  ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  const std::vector<State> path = pathAlongRoute(*world, route, State{kStart, 0.0}, kGoal, 0.01);
+  ASSERT_FALSE(path.empty());
+  EXPECT_LE((path.back().position - kGoal).norm(), 0.01);
+}
+
+TEST(PathAlongRoute, NothingForARouteNotFoundOrNotFreeInTheWorld) {
+  const auto open = wallWorld(30, 33);
+  CoarseRoute none;
+  none.outcome = CoarseRoute::Outcome::none;
+  EXPECT_TRUE(pathAlongRoute(*open, none, State{kStart, 0.0}, kGoal, 1.0).empty());
+  // A route found in a world with a gap, answered in the same place with the wall closed: its edges are not free.
+  CoarseRouteOptions options;
+  options.time_limit_s = 10.0;
+  const CoarseRoute route = findCoarseRoute(*open, kStart, kGoal, 1.0, options);
+  ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
+  const auto closed = wallWorld(0, 0);
+  EXPECT_TRUE(pathAlongRoute(*closed, route, State{kStart, 0.0}, kGoal, 1.0).empty());
+}
+
 TEST(GuidedSampling, DrawsItsShareNearTheGuideAndTheRestAnywhere) {
   const auto world = wallWorld(30, 33);
   PlanProblem problem = problemIn(*world);

@@ -53,7 +53,9 @@ TEST(Pipeline, DemoYardIsDrivenToTheGoalAcrossVendors) {
   h.startReady({.name = "tracker", .command = "ddsnav-tracker", .params = {{"scenario", kScenario}, {"planner", "gart"}}, .dds = "fastdds"});
   const auto path = h.waitFor<msg::Path>("planning/path", bus::Qos::state(), 20s, [](const msg::Path& p) { return p.solved(); });
   ASSERT_TRUE(path) << h.log("planner");
-  EXPECT_EQ(path->planner(), "gart");
+  // The requested sampler's path, or the lattice route when the sampler had nothing shorter in the time the route
+  // search took (the planner's route_path, docs/planners.md "The route as the answer").
+  EXPECT_TRUE(path->planner() == "gart" || path->planner() == "lattice-route") << path->planner();
   EXPECT_GE(path->states().size(), 2u);
 
   const auto done = h.waitFor<msg::TrackingStatus>("control/tracking", bus::Qos::sensorData(), 150s,

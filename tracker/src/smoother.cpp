@@ -66,6 +66,51 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
   if (c.initial_heading && !std::isfinite(*c.initial_heading)) fail("initial_heading must be finite");
   if (!(c.end_tolerance >= 0.0) || !std::isfinite(c.end_tolerance)) fail("end_tolerance must be a number >= 0");
   if (!(c.lead_in_decel >= 0.0) || !std::isfinite(c.lead_in_decel)) fail("lead_in_decel must be a number >= 0");
+  if (!(c.repair_distance >= 0.0) || !std::isfinite(c.repair_distance)) fail("repair_distance must be a number >= 0");
+}
+
+// SmootherConfig::repair_distance: the states after the start that the world finds in collision are moved to the
+// nearest free position within max_move (with a quarter of it of clearance where that is as near), then an edge blocked
+// between two free points gets the nearest free position to the middle of its stretch in collision in between, when
+// both halves are free. Returns
+// how many points were moved or added; what it cannot mend is left for checkPathFree to refuse.
+std::size_t repairPath(std::vector<Vec3>& points, const CollisionWorld& world, double max_move) {
+  if (!(max_move > 0.0)) return 0;
+  const double step = max_move / 6.0;
+  const auto nearestFree = [&](const Vec3& p) { return planner::nearestFreePosition(world, p, max_move, step, 0.25 * max_move); };
+  std::size_t repaired = 0;
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    if (world.isFree(points[i])) continue;
+    if (const auto moved = nearestFree(points[i])) {
+      points[i] = *moved;
+      ++repaired;
+    }
+  }
+  std::vector<Vec3> bridged{points.front()};
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    const Vec3 a = bridged.back();
+    const Vec3& b = points[i];
+    if (world.isFree(a) && world.isFree(b) && !world.isSegmentFree(a, b)) {
+      // Around the middle of the stretch in collision: an edge leaving a passage cuts the corner at its end, near one of
+      // its ends, where the nearest free position to the edge's own middle is no way round.
+      const double length = (b - a).norm();
+      const int steps = std::max(1, static_cast<int>(std::ceil(length / world.checkResolution())));
+      int first = -1, last = -1;
+      for (int k = 0; k <= steps; ++k) {
+        if (world.isFree(a + (b - a) * (static_cast<double>(k) / steps))) continue;
+        if (first < 0) first = k;
+        last = k;
+      }
+      const auto around = nearestFree(a + (b - a) * (0.5 * (first + last) / steps));
+      if (around && world.isSegmentFree(a, *around) && world.isSegmentFree(*around, b)) {
+        bridged.push_back(*around);
+        ++repaired;
+      }
+    }
+    bridged.push_back(b);
+  }
+  points = std::move(bridged);
+  return repaired;
 }
 
 void checkPathFree(const std::vector<Vec3>& points, const CollisionWorld& world) {
@@ -84,20 +129,6 @@ void checkPathFree(const std::vector<Vec3>& points, const CollisionWorld& world)
 
 // ---- shortcutting ----------------------------------------------------------------------------------
 
-// Smallest clearance along a-b is at least `required`. Clearance is 1-Lipschitz, so a point with clearance c
-// vouches for everything within c - required of it: long free stretches take few queries.
-bool clearanceAtLeast(const CollisionWorld& world, const Vec3& a, const Vec3& b, double required) {
-  if (required <= 0.0) return true;
-  const double length = (b - a).norm();
-  const Vec3 dir = length > 0 ? Vec3((b - a) / length) : Vec3::Zero();
-  const double min_step = world.checkResolution();
-  for (double t = 0.0;; ) {
-    const double c = world.clearance(a + std::min(t, length) * dir);
-    if (c < required) return false;
-    if (t >= length) return true;
-    t = std::min(length, t + std::max(c - required, min_step));
-  }
-}
 
 // Moves the polyline away from obstacles where it runs closer than `wanted`, so that tracking errors do not
 // become collisions: edges that come closer are split into pieces of at most `spacing`, and each interior
@@ -109,7 +140,7 @@ std::vector<Vec3> keepAwayFromObstacles(const std::vector<Vec3>& pts, const Coll
   std::vector<Vec3> out{pts.front()};
   for (std::size_t i = 1; i < pts.size(); ++i) {
     const Vec3 a = pts[i - 1], b = pts[i];
-    if (!clearanceAtLeast(world, a, b, wanted)) {
+    if (!planner::segmentClearanceAtLeast(world, a, b, wanted)) {
       const int pieces = std::max(2, static_cast<int>(std::ceil((b - a).norm() / spacing)));
       for (int k = 1; k < pieces; ++k) out.push_back(a + (b - a) * (static_cast<double>(k) / pieces));
     }
@@ -394,7 +425,7 @@ std::optional<std::vector<Vec3>> brakingLeadIn(const std::vector<Vec3>& points, 
   constexpr std::size_t kJoinCandidates = 10;  // path points tried as the way back: the first ten after the start
   for (const Vec3& direction : directions) {
     const Vec3 ahead = start + braking_length * direction;
-    if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !clearanceAtLeast(world, start, ahead, need)) {
+    if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead) || !planner::segmentClearanceAtLeast(world, start, ahead, need)) {
       failure = describe(braking_length, "the braking line is blocked");
       continue;
     }
@@ -403,7 +434,7 @@ std::optional<std::vector<Vec3>> brakingLeadIn(const std::vector<Vec3>& points, 
     for (std::size_t k = 1; k < std::min(points.size(), 1 + kJoinCandidates); ++k) {
       const double way = (points[k] - ahead).norm() + remaining[k];
       if (way >= best_length) continue;
-      if (!world.isSegmentFree(ahead, points[k]) || !clearanceAtLeast(world, ahead, points[k], std::min(need, world.clearance(points[k]))))
+      if (!world.isSegmentFree(ahead, points[k]) || !planner::segmentClearanceAtLeast(world, ahead, points[k], std::min(need, world.clearance(points[k]))))
         continue;
       best = k, best_length = way;
     }
@@ -469,8 +500,8 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
         if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead)) { failed(l, "the lead-in is blocked"); break; }
         if (!world.isSegmentFree(ahead, points[next])) { failed(l, "the edge back to the path is blocked"); continue; }
         const double need = std::min(min_clearance, world.clearance(start));
-        if (!clearanceAtLeast(world, start, ahead, need)) { failed(l, "too close to an obstacle"); break; }
-        if (!clearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next])))) {
+        if (!planner::segmentClearanceAtLeast(world, start, ahead, need)) { failed(l, "too close to an obstacle"); break; }
+        if (!planner::segmentClearanceAtLeast(world, ahead, points[next], std::min(need, world.clearance(points[next])))) {
           failed(l, "too close to an obstacle");
           continue;
         }
@@ -703,7 +734,7 @@ std::vector<Vec3> shortcutPolyline(const std::vector<Vec3>& points, const Collis
   // less the tolerance).
   auto ok = [&](int i, int j) {
     const double need = std::min({min_clearance, point_clearance[i], point_clearance[j]}) - tolerance;
-    return world.isSegmentFree(points[i], points[j]) && clearanceAtLeast(world, points[i], points[j], need);
+    return world.isSegmentFree(points[i], points[j]) && planner::segmentClearanceAtLeast(world, points[i], points[j], need);
   };
   std::vector<Vec3> out{points.front()};
   int i = 0;
@@ -741,12 +772,15 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   const int dims = world.dimensions();
   checkLimits(limits, dims, config);
   std::vector<Vec3> points = cleanPath(path, dims);
+  const std::size_t input_waypoints = points.size();
+  const std::size_t repaired = repairPath(points, world, config.repair_distance);
   checkPathFree(points, world);
 
   Trajectory traj;
   traj.dimensions = dims;
   traj.dt = config.sample_dt;
-  traj.report.input_waypoints = points.size();
+  traj.report.input_waypoints = input_waypoints;
+  traj.report.repaired_waypoints = repaired;
   if (config.shortcut) points = shortcutPolyline(points, world, config.shortcut_clearance);
   points = keepAwayFromObstacles(points, world, config.clearance_target, 0.5, config.end_tolerance);
   // The push moves each 0.5 m piece on its own, to where its own clearance reaches the target; along a

@@ -514,3 +514,38 @@ TEST(Smoother, ACrawlIsFoundAndNamed) {
   ASSERT_TRUE(crawl);
   EXPECT_NE(crawl->find("from t = 5.0 s at (0.10, 0.00, 0.00)"), std::string::npos) << *crawl;
 }
+
+// repair_distance: a state a few centimetres inside a wall's inflated face is moved off it, an edge that grazes a corner
+// gets a point around it; a state deep inside is still refused; 0 refuses as before; a bad distance is an error.
+TEST(Smoother, StatesAndEdgesJustInCollisionAreRepairedWithinTheDistance) {
+  // r = 0.3; a box x in [5, 6], y in [0, 10]: the robot is free from x = 4.7 on the left.
+  auto sc = scenario2d(20, 0.3, "  - {type: box, min: [5, 0], max: [6, 10]}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto into_face = pathOf({{2, 5, 0}, {4.8, 5, 0}, {2, 9, 0}});  // the middle state 0.1 m into the face
+  SmootherConfig refuse;
+  EXPECT_THROW(smoothPath(into_face, *world, limits(), refuse), SmoothingError);
+  SmootherConfig repair;
+  repair.repair_distance = 0.3;
+  const Trajectory moved = smoothPath(into_face, *world, limits(), repair);
+  EXPECT_EQ(moved.report.repaired_waypoints, 1u);
+  expectDrivable(moved, *world, limits(), repair);
+
+  // An edge past the box's top end (y = 10) 0.2 m from it, 0.1 m too close, between two free states.
+  const auto grazing = pathOf({{4.0, 10.2, 0}, {7.0, 10.2, 0}, {8, 15, 0}});
+  EXPECT_FALSE(world->isSegmentFree(Vec3(4.0, 10.2, 0), Vec3(7.0, 10.2, 0)));
+  EXPECT_THROW(smoothPath(grazing, *world, limits(), refuse), SmoothingError);
+  const Trajectory bridged = smoothPath(grazing, *world, limits(), repair);
+  EXPECT_GE(bridged.report.repaired_waypoints, 1u);
+  expectDrivable(bridged, *world, limits(), repair);
+
+  // Half a metre deep: beyond the distance, refused, and the error names the state.
+  try {
+    smoothPath(pathOf({{2, 5, 0}, {5.5, 5, 0}, {2, 9, 0}}), *world, limits(), repair);
+    ADD_FAILURE() << "a state 0.8 m inside the inflated box was repaired";
+  } catch (const SmoothingError& e) {
+    EXPECT_NE(std::string(e.what()).find("path state 1"), std::string::npos) << e.what();
+  }
+  SmootherConfig bad;
+  bad.repair_distance = -1.0;
+  EXPECT_THROW(smoothPath(into_face, *world, limits(), bad), SmoothingError);
+}

@@ -58,6 +58,7 @@ class TrackerComponent : public runtime::Component {
     bool stop_within_observed;
     double observed_hold_s;
     std::optional<double> observed_crawl_speed;  // default: a stop from it takes a quarter of the robot radius
+    std::optional<double> repair_distance;       // default: the robot radius
     std::optional<double> catch_up_decel;  // default: the smoother's max_accel in 2-D, off in 3-D
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
@@ -137,6 +138,14 @@ class TrackerComponent : public runtime::Component {
           {.min = 0, .max = 1000, .unit = "m/s^2",
            .doc = "deceleration of a braking lead-in, the stop along the heading a plan that cannot be flown through at speed may start "
                   "with (docs/tracking.md); 0: none, such a plan is refused"});
+      // A plan whose state or edge is in collision on the tracker's world was refused and asked again a retry delay later:
+      // 12 and 9 such refusals in the two arms of eight 2-D missions each (2026-12-06). The two worlds differ: the tracker's
+      // may be built from a newer map, and it is seen from the path's start.
+      repair_distance = p.declareOptional<double>(
+          "repair_distance", {.min = 0, .max = 100, .unit = "m",
+                              .doc = "a plan's state in collision on the tracker's world is moved to the nearest free position within "
+                                     "this distance, and a blocked edge bridged through the nearest free position to its middle, "
+                                     "before the plan is refused (docs/tracking.md); 0: refuse; default: the robot radius"});
     }
   };
 
@@ -159,6 +168,7 @@ class TrackerComponent : public runtime::Component {
         tracker_config_(trackerConfig()),
         piece_length_m_(params_.piece_length_m.value_or(std::max(200.0, 2.0 * tracker_config_.replan_horizon_distance))),
         observed_crawl_speed_(params_.observed_crawl_speed.value_or(std::sqrt(2 * comfortableDecel() * 0.25 * scenario_.robot_radius))) {
+    smoother_config_.repair_distance = params_.repair_distance.value_or(scenario_.robot_radius);
     spdlog::info("replan check: {:.1f} s or {:.1f} m of the trajectory ahead, whichever reaches farther", tracker_config_.replan_horizon,
                  tracker_config_.replan_horizon_distance);
     if (piece_length_m_ > 0) spdlog::info("paths longer than {:.0f} m are smoothed and flown {:.0f} m at a time", 1.5 * piece_length_m_, piece_length_m_);
@@ -456,6 +466,8 @@ class TrackerComponent : public runtime::Component {
     std::string note;
     if (report.lead_in_braking > 0)
       note = fmt::format(", braking to rest in {:.1f} m (no lead-in at speed: {})", report.lead_in_braking, report.lead_in_failure);
+    if (report.repaired_waypoints > 0)
+      note += fmt::format(", {} path point(s) moved off obstacles or added around one (repair_distance)", report.repaired_waypoints);
     if (report.slow_s >= 0.5)
       note += fmt::format(", {:.1f} s below a quarter of its top speed on the way (slowest at ({:.1f}, {:.1f}, {:.1f}))", report.slow_s,
                           report.slowest_at.x(), report.slowest_at.y(), report.slowest_at.z());

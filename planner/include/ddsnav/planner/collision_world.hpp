@@ -88,6 +88,11 @@ class CollisionWorld {
 std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step,
                                         double wanted_clearance = 0.0);
 
+// The smallest clearance along the segment a-b is at least `required` (true when required <= 0). Clearance is
+// 1-Lipschitz, so a point with clearance c vouches for everything within c - required of it: long free stretches take
+// few queries, and stretches near the required clearance take one per checkResolution().
+bool segmentClearanceAtLeast(const CollisionWorld& world, const Vec3& a, const Vec3& b, double required);
+
 // Exact geometry of a scenario's obstacles.
 std::unique_ptr<CollisionWorld> makeScenarioWorld(const Scenario& scenario);
 

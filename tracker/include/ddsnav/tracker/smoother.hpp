@@ -62,6 +62,11 @@ struct SmootherConfig {
   // path, instead of starting at rest where the vehicle arrives moving. 0 (the default): no braking lead-in. Below
   // max_accel, max_accel is used.
   double lead_in_decel = 0.0;
+  // A path state the world finds in collision is moved to the nearest free position within this distance (m), and an
+  // edge it finds blocked between free states is bridged through the nearest free position to the middle of its stretch
+  // in collision, instead of the path being refused: the smoother's world is not the planner's (it may be built from a
+  // newer map, and it is seen from the path's start). What stays in collision is refused as before. 0: refuse at once.
+  double repair_distance = 0.0;
   bool compute_clearance = true;     // fill report.min_clearance (one clearance query per sample)
 };
 

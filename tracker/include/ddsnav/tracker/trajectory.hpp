@@ -50,6 +50,7 @@ struct TrajectorySample {
 // Numbers a reader wants to know about a trajectory (see docs/smoothing.md).
 struct TrajectoryReport {
   std::size_t input_waypoints = 0;     // after removing duplicates
+  std::size_t repaired_waypoints = 0;  // moved off obstacles or added to bridge an edge (SmootherConfig::repair_distance)
   std::size_t shortcut_waypoints = 0;  // corners after shortcutting (plus detours the fallback added)
   int fallback_iterations = 0;         // rounds of corner tightening the collision check asked for
   double length = 0.0;                 // m
