@@ -26,9 +26,9 @@ struct CoarseRouteOptions {
   // that the route keeps two cells off walls where the way allows and hugs them only where it must (a narrow passage,
   // a corner). It must exceed heuristic_weight - 1 to act at all: along a straight run the weighted heuristic falls
   // by heuristic_weight per metre while the cost rises by 1 + wall_cost, and a smaller penalty never makes the search
-  // look aside (0.5 left the route where 0 did). Why: answered as the path (pathAlongRoute), a route along a channel's
-  // bank at the least clearance was blocked 18-19 times in auv_harbour missions as the sonar saw more of the bank,
-  // against 3 for the sampler's paths (2026-12-06). 0: length only.
+  // look aside (0.5 left the route where 0 did). Why: a route answered as the path (pathAlongRoute) runs along walls
+  // at the least clearance the lattice holds, where a wall seen a little better blocks it (docs/planners.md, "The route
+  // as the answer"). 0: length only.
   double wall_cost = 1.5;
   std::size_t max_lattice_cells = std::size_t(1) << 22;
   // Cells the search may hold (looked up or queued, ~40 bytes each) before it gives up: the memory bound (a 3-D
