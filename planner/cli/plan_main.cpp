@@ -4,6 +4,7 @@
 #include "ddsnav/planner/planner.hpp"
 #include "ddsnav/planner/scenario.hpp"
 #include "ddsnav/planner/svg.hpp"
+#include "ddsnav/planner/tree.hpp"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -170,8 +171,7 @@ int main(int argc, char** argv) {
           along_route.emplace();
           along_route->planner = "lattice-route";
           along_route->solved = along_route->exact = true;
-          along_route->cost = 0.0;
-          for (std::size_t i = 1; i < path.size(); ++i) along_route->cost += (path[i].position - path[i - 1].position).norm();
+          along_route->cost = pathLength(path);
           along_route->path = std::move(path);
           along_route->stats.time_s = route.time_s;
         }

@@ -1,6 +1,8 @@
 // findCoarseRoute: A* on a lattice of cell centres, with the passability of each cell looked up once.
 #include "ddsnav/planner/coarse_route.hpp"
 
+#include "ddsnav/planner/unicycle.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -292,7 +294,7 @@ void guideAlong(PlanProblem& problem, const CoarseRoute& route, double bias) {
 namespace {
 
 bool bridgeClippedMoves(const CollisionWorld& world, std::vector<Vec3>& points, double cell_m) {
-  const bool in_3d = std::any_of(points.begin(), points.end(), [](const Vec3& p) { return p.z() != 0.0; });
+  const bool in_3d = world.dimensions() == 3;
   std::vector<Vec3> offsets;
   for (const double scale : {0.5 * cell_m, cell_m})
     for (int dz = in_3d ? -1 : 0; dz <= (in_3d ? 1 : 0); ++dz)
@@ -301,7 +303,7 @@ bool bridgeClippedMoves(const CollisionWorld& world, std::vector<Vec3>& points, 
           if (dx != 0 || dy != 0 || dz != 0) offsets.push_back(scale * Vec3(dx, dy, dz));
   std::vector<Vec3> bridged{points.front()};
   for (std::size_t i = 1; i < points.size(); ++i) {
-    const Vec3& a = bridged.back();
+    const Vec3 a = bridged.back();  // a copy: bridged grows below
     const Vec3& b = points[i];
     if (!world.isSegmentFree(a, b)) {
       const Vec3 middle = 0.5 * (a + b);
@@ -370,7 +372,7 @@ std::vector<State> pathAlongRoute(const CollisionWorld& world, const CoarseRoute
     }
     const Vec3& from = points[at];
     const Vec3& to = points[seen];
-    path.push_back(State{to, std::atan2(to.y() - from.y(), to.x() - from.x())});
+    path.push_back(State{to, edgeHeading(from, to, path.back().heading)});
     at = seen;
   }
   return path;

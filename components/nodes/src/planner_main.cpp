@@ -17,6 +17,7 @@
 
 #include <ddsnav/planner/coarse_route.hpp>
 #include <ddsnav/planner/planner.hpp>
+#include <ddsnav/planner/tree.hpp>
 
 #include <spdlog/spdlog.h>
 
@@ -102,7 +103,7 @@ class PlannerComponent : public runtime::Component {
                                        {.min = 0, .max = 1,
                                         .doc = "share of the samples drawn near the lattice route (route_lattice_s) instead of anywhere "
                                                "in the bounds; 0: uniform sampling"})),
-          // On by default since from inside bug_trap_0.4 no preferred world's guided search finished in its share (0.05-0.1 s)
+          // On by default since from inside bugtrap_0.4 no preferred world's guided search finished in its share (0.05-0.1 s)
           // in any of a mission's requests, and the plain map's answers were 190-330 m long where the route was 120-150 m
           // (docs/planners.md, "The route as the answer").
           route_path(p.declare<bool>(
@@ -440,8 +441,8 @@ class PlannerComponent : public runtime::Component {
         along_route = routeAsAnswer(request, *world, route, problem);
         // The sampler gets half as long as the lattice took: a path it finds in that time that is shorter wins. Half, since
         // it rarely does in 2-D: in the 2-D missions of 2026-12-06 03:2x (round 3) it found a path no longer than the
-        // route in 3 of 338 attempts given as long as the route took, a longer one in 57, none in 278, and its time was
-        // a third to a half of each answer's wait.
+        // route in 3 of 338 attempts given as long as the route took, a longer one in 57, none in 278, and took up to half
+        // of each answer's wait.
         if (along_route) time_limit_s = std::min(time_limit_s, std::max(0.5 * route.time_s, kRouteSamplerFloorS));
       }
       planner::guideAlong(problem, route, params_.guide_bias);
@@ -482,8 +483,7 @@ class PlannerComponent : public runtime::Component {
     result.planner = "lattice-route";
     result.solved = true;
     result.exact = (path.back().position - problem.goal).norm() <= problem.goal_radius;
-    result.cost = 0.0;
-    for (std::size_t i = 1; i < path.size(); ++i) result.cost += (path[i].position - path[i - 1].position).norm();
+    result.cost = planner::pathLength(path);
     result.path = std::move(path);
     result.stats.time_s = route.time_s + shortcut_s;
     return result;

@@ -75,12 +75,14 @@ void guideAlong(PlanProblem& problem, const CoarseRoute& route, double bias);
 // 120-150 m long in 12-44 ms: docs/planners.md, "The route as the answer"). The path is the start, then the route's
 // waypoints after it, shortcut: each point kept is joined to the farthest later waypoint found in sight of it by
 // doubling and then bisecting (a handful of segment checks per corner, where trying every later waypoint would take
-// hundreds) — in sight meaning free, and with the clearance of the shortcut's two ends kept all along it, up to a
-// lattice cell (a taut line between two points off a bank would touch the bank's every outward corner) — and it ends at the last waypoint when that lies within goal_radius of the goal, or else at the goal when
-// the goal is free and in sight. Every edge is free by world.isSegmentFree; each state's heading is its incoming
-// edge's direction (the start keeps its own). The edges are straight and turn by any angle: a kinodynamic planner's
-// answer this is not, and the smoother rounds its corners as it does any planner's. Empty when the route was not
-// found, an edge between consecutive waypoints (or from the start to the first) is not free, or no end reaches the
+// hundreds). In sight means free, and keeping all along the smaller of the shortcut's two ends' clearances, up to a
+// lattice cell: a taut line between two points off a bank would touch every outward corner of the bank. A move
+// between consecutive waypoints that clips a corner (the coarse lattice does not check its moves) is bridged by a point
+// half a cell or a cell off its middle. The path ends at the last waypoint when that lies within goal_radius of the
+// goal, or else at the goal when the goal is free and in sight. Every edge is free by world.isSegmentFree; each state's
+// heading is its incoming edge's horizontal direction (the start keeps its own, a pure climb its predecessor's). The
+// edges are straight and turn by any angle: a kinodynamic planner's answer this is not, and the smoother rounds its
+// corners as it does any planner's. Empty when the route was not found, a move cannot be bridged, or no end reaches the
 // goal region.
 std::vector<State> pathAlongRoute(const CollisionWorld& world, const CoarseRoute& route, const State& start, const Vec3& goal,
                                   double goal_radius);
