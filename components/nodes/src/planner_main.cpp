@@ -240,7 +240,10 @@ class PlannerComponent : public runtime::Component {
         tiers.push_back(&margin_tier_);
         if (hidden_continuation_m_ > 0.0) tiers.push_back(&continuation_tier_);
       }
-      std::optional<planner::PlanResult> result = solveInTurn(request, algorithm, tiers, budget, stop);
+      // Declared before the answer: when a preferred world answers, the plain map's search beside it is stopped, and
+      // joined only after the answer is out (it runs at a lower priority and may take a while to see the stop).
+      std::optional<Beside> plain;
+      std::optional<planner::PlanResult> result = solveInTurn(request, algorithm, tiers, budget, stop, plain);
       if (!result) return;  // answered
       spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result->planner,
                    result->solved ? "solved" : "failed", result->stats.time_s, result->stats.iterations, result->cost);
@@ -259,6 +262,13 @@ class PlannerComponent : public runtime::Component {
     bool preferred;    // on the map with the unknown margin
     bool continued;    // with seen surfaces continued into hidden space
     const char* what;  // for the log
+  };
+
+  // The plain map's search on a thread of its own, beside the worlds tried before it (solveInTurn).
+  struct Beside {
+    std::optional<planner::PlanResult> result;  // none: `failure` says why (no world, or the search threw)
+    std::string failure;
+    std::jthread thread;  // last: stopped and joined before what it writes goes
   };
 
   // Why a world tried before the plain map was not searched.
@@ -304,13 +314,7 @@ class PlannerComponent : public runtime::Component {
   // requests, against 6 in 45 this way, and bugtrap_0.4's scan -> trajectory p99 was 110-757 ms in eleven runs.)
   // nullopt when the request was answered already (no world, a failure, a stop).
   std::optional<planner::PlanResult> solveInTurn(const msg::PlanRequest& request, planner::Planner& algorithm, const std::vector<Tier*>& tiers,
-                                                 double budget, std::stop_token stop) {
-    struct Beside {
-      std::optional<planner::PlanResult> result;  // none: `failure` says why (no world, or the search threw)
-      std::string failure;
-      std::jthread thread;  // last: stopped and joined before what it writes goes
-    };
-    std::optional<Beside> plain;
+                                                 double budget, std::stop_token stop, std::optional<Beside>& plain) {
     if (!tiers.empty() && params_.plain_beside_preferred) {
       plain.emplace();
       plain->thread = std::jthread([this, &request, plain_algorithm = makeAlgorithm(request.planner()), budget, out = &*plain](std::stop_token own) {
@@ -378,12 +382,18 @@ class PlannerComponent : public runtime::Component {
     };
     const bool tier = skipped != nullptr;  // a world tried before the plain map
     std::unique_ptr<planner::CollisionWorld> world;
+    const auto snapshot_began = std::chrono::steady_clock::now();
     try {
       world = world_source_.snapshot(nodes::fromMsg(request.start()).position, nodes::fromMsg(request.goal()).position, request.goal_radius(),
                                      preferred, continuation_m);
     } catch (const std::exception& e) {
       return noWorld(std::string("cannot build the world: ") + e.what());
     }
+    // The snapshot's time is not in the result's: in a bugtrap_0.4 replan answered 212 ms after its request, the
+    // search took 45 ms (docs/benchmarks/mission.md, 2026-12-06 03:2x). Logged when it is long enough to matter.
+    if (const double snapshot_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - snapshot_began).count(); snapshot_s > 0.02)
+      spdlog::info("request {}: the world's snapshot took {:.1f} ms{}", request.request_id(), 1e3 * snapshot_s,
+                   continuation_m > 0.0 ? " (with seen surfaces continued out of sight)" : "");
     if (!world) return noWorld(worldMissing());
     planner::PlanProblem problem;
     problem.world = world.get();
