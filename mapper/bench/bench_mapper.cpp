@@ -5,6 +5,7 @@
 #include "ddsnav/mapper/occupancy_mapper.hpp"
 #include "ddsnav/mapper/synthetic_scan.hpp"
 #include "ddsnav/planner/coarse_route.hpp"
+#include "ddsnav/planner/tree.hpp"
 #include "ddsnav/planner/collision_world.hpp"
 #include "ddsnav/planner/planner.hpp"
 #include "ddsnav/planner/scenario.hpp"
@@ -163,8 +164,8 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
         const auto path = ddsnav::planner::pathAlongRoute(*world, found, ddsnav::planner::State{Vec3(route[0], route[1], route[2]), 0.0},
                                                           Vec3(route[3], route[4], route[5]), 1.0);
         const double shortcut_ms = 1e3 * secondsSince(shortcut_started);
-        double length = 0.0, least_clearance = std::numeric_limits<double>::infinity();
-        for (std::size_t i = 1; i < path.size(); ++i) length += (path[i].position - path[i - 1].position).norm();
+        const double length = ddsnav::planner::pathLength(path);
+        double least_clearance = std::numeric_limits<double>::infinity();
         for (std::size_t i = 1; i + 1 < path.size(); ++i) least_clearance = std::min(least_clearance, world->clearance(path[i].position));
         std::printf("|   route path: %zu states, %.1f m, least corner clearance %.2f m, in %.1f ms | | | |\n", path.size(), length,
                     least_clearance, shortcut_ms);

@@ -4,7 +4,6 @@
 #include "ddsnav/planner/planner.hpp"
 #include "ddsnav/planner/scenario.hpp"
 #include "ddsnav/planner/svg.hpp"
-#include "ddsnav/planner/tree.hpp"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -165,16 +164,8 @@ int main(int argc, char** argv) {
                     route.length_m, route.expanded, route.time_s);
       guideAlong(problem, route, guide_bias);
       if (route_path) {
-        std::vector<State> path = pathAlongRoute(*world, route, problem.start, problem.goal, problem.goal_radius);
-        if (!json) std::printf("route path: %s\n", path.empty() ? "none (no route, or a move the world's checks refuse)" : "found");
-        if (!path.empty()) {
-          along_route.emplace();
-          along_route->planner = "lattice-route";
-          along_route->solved = along_route->exact = true;
-          along_route->cost = pathLength(path);
-          along_route->path = std::move(path);
-          along_route->stats.time_s = route.time_s;
-        }
+        along_route = resultAlongRoute(*world, route, problem);
+        if (!json) std::printf("route path: %s\n", along_route ? "found" : "none (no route, or a move the world's checks refuse)");
       }
     }
 
@@ -184,15 +175,18 @@ int main(int argc, char** argv) {
       problem.on_progress = [&progress](std::uint64_t iterations) { progress.update(iterations); };
       result = planner->solve(problem);
     }
-    if (along_route && (!result.solved || result.cost > along_route->cost)) {
-      if (!json && result.solved)
-        std::printf("%s: found %.1f m; answering with the lattice route, %.1f m\n", result.planner.c_str(), result.cost, along_route->cost);
-      else if (!json)
-        std::printf("%s: found none; answering with the lattice route, %.1f m\n", result.planner.c_str(), along_route->cost);
-      along_route->stats.time_s += result.stats.time_s;
-      along_route->stats.iterations = result.stats.iterations;
-      along_route->tree = std::move(result.tree);
-      result = std::move(*along_route);
+    if (along_route) {
+      const std::string sampler = result.planner;
+      const double sampled_cost = result.solved ? result.cost : -1.0;
+      std::vector<TreeEdge> tree = std::move(result.tree);
+      result = shorterAnswer(std::move(result), std::move(*along_route));
+      if (result.planner != sampler) {
+        if (!json && sampled_cost >= 0.0)
+          std::printf("%s: found %.1f m; answering with the lattice route, %.1f m\n", sampler.c_str(), sampled_cost, result.cost);
+        else if (!json)
+          std::printf("%s: found none; answering with the lattice route, %.1f m\n", sampler.c_str(), result.cost);
+      }
+      result.tree = std::move(tree);  // the sampler's, for --svg
     }
 
     if (!svg_file.empty()) {

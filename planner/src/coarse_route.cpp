@@ -1,6 +1,7 @@
 // findCoarseRoute: A* on a lattice of cell centres, with the passability of each cell looked up once.
 #include "ddsnav/planner/coarse_route.hpp"
 
+#include "ddsnav/planner/tree.hpp"
 #include "ddsnav/planner/unicycle.hpp"
 
 #include <algorithm>
@@ -376,6 +377,27 @@ std::vector<State> pathAlongRoute(const CollisionWorld& world, const CoarseRoute
     at = seen;
   }
   return path;
+}
+
+std::optional<PlanResult> resultAlongRoute(const CollisionWorld& world, const CoarseRoute& route, const PlanProblem& problem) {
+  const auto began = std::chrono::steady_clock::now();
+  std::vector<State> path = pathAlongRoute(world, route, problem.start, problem.goal, problem.goal_radius);
+  if (path.empty()) return std::nullopt;
+  PlanResult result;
+  result.planner = "lattice-route";
+  result.solved = true;
+  result.exact = (path.back().position - problem.goal).norm() <= problem.goal_radius;
+  result.cost = pathLength(path);
+  result.path = std::move(path);
+  result.stats.time_s = route.time_s + std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
+  return result;
+}
+
+PlanResult shorterAnswer(PlanResult sampled, PlanResult along_route) {
+  if (sampled.stopped || (sampled.solved && sampled.cost <= along_route.cost)) return sampled;
+  along_route.stats.time_s += sampled.stats.time_s;
+  along_route.stats.iterations = sampled.stats.iterations;
+  return along_route;
 }
 
 }  // namespace ddsnav::planner

@@ -3,6 +3,7 @@
 #include "ddsnav/planner/coarse_route.hpp"
 #include "ddsnav/planner/run.hpp"
 #include "ddsnav/planner/scenario.hpp"
+#include "ddsnav/planner/tree.hpp"
 
 #include <gtest/gtest.h>
 
@@ -288,6 +289,39 @@ TEST(PathAlongRoute, NothingForARouteNotFoundOrNotFreeInTheWorld) {
   ASSERT_EQ(route.outcome, CoarseRoute::Outcome::found);
   const auto closed = wallWorld(0, 0);
   EXPECT_TRUE(pathAlongRoute(*closed, route, State{kStart, 0.0}, kGoal, 1.0).empty());
+}
+
+// The answer to a request given to both: the sampler's when it solved no longer (or was stopped), else the route's,
+// counting the sampler's time and iterations; and the route as a result carries its own length as the cost.
+TEST(PathAlongRoute, TheShorterAnswers) {
+  const auto world = wallWorld(30, 33);
+  const CoarseRoute route = routeWithoutTimeLimit(*world, 1.0);
+  PlanProblem problem;
+  problem.start = State{kStart, 0.0};
+  problem.goal = kGoal;
+  problem.goal_radius = 1.0;
+  const auto along = resultAlongRoute(*world, route, problem);
+  ASSERT_TRUE(along);
+  EXPECT_EQ(along->planner, "lattice-route");
+  EXPECT_TRUE(along->solved && along->exact);
+  EXPECT_DOUBLE_EQ(along->cost, pathLength(along->path));
+
+  PlanResult sampled;
+  sampled.planner = "gart-lazy";
+  sampled.stats.time_s = 0.25;
+  sampled.stats.iterations = 7;
+  PlanResult answer = shorterAnswer(sampled, *along);  // the sampler found none
+  EXPECT_EQ(answer.planner, "lattice-route");
+  EXPECT_DOUBLE_EQ(answer.stats.time_s, along->stats.time_s + 0.25);
+  EXPECT_EQ(answer.stats.iterations, 7u);
+  sampled.solved = true;
+  sampled.cost = along->cost + 1.0;
+  EXPECT_EQ(shorterAnswer(sampled, *along).planner, "lattice-route");
+  sampled.cost = along->cost;
+  EXPECT_EQ(shorterAnswer(sampled, *along).planner, "gart-lazy");
+  sampled.solved = false;
+  sampled.stopped = true;
+  EXPECT_EQ(shorterAnswer(sampled, *along).planner, "gart-lazy") << "a stopped request is answered as stopped";
 }
 
 TEST(GuidedSampling, DrawsItsShareNearTheGuideAndTheRestAnywhere) {

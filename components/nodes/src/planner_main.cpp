@@ -17,7 +17,6 @@
 
 #include <ddsnav/planner/coarse_route.hpp>
 #include <ddsnav/planner/planner.hpp>
-#include <ddsnav/planner/tree.hpp>
 
 #include <spdlog/spdlog.h>
 
@@ -448,7 +447,9 @@ class PlannerComponent : public runtime::Component {
                      request.request_id(), route.length_m, 1e3 * route.time_s, 1e3 * route.cpu_s, route.expanded, route.cell_m);
       time_limit_s = std::max(time_limit_s - std::min(route.time_s, 0.5 * time_limit_s), 1e-3);
       if (route.outcome == planner::CoarseRoute::Outcome::found && params_.route_path) {
-        along_route = routeAsAnswer(request, *world, route, problem);
+        along_route = planner::resultAlongRoute(*world, route, problem);
+        if (!along_route)
+          spdlog::info("request {}: the lattice route is no path in this world's checks; the sampler searches on its own", request.request_id());
         // The sampler gets half as long as the lattice took: a path it finds in that time that is shorter wins. Half, since
         // it rarely does in 2-D: in the 2-D missions of 2026-12-06 03:2x (round 3) it found a path no longer than the
         // route in 3 of 338 attempts given as long as the route took, a longer one in 57, none in 278, and took up to half
@@ -465,39 +466,16 @@ class PlannerComponent : public runtime::Component {
     problem.improve_for_s = params_.improve_for_s;
     problem.stop = stop;
     planner::PlanResult sampled = algorithm.solve(problem);
-    if (!along_route || sampled.stopped || (sampled.solved && sampled.cost <= along_route->cost)) return sampled;
-    spdlog::info("request {}: {} {} in {:.3f} s; answering with the lattice route, {:.1f} m", request.request_id(), algorithm.name(),
-                 sampled.solved ? fmt::format("found {:.1f} m", sampled.cost) : std::string("found none"), sampled.stats.time_s,
-                 along_route->cost);
-    along_route->stats.time_s += sampled.stats.time_s;
-    along_route->stats.iterations = sampled.stats.iterations;
-    return along_route;
+    if (!along_route) return sampled;
+    planner::PlanResult answer = planner::shorterAnswer(std::move(sampled), std::move(*along_route));
+    if (answer.planner != algorithm.name())
+      spdlog::info("request {}: {} found no shorter path in {} iterations; answering with the lattice route, {:.1f} m", request.request_id(),
+                   algorithm.name(), answer.stats.iterations, answer.cost);
+    return answer;
   }
 
   // Shortest time the sampler gets beside a route found in less (attempt).
   static constexpr double kRouteSamplerFloorS = 0.005;
-
-  // The found route, shortcut, as a solved result (planner "lattice-route"), or nothing when it is no path in the world's
-  // exact checks (planner::pathAlongRoute). Its time is the route search's and the shortcut's.
-  std::optional<planner::PlanResult> routeAsAnswer(const msg::PlanRequest& request, const planner::CollisionWorld& world,
-                                                   const planner::CoarseRoute& route, const planner::PlanProblem& problem) const {
-    const auto began = std::chrono::steady_clock::now();
-    std::vector<planner::State> path = planner::pathAlongRoute(world, route, problem.start, problem.goal, problem.goal_radius);
-    const double shortcut_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
-    if (path.empty()) {
-      spdlog::info("request {}: the lattice route is no path in this world's checks ({:.1f} ms); the sampler searches on its own",
-                   request.request_id(), 1e3 * shortcut_s);
-      return std::nullopt;
-    }
-    planner::PlanResult result;
-    result.planner = "lattice-route";
-    result.solved = true;
-    result.exact = (path.back().position - problem.goal).norm() <= problem.goal_radius;
-    result.cost = planner::pathLength(path);
-    result.path = std::move(path);
-    result.stats.time_s = route.time_s + shortcut_s;
-    return result;
-  }
 
   const Params params_;
   const planner::Scenario scenario_;

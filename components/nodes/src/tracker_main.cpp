@@ -144,7 +144,8 @@ class TrackerComponent : public runtime::Component {
       repair_distance = p.declareOptional<double>(
           "repair_distance", {.min = 0, .max = 100, .unit = "m",
                               .doc = "a plan's state in collision on the tracker's world is moved to the nearest free position within "
-                                     "this distance, and a blocked edge bridged through the nearest free position to its middle, "
+                                     "this distance, and a blocked edge bridged through the nearest free position to the middle of its stretch in "
+                                     "collision, "
                                      "before the plan is refused (docs/tracking.md); 0: refuse; default: the robot radius"});
     }
   };

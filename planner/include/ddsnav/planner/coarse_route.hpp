@@ -9,6 +9,7 @@
 #include "ddsnav/planner/planner.hpp"
 
 #include <cstddef>
+#include <optional>
 #include <stop_token>
 #include <vector>
 
@@ -86,5 +87,13 @@ void guideAlong(PlanProblem& problem, const CoarseRoute& route, double bias);
 // goal region.
 std::vector<State> pathAlongRoute(const CollisionWorld& world, const CoarseRoute& route, const State& start, const Vec3& goal,
                                   double goal_radius);
+
+// pathAlongRoute for problem's start, goal and goal radius as a solved result: planner "lattice-route", its length as
+// the cost, the route search's and the shortcut's time. Nothing when the route is no path.
+std::optional<PlanResult> resultAlongRoute(const CollisionWorld& world, const CoarseRoute& route, const PlanProblem& problem);
+
+// The answer to a request the route and a sampler were both given: the sampler's result when it solved no longer than
+// the route (or was stopped), else the route's, which then counts the sampler's time and iterations too.
+PlanResult shorterAnswer(PlanResult sampled, PlanResult along_route);
 
 }  // namespace ddsnav::planner
