@@ -9,6 +9,7 @@
 #include "ddsnav/planner/collision_world.hpp"
 #include "ddsnav/planner/planner.hpp"
 #include "ddsnav/planner/scenario.hpp"
+#include "ddsnav/tracker/smoother.hpp"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -169,6 +170,29 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
         for (std::size_t i = 1; i + 1 < path.size(); ++i) least_clearance = std::min(least_clearance, world->clearance(path[i].position));
         std::printf("|   route path: %zu states, %.1f m, least corner clearance %.2f m, in %.1f ms | | | |\n", path.size(), length,
                     least_clearance, shortcut_ms);
+        if (scenario && scenario->vehicle && path.size() >= 2) {
+          // Smoothed as the tracker component smooths a plan (its defaults: 1 m clearance target, repairs within the
+          // robot radius), 5 times: the path -> trajectory share of a replan's latency.
+          ddsnav::tracker::SmootherConfig smoothing;
+          smoothing.clearance_target = 1.0;
+          smoothing.repair_distance = scenario->robot_radius;
+          std::vector<double> smooth_ms;
+          std::string outcome_text;
+          for (int i = 0; i < 5; ++i) {
+            const auto smoothing_started = Clock::now();
+            try {
+              const auto trajectory = ddsnav::tracker::smoothPath(path, *world, *scenario->vehicle, smoothing);
+              outcome_text = fmt::format("{:.1f} m, {:.1f} s, min clearance {:.2f} m", trajectory.report.length, trajectory.report.duration,
+                                         trajectory.report.min_clearance);
+            } catch (const std::exception& e) {
+              outcome_text = std::string("refused: ") + e.what();
+            }
+            smooth_ms.push_back(1e3 * secondsSince(smoothing_started));
+          }
+          std::sort(smooth_ms.begin(), smooth_ms.end());
+          std::printf("|   smoothed as the tracker does: %s; ms median %.1f, max %.1f | | | |\n", outcome_text.c_str(), smooth_ms[2],
+                      smooth_ms.back());
+        }
       }
       if (scenario) {
         // As the planner component queries it (`world: fused`): the map beside perception's ellipses, here none.

@@ -18,6 +18,8 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -341,14 +343,9 @@ class OctoMapWorld final : public CollisionWorld {
     OccludedContinuation out;
     out.cell_size = resolution_;
     // Only a 2-D map that loaded its free leaves knows which cells were never observed.
-    if (dims_ != 2 || !(unknown_margin_ > 0.0 || unknown_blocked_) || !viewpoint.allFinite() || !(max_length > 0.0)) return out;
+    if (!knowsUnobserved() || !viewpoint.allFinite() || !(max_length > 0.0)) return out;
     const auto observedOccupied = [&](std::int64_t x, std::int64_t y) { return this->observedOccupied({x, y, 0}); };
-    const auto observed = [&](std::int64_t x, std::int64_t y) {
-      const Brick* b = findBrick(x >> 3, y >> 3, 0);
-      if (b == nullptr) return false;
-      const std::uint32_t bit = bitOf({x, y, 0});
-      return ((b->known[bit >> 6] >> (bit & 63)) & 1u) != 0;
-    };
+    const auto observed = [&](std::int64_t x, std::int64_t y) { return this->observed(x, y); };
     // In cells; a viewpoint outside the bounds is taken at the nearest point inside (the walks stay bounded).
     const double vx = std::clamp(viewpoint.x(), bmin_.x(), bmax_.x()) * factor_, vy = std::clamp(viewpoint.y(), bmin_.y(), bmax_.y()) * factor_;
     // Whether the straight line from the centre of cell (x, y) to the viewpoint is blocked: the cells a grid walk
@@ -391,108 +388,51 @@ class OctoMapWorld final : public CollisionWorld {
       }
       return false;
     };
-    // The seen surface's direction at a cell: the principal axis of the observed occupied cells within a metre (at
-    // least 2 cells; a scanner samples a wall 40 m away every 0.3 m or so, too few within half a metre to tell a
-    // line), or two when fewer than 4 lie within one; an end of it is a cell beyond which (along that axis) none
-    // of them lies.
-    const std::int64_t w = std::max<std::int64_t>(2, static_cast<std::int64_t>(std::floor(1.0 * factor_ + 1e-9)));
     const std::int64_t steps = static_cast<std::int64_t>(std::floor(max_length * factor_ + 1e-9));
     std::unordered_set<std::uint64_t> taken;
-    std::vector<std::pair<double, double>> neighbours;
-    std::vector<double> spans;
-    for (const Brick& brick : bricks_) {
-      std::array<std::uint64_t, 8> seen_occupied{};
-      for (int i = 0; i < 8; ++i) seen_occupied[i] = brick.occupied[i] & brick.known[i];
-      forEachBit(seen_occupied, [&](unsigned bit) {
-        const Cell c = cellOfBit(brick, bit);
-        bool against_unseen = false;  // a face with never-observed space beside it
-        for (std::int64_t dy = -1; dy <= 1 && !against_unseen; ++dy)
-          for (std::int64_t dx = -1; dx <= 1; ++dx)
-            if ((dx != 0 || dy != 0) && !observed(c.x + dx, c.y + dy)) against_unseen = true;
-        if (!against_unseen) return;
-        // The observed occupied cells within the disc, as offsets from c (one pass; the extent below reuses them).
-        // A face sampled more sparsely still (a wall 60 m away) is read in a disc twice as wide.
-        std::int64_t r = w;
-        for (;;) {
-          neighbours.clear();
-          for (std::int64_t dy = -r; dy <= r; ++dy)
-            for (std::int64_t dx = -r; dx <= r; ++dx)
-              if (dx * dx + dy * dy <= r * r && observedOccupied(c.x + dx, c.y + dy)) neighbours.emplace_back(double(dx), double(dy));
-          if (neighbours.size() >= 4 || r > w) break;
-          r = 2 * w;
+    for (const SurfaceEnd& end : surfaceEnds()) {
+      // The end need not be in sight now: where the view was cut earlier, from elsewhere, the wall goes on hidden
+      // all the same (bugtrap_0.6: the box's side wall seen from the start up to where the neck hides it, out of
+      // sight once the vehicle had moved 4 m; the stretch behind the neck stayed open and the plan went through
+      // it). A true end seen earlier has the cells beyond it observed, and the walk below stops at the first.
+      // On along the axis through never-observed cells hidden from the viewpoint; the first observed cell or
+      // the first one in plain sight (merely not hit by a ray yet) ends it.
+      const double ax = end.ax, ay = end.ay;
+      const SurfaceLine line{double(end.x) + 0.5, double(end.y) + 0.5, ax, ay};
+      // The axis of a face one or two cells thick is known to a degree or so, and over metres the walk drifts off
+      // the face's row: on to the space in front, observed free, where it would stop (bugtrap_0.4's neck wall, its
+      // hits in two rows, axis 0.7-0.8 degrees off: its last 4 m left open because the walk entered the neck's row).
+      // Met by a cell observed free, the walk moves one cell across, away from the viewpoint, when that one is
+      // unobserved and hidden — at most kMaxContinuationShift cells in all.
+      double nx = -ay, ny = ax;  // the surface's normal, pointing away from the viewpoint
+      if (nx * (double(end.x) + 0.5 - vx) + ny * (double(end.y) + 0.5 - vy) < 0.0) nx = -nx, ny = -ny;
+      int shift = 0;
+      std::int64_t last_x = end.x, last_y = end.y;
+      for (std::int64_t k = 1; k <= 2 * steps; ++k) {
+        const double t = 0.5 * double(k) * end.sign;  // half-cell steps: no cell of the line is jumped over
+        const double px = double(end.x) + 0.5 + t * ax + shift * nx, py = double(end.y) + 0.5 + t * ay + shift * ny;
+        std::int64_t x = static_cast<std::int64_t>(std::floor(px)), y = static_cast<std::int64_t>(std::floor(py));
+        if (x == last_x && y == last_y) continue;
+        bool moved_across = false;  // onto a cell already judged unobserved and hidden
+        if (shift < kMaxContinuationShift && observedFree({x, y, 0})) {
+          const std::int64_t across_x = static_cast<std::int64_t>(std::floor(px + nx));
+          const std::int64_t across_y = static_cast<std::int64_t>(std::floor(py + ny));
+          moved_across = !observed(across_x, across_y) && hidden(across_x, across_y, line);
+          if (moved_across) ++shift, x = across_x, y = across_y;
         }
-        double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-        for (const auto& [dx, dy] : neighbours) n += 1, sx += dx, sy += dy, sxx += dx * dx, syy += dy * dy, sxy += dx * dy;
-        if (n < 4) return;  // too few to tell a direction
-        const double mx = sx / n, my = sy / n;
-        const double cxx = sxx / n - mx * mx, cyy = syy / n - my * my, cxy = sxy / n - mx * my;
-        const double half_trace = 0.5 * (cxx + cyy), root = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
-        const double major = half_trace + root, minor = half_trace - root;
-        if (!(major > 9.0 * std::max(minor, 0.0) + 1e-12)) return;  // not a line: a corner, a blob, a single cell
-        double ax = cxy, ay = major - cxx;  // the major axis
-        if (std::abs(ax) + std::abs(ay) < 1e-12) ax = cxx >= cyy ? 1.0 : 0.0, ay = cxx >= cyy ? 0.0 : 1.0;
-        const double norm = std::hypot(ax, ay);
-        ax /= norm, ay /= norm;
-        // c ends the surface toward `direction` (+1 or -1 along the axis) when the surface reaches at least half the
-        // disc behind it and nothing of it lies beyond within 2.5 of its sample spacings behind (2 cells at least):
-        // the far side of a gap a scanner could not see into may lie within the disc.
-        const auto ends = [&](double direction) {
-          double beyond = kInf, behind = 0.0;
-          std::int64_t slots = 0, last_slot = std::numeric_limits<std::int64_t>::min();
-          spans.clear();
-          for (const auto& [dx, dy] : neighbours) spans.push_back(direction * (dx * ax + dy * ay));
-          std::sort(spans.begin(), spans.end());
-          for (const double t : spans) {
-            if (t > 0.5) {
-              beyond = std::min(beyond, t);
-            } else if (t < -0.5) {
-              behind = std::max(behind, -t);
-              const auto slot = static_cast<std::int64_t>(std::lround(t));  // the cells of one sample, counted once
-              if (slot != last_slot) ++slots, last_slot = slot;
-            }
-          }
-          if (slots == 0 || behind < 0.5 * double(r)) return false;
-          return beyond > std::max(2.0, 2.5 * behind / double(slots));
-        };
-        const double sign = ends(1.0) ? 1.0 : ends(-1.0) ? -1.0 : 0.0;
-        if (sign == 0) return;
-        // The end need not be in sight now: where the view was cut earlier, from elsewhere, the wall goes on hidden
-        // all the same (bugtrap_0.6: the box's side wall seen from the start up to where the neck hides it, out of
-        // sight once the vehicle had moved 4 m; the stretch behind the neck stayed open and the plan went through
-        // it). A true end seen earlier has the cells beyond it observed, and the walk below stops at the first.
-        // On along the axis through never-observed cells hidden from the viewpoint; the first observed cell or
-        // the first one in plain sight (merely not hit by a ray yet) ends it.
-        const SurfaceLine line{double(c.x) + 0.5, double(c.y) + 0.5, ax, ay};
-        // The axis of a face one or two cells thick is known to a degree or so, and over metres the walk drifts off
-        // the face's row: on to the space in front, observed free, where it would stop (bugtrap_0.4's neck wall, its
-        // hits in two rows, axis 0.7-0.8 degrees off: its last 4 m left open because the walk entered the neck's row).
-        // Met by a cell observed free, the walk moves one cell across, away from the viewpoint, when that one is
-        // unobserved and hidden — at most kMaxContinuationShift cells in all.
-        double nx = -ay, ny = ax;  // the surface's normal, pointing away from the viewpoint
-        if (nx * (double(c.x) + 0.5 - vx) + ny * (double(c.y) + 0.5 - vy) < 0.0) nx = -nx, ny = -ny;
-        int shift = 0;
-        std::int64_t last_x = c.x, last_y = c.y;
-        for (std::int64_t k = 1; k <= 2 * steps; ++k) {
-          const double t = 0.5 * double(k) * sign;  // half-cell steps: no cell of the line is jumped over
-          const double px = double(c.x) + 0.5 + t * ax + shift * nx, py = double(c.y) + 0.5 + t * ay + shift * ny;
-          std::int64_t x = static_cast<std::int64_t>(std::floor(px)), y = static_cast<std::int64_t>(std::floor(py));
-          if (x == last_x && y == last_y) continue;
-          bool moved_across = false;  // onto a cell already judged unobserved and hidden
-          if (shift < kMaxContinuationShift && observedFree({x, y, 0})) {
-            const std::int64_t across_x = static_cast<std::int64_t>(std::floor(px + nx));
-            const std::int64_t across_y = static_cast<std::int64_t>(std::floor(py + ny));
-            moved_across = !observed(across_x, across_y) && hidden(across_x, across_y, line);
-            if (moved_across) ++shift, x = across_x, y = across_y;
-          }
-          last_x = x, last_y = y;
-          if (!moved_across && (observed(x, y) || !hidden(x, y, line))) break;
-          if (out.cells.size() >= kMaxContinuationCells) return;
-          if (taken.insert((std::uint64_t(x + 4 * kCellLimit) << 32) | std::uint64_t(y + 4 * kCellLimit)).second)
-            out.cells.emplace_back((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_, 0.0);
-        }
-      });
+        last_x = x, last_y = y;
+        if (!moved_across && (observed(x, y) || !hidden(x, y, line))) break;
+        if (out.cells.size() >= kMaxContinuationCells) return out;
+        if (taken.insert((std::uint64_t(x + 4 * kCellLimit) << 32) | std::uint64_t(y + 4 * kCellLimit)).second)
+          out.cells.emplace_back((double(x) + 0.5) * resolution_, (double(y) + 0.5) * resolution_, 0.0);
+      }
     }
     return out;
+  }
+
+  // Finds the seen surfaces' ends now (occludedContinuation), where the first continuation would otherwise.
+  void prepareContinuation() const {
+    if (knowsUnobserved()) surfaceEnds();
   }
 
   std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override { return nearby(p, range, false); }
@@ -995,6 +935,101 @@ class OctoMapWorld final : public CollisionWorld {
     const std::uint32_t bit = bitOf(c);
     return (((b->known[bit >> 6] & ~b->occupied[bit >> 6]) >> (bit & 63)) & 1u) != 0;
   }
+  // A 2-D map that loaded its free leaves knows which cells were never observed (occludedContinuation).
+  bool knowsUnobserved() const { return dims_ == 2 && (unknown_margin_ > 0.0 || unknown_blocked_); }
+  bool observed(std::int64_t x, std::int64_t y) const {
+    const Brick* b = findBrick(x >> 3, y >> 3, 0);
+    if (b == nullptr) return false;
+    const std::uint32_t bit = bitOf({x, y, 0});
+    return ((b->known[bit >> 6] >> (bit & 63)) & 1u) != 0;
+  }
+
+  // Where a seen surface ends against never-observed space (occludedContinuation): its cell, the surface's unit axis
+  // (cells), and which way along it (+1 or -1) it ends.
+  struct SurfaceEnd {
+    std::int64_t x, y;
+    double ax, ay, sign;
+  };
+  // They depend on the map alone: found once per world (the first continuation asked of it, or prepareContinuation),
+  // and each viewpoint only walks on from them. Finding them was ~90 % of a continuation: 7-9 ms of a bug trap's map,
+  // 20-30 ms of a planner's request under a mission's load (2026-12-06).
+  struct SurfaceEnds {
+    std::once_flag found;
+    std::vector<SurfaceEnd> ends;
+  };
+  const std::vector<SurfaceEnd>& surfaceEnds() const {
+    std::call_once(surface_ends_->found, [this] { surface_ends_->ends = findSurfaceEnds(); });
+    return surface_ends_->ends;
+  }
+  std::vector<SurfaceEnd> findSurfaceEnds() const {
+    std::vector<SurfaceEnd> found;
+    // The seen surface's direction at a cell: the principal axis of the observed occupied cells within a metre (at
+    // least 2 cells; a scanner samples a wall 40 m away every 0.3 m or so, too few within half a metre to tell a
+    // line), or two when fewer than 4 lie within one; an end of it is a cell beyond which (along that axis) none
+    // of them lies.
+    const std::int64_t w = std::max<std::int64_t>(2, static_cast<std::int64_t>(std::floor(1.0 * factor_ + 1e-9)));
+    std::vector<std::pair<double, double>> neighbours;
+    std::vector<double> spans;
+    for (const Brick& brick : bricks_) {
+      std::array<std::uint64_t, 8> seen_occupied{};
+      for (int i = 0; i < 8; ++i) seen_occupied[i] = brick.occupied[i] & brick.known[i];
+      forEachBit(seen_occupied, [&](unsigned bit) {
+        const Cell c = cellOfBit(brick, bit);
+        bool against_unseen = false;  // a face with never-observed space beside it
+        for (std::int64_t dy = -1; dy <= 1 && !against_unseen; ++dy)
+          for (std::int64_t dx = -1; dx <= 1; ++dx)
+            if ((dx != 0 || dy != 0) && !observed(c.x + dx, c.y + dy)) against_unseen = true;
+        if (!against_unseen) return;
+        // The observed occupied cells within the disc, as offsets from c (one pass; the extent below reuses them).
+        // A face sampled more sparsely still (a wall 60 m away) is read in a disc twice as wide.
+        std::int64_t r = w;
+        for (;;) {
+          neighbours.clear();
+          for (std::int64_t dy = -r; dy <= r; ++dy)
+            for (std::int64_t dx = -r; dx <= r; ++dx)
+              if (dx * dx + dy * dy <= r * r && observedOccupied({c.x + dx, c.y + dy, 0})) neighbours.emplace_back(double(dx), double(dy));
+          if (neighbours.size() >= 4 || r > w) break;
+          r = 2 * w;
+        }
+        double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+        for (const auto& [dx, dy] : neighbours) n += 1, sx += dx, sy += dy, sxx += dx * dx, syy += dy * dy, sxy += dx * dy;
+        if (n < 4) return;  // too few to tell a direction
+        const double mx = sx / n, my = sy / n;
+        const double cxx = sxx / n - mx * mx, cyy = syy / n - my * my, cxy = sxy / n - mx * my;
+        const double half_trace = 0.5 * (cxx + cyy), root = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
+        const double major = half_trace + root, minor = half_trace - root;
+        if (!(major > 9.0 * std::max(minor, 0.0) + 1e-12)) return;  // not a line: a corner, a blob, a single cell
+        double ax = cxy, ay = major - cxx;  // the major axis
+        if (std::abs(ax) + std::abs(ay) < 1e-12) ax = cxx >= cyy ? 1.0 : 0.0, ay = cxx >= cyy ? 0.0 : 1.0;
+        const double norm = std::hypot(ax, ay);
+        ax /= norm, ay /= norm;
+        // c ends the surface toward `direction` (+1 or -1 along the axis) when the surface reaches at least half the
+        // disc behind it and nothing of it lies beyond within 2.5 of its sample spacings behind (2 cells at least):
+        // the far side of a gap a scanner could not see into may lie within the disc.
+        const auto ends = [&](double direction) {
+          double beyond = kInf, behind = 0.0;
+          std::int64_t slots = 0, last_slot = std::numeric_limits<std::int64_t>::min();
+          spans.clear();
+          for (const auto& [dx, dy] : neighbours) spans.push_back(direction * (dx * ax + dy * ay));
+          std::sort(spans.begin(), spans.end());
+          for (const double t : spans) {
+            if (t > 0.5) {
+              beyond = std::min(beyond, t);
+            } else if (t < -0.5) {
+              behind = std::max(behind, -t);
+              const auto slot = static_cast<std::int64_t>(std::lround(t));  // the cells of one sample, counted once
+              if (slot != last_slot) ++slots, last_slot = slot;
+            }
+          }
+          if (slots == 0 || behind < 0.5 * double(r)) return false;
+          return beyond > std::max(2.0, 2.5 * behind / double(slots));
+        };
+        const double sign = ends(1.0) ? 1.0 : ends(-1.0) ? -1.0 : 0.0;
+        if (sign != 0) found.push_back({c.x, c.y, ax, ay, sign});
+      });
+    }
+    return found;
+  }
 
   // The free leaves' voxels the column rule would block (under a column's top, its own or the one the surface margin
   // widened) become known, so that the rule yields to space observed free (depthBelowSurface). Only there: the free
@@ -1262,6 +1297,7 @@ class OctoMapWorld final : public CollisionWorld {
   int column_shift_ = 0;
   double outside_margin_;
   std::size_t max_bricks_;
+  std::shared_ptr<SurfaceEnds> surface_ends_ = std::make_shared<SurfaceEnds>();  // occludedContinuation's, found once
   double resolution_ = 0.0, factor_ = 0.0;
   std::vector<std::uint64_t> slot_keys_;
   std::vector<std::uint32_t> slot_bricks_;
@@ -1301,6 +1337,10 @@ OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, co
     throw std::invalid_argument("occludedSurfaceContinuation: max_length_m must be in [0, 1000] m");
   const auto* map = dynamic_cast<const OctoMapWorld*>(&world);
   return map ? map->occludedContinuation(viewpoint, max_length_m) : OccludedContinuation{};
+}
+
+void prepareSurfaceContinuation(const CollisionWorld& world) {
+  if (const auto* map = dynamic_cast<const OctoMapWorld*>(&world)) map->prepareContinuation();
 }
 
 std::optional<bool> robotInObservedFreeSpace(const CollisionWorld& world, const Vec3& p) {

@@ -769,6 +769,28 @@ TEST(OctoMapWorld, ASeenSurfaceGoesOnWhereSomethingInFrontHidesIt) {
   for (const Vec3& c : occludedSurfaceContinuation(*seen_map, Vec3(2.0, 1.3, 0.0), 5.0).cells) ADD_FAILURE() << c.transpose();
 }
 
+// Where the seen surfaces end is found once per world and reused from every viewpoint: a world asked (or prepared)
+// before gives each viewpoint the continuation a world built afresh gives it.
+TEST(OctoMapWorld, AContinuationFromAWorldAskedBeforeIsTheFreshWorldsOne) {
+  const octomap::OcTree tree = occludedWallScan();
+  OctoMapWorldOptions knows_unobserved;
+  knows_unobserved.unknown_margin_m = 0.05;
+  const auto build = [&] { return makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.2, toBytes(tree), knows_unobserved); };
+  const auto reused = build();
+  prepareSurfaceContinuation(*reused);
+  int continued = 0;
+  for (const Vec3& viewpoint : {Vec3(0, 0, 0), Vec3(2.0, 1.3, 0.0), Vec3(-3.0, 2.0, 0.0), Vec3(0, 0, 0)}) {
+    const auto fresh = occludedSurfaceContinuation(*build(), viewpoint, 5.0).cells;
+    const auto again = occludedSurfaceContinuation(*reused, viewpoint, 5.0).cells;
+    ASSERT_EQ(again.size(), fresh.size()) << viewpoint.transpose();
+    for (std::size_t i = 0; i < fresh.size(); ++i) EXPECT_EQ(again[i], fresh[i]) << viewpoint.transpose();
+    continued += static_cast<int>(fresh.size());
+  }
+  EXPECT_GT(continued, 0);
+  // Any other world: nothing to prepare.
+  prepareSurfaceContinuation(*makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.2, toBytes(tree), OctoMapWorldOptions{}));
+}
+
 // A face whose hits near its end fall in two rows (a grazed face's do when its line is at a cell boundary) has an
 // axis a degree or more off; walked along, it leaves the face's row for the row in front, observed free, within metres.
 // The face y in [0, 0.1), x in [0, 3); its last 0.2 m also hit in the row above; that row and the next observed free

@@ -100,7 +100,15 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
 }
 
 MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok) {
-  if (!ok) return retryLater(now_ns, "no drivable trajectory after " + std::to_string(attempts_) + " attempts", "");
+  if (!ok) {
+    // The first refusal in a row is asked again at once: a path refused for a collision on the tracker's world (a
+    // newer map than the planner's) is most often planned anew on that map, and the retry delay held such replans
+    // for a second of the mission (bugtrap_0.4, 2026-12-06: 2 of a mission's 6 replans). Further refusals in a row wait
+    // the delay, so that the attempts are not used up in a moment.
+    const double delay_s = ++refusals_in_a_row_ == 1 ? 0.0 : config_.plan_retry_delay_s;
+    return retryLater(now_ns, "no drivable trajectory after " + std::to_string(attempts_) + " attempts", "", delay_s);
+  }
+  refusals_in_a_row_ = 0;
   driving_ = true;
   attempts_ = 0;
   return afterAnswer(now_ns, state);
@@ -183,11 +191,11 @@ MissionDecision Mission::fail(std::string cause, std::string warning) {
   return d;
 }
 
-// A failed attempt (unsolved, or not smoothable): ask again after the retry delay, unless the attempts are
-// used up.
-MissionDecision Mission::retryLater(std::int64_t now_ns, const std::string& cause, std::string warning) {
+// A failed attempt (unsolved, or not smoothable): ask again after the retry delay (or `delay_s`), unless the attempts
+// are used up.
+MissionDecision Mission::retryLater(std::int64_t now_ns, const std::string& cause, std::string warning, std::optional<double> delay_s) {
   if (attempts_ >= config_.max_plan_attempts) return fail(cause, std::move(warning));
-  retry_at_ns_ = now_ns + secondsToNs(config_.plan_retry_delay_s);
+  retry_at_ns_ = now_ns + secondsToNs(delay_s.value_or(config_.plan_retry_delay_s));
   MissionDecision d = just(MissionAction::Wait);
   d.warning = std::move(warning);
   return d;

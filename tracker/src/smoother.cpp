@@ -149,12 +149,17 @@ std::vector<Vec3> keepAwayFromObstacles(const std::vector<Vec3>& pts, const Coll
   const bool flat = world.dimensions() == 2;
   std::vector<double> clear(out.size());
   for (std::size_t i = 0; i < out.size(); ++i) clear[i] = world.clearance(out[i]);
+  // A point's step depends only on it and its two neighbours: one that found no step that helps finds none again until
+  // a neighbour moves, so it is not tried again until then (the result is the same; in a bug trap's 1.6 m neck no
+  // point reaches the target and each was tried in all 25 rounds, two thirds of a smoothing).
+  std::vector<char> settled(out.size(), 0);
   for (int round = 0; round < 25; ++round) {
     bool moved = false;
     const Vec3 end = pts.back();
     const std::size_t last = end_tolerance > 0.0 ? out.size() - 1 : out.size() - 2;  // the end may move a little
     for (std::size_t i = 1; i <= last; ++i) {
-      if (clear[i] >= wanted) continue;
+      if (clear[i] >= wanted || settled[i]) continue;
+      settled[i] = 1;
       const bool is_end = i + 1 == out.size();
       const auto near = world.obstaclesNear(out[i], world.robotRadius() + wanted);
       if (near.empty()) continue;
@@ -170,6 +175,8 @@ std::vector<Vec3> keepAwayFromObstacles(const std::vector<Vec3>& pts, const Coll
           continue;
         out[i] = q;
         clear[i] = cq;
+        settled[i] = settled[i - 1] = 0;
+        if (i + 1 < out.size()) settled[i + 1] = 0;
         moved = true;
         break;
       }
@@ -449,16 +456,115 @@ std::optional<std::vector<Vec3>> brakingLeadIn(const std::vector<Vec3>& points, 
   return std::nullopt;
 }
 
+// A lead-in along `along` (SmootherConfig::lead_in_path; its first point is the start): half a piece along `heading`
+// (a unit vector), then the first `l` metres of `along`, for l from `length` down to 0.5 m (x 0.7), kept a metre or a sixth of
+// l apart, whose edges are free with the clearance a straight lead-in needs or their ends' where less, joined to the path
+// ahead of its end (one of its first points, else a point on one of its first edges) by an edge like a straight
+// lead-in's (free, clear, its corners roundable at `turn_radius`). The corners along it are the flown trajectory's own. The points
+// and l; nothing when none fits (`failure` gets the reason of the longest).
+std::optional<std::pair<std::vector<Vec3>, double>> leadInAlong(const std::vector<Vec3>& points, const std::vector<Vec3>& along, const Vec3& heading,
+                                             double length, double turn_radius, const CollisionWorld& world, double min_clearance,
+                                             std::string& failure) {
+  // It must start where the path does (a planner that moved the start off an obstacle planned from elsewhere).
+  if (along.size() < 2 || points.size() < 2 || (along.front() - points.front()).norm() > 0.05) return std::nullopt;
+  std::vector<double> arc(along.size(), 0.0);
+  for (std::size_t i = 1; i < along.size(); ++i) arc[i] = arc[i - 1] + (along[i] - along[i - 1]).norm();
+  const Vec3& start = points.front();
+  const double need = std::min(min_clearance, world.clearance(start));
+  std::string longest;
+  auto failed = [&](double l, const char* why) {
+    if (!longest.empty()) return;
+    char text[128];
+    std::snprintf(text, sizeof text, "along the flown trajectory, %.1f m: %s", l, why);
+    longest = text;
+  };
+  // The point at arc length s along `along`.
+  auto at = [&](double s) {
+    const auto upper = std::upper_bound(arc.begin(), arc.end(), s);
+    const std::size_t i = std::clamp<std::size_t>(static_cast<std::size_t>(upper - arc.begin()), 1, arc.size() - 1);
+    const double span = arc[i] - arc[i - 1];
+    return span > 1e-12 ? Vec3(along[i - 1] + (along[i] - along[i - 1]) * ((s - arc[i - 1]) / span)) : along[i];
+  };
+  for (double l = std::min(length, arc.back()); l >= std::min(0.5, length) - 1e-9; l *= 0.7) {
+    const double spacing = std::max(1.0, l / 6.0);
+    const int pieces = std::max(1, static_cast<int>(std::ceil(l / spacing - 1e-9)));
+    // The first step is along the heading itself, half a piece (a chord of the flown curve is a degree or two off its
+    // tangent, and a start off the heading turns in place, at rest); long enough for the corner after it to be rounded.
+    const double tangent_step = 0.5 * std::min(spacing, l);
+    std::vector<Vec3> lead{start};
+    bool clear = true;
+    for (int k = 0; k <= pieces && clear; ++k) {
+      const Vec3 next = k == 0 ? Vec3(start + tangent_step * heading) : at(l * k / pieces);
+      // As close as its ends are, at most: the flown trajectory may pass nearer to a wall than the start is.
+      clear = world.isFree(next) && world.isSegmentFree(lead.back(), next) &&
+              planner::segmentClearanceAtLeast(world, lead.back(), next, std::min({need, world.clearance(lead.back()), world.clearance(next)}));
+      lead.push_back(next);
+    }
+    if (!clear) {
+      failed(l, "blocked or too close to an obstacle");
+      continue;
+    }
+    const Vec3 end = lead.back();
+    const Vec3 direction = (end - lead[lead.size() - 2]).normalized();
+    // Back to one of the path's first points ahead of the lead-in's end, else to a point on one of its first edges, a
+    // metre apart (in a passage the path's first edge may pass a corner closely, and an edge from beside it to the
+    // vertex beyond clips that corner).
+    struct Join {
+      Vec3 at;
+      std::size_t tail;  // the path goes on from points[tail]
+    };
+    std::vector<Join> joins;
+    constexpr std::size_t kJoinVertices = 10;
+    for (std::size_t next = 1; next < std::min(points.size(), 1 + kJoinVertices); ++next) joins.push_back({points[next], next});
+    double edge_arc = 0.0;
+    for (std::size_t next = 1; next < points.size() && edge_arc < 3.0 * length; ++next) {
+      const Vec3 from = points[next - 1], to = points[next];
+      const double edge = (to - from).norm();
+      for (double t = 1.0; t < edge - 0.5; t += 1.0) joins.push_back({Vec3(from + (to - from) * (t / edge)), next});
+      edge_arc += edge;
+    }
+    const char* why = "no way back to the path";
+    for (const Join& join : joins) {
+      const Vec3 onward = join.at - end;
+      if (onward.norm() < 1e-6 || onward.dot(direction) <= 0.0) continue;  // behind the lead-in's end
+      const auto corner = [](const Vec3& a, const Vec3& b) { return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)); };
+      const double first_corner = corner(direction, onward);
+      // A join on an edge makes a second corner there, onto the edge.
+      const bool on_edge = (join.at - points[join.tail]).norm() > 1e-9;
+      const double second_corner = on_edge ? corner(onward, points[join.tail] - join.at) : 0.0;
+      const double first_tangent = turn_radius * std::tan(0.5 * first_corner), second_tangent = turn_radius * std::tan(0.5 * second_corner);
+      if (first_corner > 0.5 * std::numbers::pi || second_corner > 0.5 * std::numbers::pi || onward.norm() < first_tangent + second_tangent - 1e-9 ||
+          (on_edge && (points[join.tail] - join.at).norm() < second_tangent - 1e-9)) {
+        why = "the corner back to the path is too tight";
+        continue;
+      }
+      if (!world.isSegmentFree(end, join.at) ||
+          !planner::segmentClearanceAtLeast(world, end, join.at, std::min(need, world.clearance(join.at)))) {
+        why = "the edge back to the path is blocked";
+        continue;
+      }
+      if (on_edge) lead.push_back(join.at);
+      lead.insert(lead.end(), points.begin() + static_cast<std::ptrdiff_t>(join.tail), points.end());
+      return std::pair{std::move(lead), l};
+    }
+    failed(l, why);
+  }
+  if (!longest.empty()) failure += "; " + longest;
+  return std::nullopt;
+}
+
 // A start moving at `heading` (and climbing at `climb` = vz / horizontal speed, 3-D): puts a point `length` ahead
 // along it after the start, the longest of a few candidates (x 0.7 down to 0.5 m) whose two new edges are
 // collision free with `min_clearance` and whose corner at the new point is at most a right angle and can be rounded
 // at `turn_radius` (both edges at least radius x tan(corner / 2) long: a tighter corner is a near stop, and the
-// tracker then deviates). At each length the climbing direction is tried first, then the level one. When none is and
-// `braking_length` > 0, a braking lead-in of that length (`braking` set). Returns the points unchanged when none fits.
+// tracker then deviates). At each length the climbing direction is tried first, then the level one. When none is, one
+// along `lead_in_path` (leadInAlong; `along_flown` set to its length), else, when `braking_length` > 0, a braking
+// lead-in of that length (`braking` set). Returns the points unchanged when none fits.
 std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double climb, double length, double turn_radius,
                          double braking_length, double stop_clearance, const CollisionWorld& world, double min_clearance,
-                         std::string& failure, bool& braking) {
+                         const std::vector<Vec3>& lead_in_path, std::string& failure, bool& braking, double& along_flown) {
   braking = false;
+  along_flown = 0.0;
   if (points.size() < 2 || !(length > 0)) return points;
   std::string longest_failure, shortest_failure;
   auto failed = [&](double l, const char* why) {
@@ -512,6 +618,11 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
     }
   }
   failure = longest_failure.empty() ? "no candidate" : longest_failure + (shortest_failure != longest_failure ? "; " + shortest_failure : "");
+  if (auto along = leadInAlong(points, lead_in_path, directions.front(), length, turn_radius, world, min_clearance, failure)) {
+    failure.clear();
+    along_flown = along->second;
+    return std::move(along->first);
+  }
   if (braking_length > 0) {
     std::string braking_failure;
     if (auto out = brakingLeadIn(points, directions, braking_length, world, min_clearance, stop_clearance, braking_failure)) {
@@ -817,7 +928,8 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
     const double braking_length = config.lead_in_decel > 0 && stop > 0.1 ? 1.25 * stop + 0.3 : 0.0;
     bool braking = false;
     points = leadIn(points, *config.initial_heading, climb, std::max(2 * radius, 1.0), lead_radius, braking_length,
-                    config.clearance_target, world, config.shortcut_clearance, traj.report.lead_in_failure, braking);
+                    config.clearance_target, world, config.shortcut_clearance, config.lead_in_path, traj.report.lead_in_failure, braking,
+                    traj.report.lead_in_along_flown);
     if (braking) braking_arc = traj.report.lead_in_braking = braking_length;
   }
   traj.report.shortcut_waypoints = points.size();

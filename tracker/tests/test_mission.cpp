@@ -181,6 +181,27 @@ TEST(Mission, UnsmoothablePathsAreRetriedAndEndTheMissionAfterMaxAttempts) {
   EXPECT_FALSE(m.driving());
 }
 
+// A refused path (a collision on the tracker's newer world) is asked again at once the first time; a second refusal in
+// a row waits the retry delay; a drivable trajectory starts the count again.
+TEST(Mission, TheFirstRefusedPathInARowIsAskedAgainAtOnce) {
+  Mission m = started();
+  ASSERT_EQ(m.update(0, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(0, at(0), false).action, MissionAction::Wait);
+  const auto again = m.update(1, at(0), true, std::nullopt);
+  ASSERT_EQ(again.action, MissionAction::RequestPlan);
+  EXPECT_EQ(again.reason, "retrying");
+  ASSERT_EQ(m.update(2, at(0), true, answer(2, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(2, at(0), false).action, MissionAction::Wait);
+  EXPECT_EQ(m.update(kSecond / 2, at(0), true, std::nullopt).action, MissionAction::Wait);
+  ASSERT_EQ(m.update(kSecond + 2, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  ASSERT_EQ(m.update(kSecond + 3, at(0), true, answer(3, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(kSecond + 3, at(0), true).action, MissionAction::Drive);
+  ASSERT_EQ(m.replan(2 * kSecond, at(0), "trajectory_blocked").action, MissionAction::RequestPlan);
+  ASSERT_EQ(m.update(2 * kSecond, at(0), true, answer(4, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(2 * kSecond, at(0), false).action, MissionAction::Wait);
+  EXPECT_EQ(m.update(2 * kSecond + 1, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+}
+
 TEST(Mission, DrivableTrajectoryResetsTheAttempts) {
   Mission m = started();
   ASSERT_EQ(m.update(0, at(0), true, answer(1, false)).action, MissionAction::Wait);

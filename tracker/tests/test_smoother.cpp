@@ -368,6 +368,38 @@ TEST(Smoother, AMovingStartKeepsItsSpeedAndHeading) {
   EXPECT_LT(moving.duration(), at_rest.duration());
 }
 
+// In a corridor 0.7 m wider than the robot, a replan ahead starts 0.1 m from a wall, heading 4 degrees toward it, where
+// the trajectory being flown curves away: every straight lead-in comes closer than the start is, and the plan could
+// only start at rest. Along the flown trajectory (lead_in_path) it starts at speed.
+TEST(Smoother, AMovingStartInACorridorLeadsInAlongTheFlownTrajectory) {
+  const auto sc = scenario2d(60, 0.5, "  - {type: box, min: [0, 8], max: [60, 9.4]}\n  - {type: box, min: [0, 11.1], max: [60, 12.5]}\n");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = limits(2.0, 0.5);
+  const double heading = std::atan(-0.07);
+  SmootherConfig cfg;
+  cfg.initial_heading = heading;
+  cfg.initial_speed = 1.5;
+  const auto path = pathOf({{5, 10, 0}, {55, 10.2, 0}});
+  const Trajectory straight_only = smoothPath(path, *world, l, cfg);
+  EXPECT_DOUBLE_EQ(straight_only.samples.front().speed, 0.0);
+  EXPECT_NE(straight_only.report.lead_in_failure.find("too close to an obstacle"), std::string::npos) << straight_only.report.lead_in_failure;
+  // Down to 0.06 m from the wall and back, then level 0.16 m from it.
+  for (double d = 0.0; d <= 20.0; d += 0.5) {
+    const double y = d <= 3.5 ? 10.0 - 0.07 * d + 0.02 * d * d
+                   : d <= 5.25 ? 10.0 + 0.07 * (d - 3.5) - 0.02 * (d - 3.5) * (d - 3.5)
+                               : 10.06125;
+    cfg.lead_in_path.emplace_back(5.0 + d, y, 0.0);
+  }
+  const Trajectory along = smoothPath(path, *world, l, cfg);
+  expectMovingStart(along, *world, l, 1.5, heading);
+  EXPECT_TRUE(along.report.lead_in_failure.empty()) << along.report.lead_in_failure;
+  EXPECT_GE(along.report.lead_in_along_flown, 0.5);
+  EXPECT_DOUBLE_EQ(straight_only.report.lead_in_along_flown, 0.0);
+  // A lead-in path that does not start at the path's start is not used.
+  for (auto& p : cfg.lead_in_path) p.y() += 0.2;
+  EXPECT_DOUBLE_EQ(smoothPath(path, *world, l, cfg).samples.front().speed, 0.0);
+}
+
 // A slow moving start with an obstacle 4.5 m ahead: no lead-in fits the full-speed turn radius (8 m), but the
 // vehicle turns tighter at its own speed, so the trajectory still starts moving instead of at rest.
 TEST(Smoother, ASlowMovingStartTurnsAtItsOwnSpeedsRadius) {

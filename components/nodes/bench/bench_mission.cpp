@@ -335,13 +335,16 @@ int main(int argc, char** argv) {
                         {"cloud_to_map", statsJson(latencies.cloud_to_map)},
                         {"request_to_path", statsJson(latencies.request_to_path)},
                         {"obstacles_to_trajectory", statsJson(latencies.obstacles_to_trajectory)},
+                        {"replans_answered_later", latencies.replans_answered_later},
                         {"replan_obstacles_to_request", statsJson(latencies.replan_obstacles_to_request)},
                         {"replan_request_to_path", statsJson(latencies.replan_request_to_path)},
                         {"replan_path_to_trajectory", statsJson(latencies.replan_path_to_trajectory)}};
-      spdlog::info("{}: {} replans for a blocked trajectory: obstacles -> trajectory median {:.0f} ms, p99 {:.0f} ms; of it "
+      spdlog::info("{}: {} replans for a blocked trajectory ({} answered by a later plan's trajectory): obstacles -> trajectory median "
+                   "{:.0f} ms, p99 {:.0f} ms; of it, where the replan's own trajectory answered, "
                    "obstacles -> request {:.0f} / {:.0f}, request -> path {:.0f} / {:.0f}, path -> trajectory {:.0f} / {:.0f}",
-                   scenario.name, latencies.obstacles_to_trajectory.count, latencies.obstacles_to_trajectory.median_ms,
-                   latencies.obstacles_to_trajectory.p99_ms, latencies.replan_obstacles_to_request.median_ms,
+                   scenario.name, latencies.obstacles_to_trajectory.count, latencies.replans_answered_later,
+                   latencies.obstacles_to_trajectory.median_ms, latencies.obstacles_to_trajectory.p99_ms,
+                   latencies.replan_obstacles_to_request.median_ms,
                    latencies.replan_obstacles_to_request.p99_ms, latencies.replan_request_to_path.median_ms,
                    latencies.replan_request_to_path.p99_ms, latencies.replan_path_to_trajectory.median_ms,
                    latencies.replan_path_to_trajectory.p99_ms);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <map>
+#include <optional>
 
 namespace ddsnav::nodes {
 
@@ -65,18 +66,26 @@ MissionLatencies missionLatencies(const MissionRecording& r) {
   std::vector<double> replans, to_request, to_path, to_trajectory;
   for (auto it = request.begin(); it != request.end(); ++it) {
     if (it == request.begin() || !forAChange(it->first)) continue;  // the first plan answers no change
-    const auto answer = trajectory.find(it->first);
-    if (answer == trajectory.end()) continue;
+    // The first trajectory after the request that answers it or a later one.
+    std::optional<std::uint64_t> answered_at;
+    bool own = false;
+    for (auto t = trajectory.lower_bound(it->first); t != trajectory.end(); ++t)
+      if (t->second >= it->second && (!answered_at || t->second < *answered_at)) answered_at = t->second, own = t->first == it->first;
+    if (!answered_at) continue;
     const auto newest = std::upper_bound(obstacle_times.begin(), obstacle_times.end(), it->second);
     if (newest == obstacle_times.begin()) continue;
     const std::uint64_t perceived = *std::prev(newest);
-    if (answer->second < perceived) continue;
-    replans.push_back(ms(perceived, answer->second));
+    if (*answered_at < perceived) continue;
+    replans.push_back(ms(perceived, *answered_at));
+    if (!own) {
+      ++out.replans_answered_later;
+      continue;
+    }
     to_request.push_back(ms(perceived, it->second));
     const auto answered = path.find(it->first);
-    if (answered != path.end() && answered->second >= it->second && answer->second >= answered->second) {
+    if (answered != path.end() && answered->second >= it->second && *answered_at >= answered->second) {
       to_path.push_back(ms(it->second, answered->second));
-      to_trajectory.push_back(ms(answered->second, answer->second));
+      to_trajectory.push_back(ms(answered->second, *answered_at));
     }
   }
   out.obstacles_to_trajectory = latencyStats(std::move(replans));

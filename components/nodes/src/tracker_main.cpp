@@ -74,7 +74,8 @@ class TrackerComponent : public runtime::Component {
           time_budget_s(p.declare<double>("time_budget_s", 5.0, {.above = 0, .unit = "s", .doc = "time budget of each plan request"})),
           seed(p.declare<std::int64_t>("seed", 1, {.doc = "seed of the first request (the n-th asks seed + n - 1)"})),
           max_plan_attempts(p.declare<std::int64_t>("max_plan_attempts", 10, {.min = 1, .doc = "failed plans in a row before giving up"})),
-          plan_retry_delay_s(p.declare<double>("plan_retry_delay_s", 1.0, {.min = 0, .unit = "s", .doc = "pause before asking again"})),
+          plan_retry_delay_s(p.declare<double>("plan_retry_delay_s", 1.0, {.min = 0, .unit = "s", .doc = "pause before asking again after a failed plan, or after the second path in a row "
+                                                             "that could not be smoothed (the first is asked again at once)"})),
           wait_for_world(p.declare<bool>("wait_for_world", true, {.doc = "the first request waits for the planner's world"})),
           replan_check_period_s(p.declare<double>("replan_check_period_s", 0.1, {.above = 0, .unit = "s", .doc = "how often the rest of the trajectory is checked"})) {
       replan.confirm_checks = static_cast<int>(p.declare<std::int64_t>(
@@ -343,6 +344,16 @@ class TrackerComponent : public runtime::Component {
     smoother_config_.initial_heading = request_heading_;
     smoother_config_.initial_speed = request_speed_;
     smoother_config_.initial_vz = request_vz_;
+    // A replan ahead may lead in along the trajectory the vehicle flies (SmootherConfig::lead_in_path), as far as the
+    // longest straight lead-in reaches.
+    smoother_config_.lead_in_path.clear();
+    if (switch_at_ && follower_ && request_speed_ > 0.0) {
+      const double reach = 2.5 * limits_.v_max / limits_.omega_max + 1.0;
+      for (const auto& s : tracker::continuationPath(follower_->trajectory(), *switch_at_, {}, 0.5)) {
+        if (!smoother_config_.lead_in_path.empty() && (s.position - smoother_config_.lead_in_path.front()).norm() > reach) break;
+        smoother_config_.lead_in_path.push_back(s.position);
+      }
+    }
     auto pieces = tracker::splitPath(nodes::statesOf(path), piece_length_m_);
     const Eigen::Vector3d viewpoint = pieces.piece.empty() ? state.position : pieces.piece.front().position;
     Smoothed job;
@@ -467,6 +478,8 @@ class TrackerComponent : public runtime::Component {
     std::string note;
     if (report.lead_in_braking > 0)
       note = fmt::format(", braking to rest in {:.1f} m (no lead-in at speed: {})", report.lead_in_braking, report.lead_in_failure);
+    if (report.lead_in_along_flown > 0)
+      note += fmt::format(", led in along the flown trajectory for {:.1f} m (no straight lead-in fitted)", report.lead_in_along_flown);
     if (report.repaired_waypoints > 0)
       note += fmt::format(", {} path point(s) moved off obstacles or added around one (repair_distance)", report.repaired_waypoints);
     if (report.slow_s >= 0.5)
@@ -925,8 +938,13 @@ class TrackerComponent : public runtime::Component {
       held_since_ns_.reset();
       if (cap < 0.5 * limits_.v_max && clock().nowNs() - last_observed_log_ns_ > 5'000'000'000LL) {
         last_observed_log_ns_ = clock().nowNs();
-        spdlog::info("slowing to {:.2f} m/s: the map has observed the trajectory free for only {:.1f} m ahead", cap,
-                     follower_->observedSpaceArc() - vehicleArc(*follower_));
+        const double stop_arc = follower_->observedSpaceArc();
+        const auto& samples = follower_->trajectory().samples;
+        const auto unseen = std::find_if(samples.begin(), samples.end(), [&](const auto& s) { return s.arc_length > stop_arc; });
+        const planner::Vec3 where = unseen != samples.end() ? unseen->position : samples.back().position;
+        spdlog::info("slowing to {:.2f} m/s: the map has observed the trajectory free for only {:.1f} m ahead of the vehicle at ({:.1f}, {:.1f}), "
+                     "up to ({:.1f}, {:.1f})",
+                     cap, stop_arc - vehicleArc(*follower_), state.position.x(), state.position.y(), where.x(), where.y());
       }
       return false;
     }

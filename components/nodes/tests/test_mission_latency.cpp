@@ -62,4 +62,25 @@ TEST(MissionLatency, OnlyReplansForABlockedTrajectoryAnswerAChange) {
   EXPECT_DOUBLE_EQ(l.obstacles_to_trajectory.median_ms, 70.0);
 }
 
+TEST(MissionLatency, AReplanWhosePlanCouldNotBeFlownCountsUntilALaterPlansTrajectory) {
+  nodes::MissionRecording r;
+  r.obstacles = {{90 * kMs, 1}, {490 * kMs, 2}};
+  // Request 2 (blocked) got a path but no trajectory (it could not be smoothed); request 3 retried it and was answered
+  // at 420 ms. Request 4 (blocked) was answered by its own trajectory.
+  r.requests = {{5 * kMs, 1}, {100 * kMs, 2}, {400 * kMs, 3}, {500 * kMs, 4}};
+  r.paths = {{50 * kMs, 1}, {120 * kMs, 2}, {410 * kMs, 3}, {530 * kMs, 4}};
+  r.trajectories = {{60 * kMs, 1}, {420 * kMs, 3}, {550 * kMs, 4}};
+  r.request_reasons = {{1, "start"}, {2, "trajectory_blocked: ..."}, {3, "retrying"}, {4, "trajectory_blocked: ..."}};
+  const auto l = nodes::missionLatencies(r);
+  ASSERT_EQ(l.obstacles_to_trajectory.count, 2u);
+  EXPECT_DOUBLE_EQ(l.obstacles_to_trajectory.max_ms, 330.0);  // 90 -> 420 ms
+  EXPECT_DOUBLE_EQ(l.obstacles_to_trajectory.median_ms, 195.0);  // with 490 -> 550 ms
+  EXPECT_EQ(l.replans_answered_later, 1u);
+  // The parts only over request 4's own answer: 10, 30 and 20 ms.
+  ASSERT_EQ(l.replan_request_to_path.count, 1u);
+  EXPECT_DOUBLE_EQ(l.replan_obstacles_to_request.median_ms, 10.0);
+  EXPECT_DOUBLE_EQ(l.replan_request_to_path.median_ms, 30.0);
+  EXPECT_DOUBLE_EQ(l.replan_path_to_trajectory.median_ms, 20.0);
+}
+
 }  // namespace

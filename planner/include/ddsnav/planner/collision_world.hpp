@@ -175,6 +175,9 @@ struct OccludedContinuation {
   double cell_size = 0.0;   // m, the map's resolution
 };
 OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, const Vec3& viewpoint, double max_length_m);
+// Does now the part of occludedSurfaceContinuation that depends on the map alone (where its seen surfaces end), which the
+// first continuation asked of `world` would do otherwise; nothing for a world that is not such a map. Thread-safe.
+void prepareSurfaceContinuation(const CollisionWorld& world);
 
 // Perception's ellipses against what a 2-D map has seen (docs/world-model.md, "Ellipses of mapped surfaces"). An
 // ellipse whose axis the map holds as observed occupied cells — within two cells of its centre and of one of the points

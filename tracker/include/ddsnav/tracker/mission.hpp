@@ -19,7 +19,7 @@ struct MissionConfig {
   Vec3 goal = Vec3::Zero();
   double goal_radius = 0.0;            // m, the scenario's goal region
   std::int64_t max_plan_attempts = 10; // requests (answered or not) without a drivable trajectory before giving up
-  double plan_retry_delay_s = 1.0;     // s between a failed plan (or smoothing) and the next request
+  double plan_retry_delay_s = 1.0;     // s between a failed plan (or a second refused path in a row) and the next request
   double time_budget_s = 5.0;          // s the planner may take per request
   double replan_check_period_s = 0.5;  // s of driving between two replan checks
   bool wait_for_world = true;          // no first request before the planner's world exists
@@ -85,8 +85,8 @@ class Mission {
                          const std::optional<PlanAnswer>& answer);
 
   // After SmoothPath: whether the path became a trajectory (which the caller now follows). Success resets the
-  // attempt count and continues as update() would (normally Drive); failure retries after the delay, or
-  // gives up after max_plan_attempts.
+  // attempt count and continues as update() would (normally Drive); failure retries at once the first time in a row
+  // and after the delay the next times, or gives up after max_plan_attempts.
   MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok);
 
   // After Drive, with the tracker's status after the step of `dt` seconds: Finished when the vehicle is in
@@ -123,12 +123,14 @@ class Mission {
  private:
   MissionDecision request(std::int64_t now_ns, const VehicleState& from, std::string reason);
   MissionDecision fail(std::string cause, std::string warning);
-  MissionDecision retryLater(std::int64_t now_ns, const std::string& cause, std::string warning);
+  MissionDecision retryLater(std::int64_t now_ns, const std::string& cause, std::string warning,
+                             std::optional<double> delay_s = std::nullopt);
   MissionDecision afterAnswer(std::int64_t now_ns, const VehicleState& state);
 
   MissionConfig config_;
   std::uint32_t request_id_ = 0;
   std::int64_t attempts_ = 0;
+  int refusals_in_a_row_ = 0;                     // paths not smoothed since the last drivable trajectory
   std::optional<std::int64_t> retry_at_ns_;      // a failed attempt waiting for its retry
   std::optional<std::int64_t> pending_since_ns_; // the current request, not answered yet
   bool driving_ = false;

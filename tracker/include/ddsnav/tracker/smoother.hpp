@@ -62,6 +62,12 @@ struct SmootherConfig {
   // path, instead of starting at rest where the vehicle arrives moving. 0 (the default): no braking lead-in. Below
   // max_accel, max_accel is used.
   double lead_in_decel = 0.0;
+  // The way the vehicle goes on from the start (a replan ahead: the trajectory it flies, from the start on; the start
+  // first): when no straight lead-in along initial_heading fits, a lead-in along this is tried, of the same lengths,
+  // before the braking one. In a narrow passage the vehicle's heading is a few degrees off its axis where the trajectory
+  // curves, and every straight lead-in came too close to a wall (bugtrap_0.4: three stops to plan at rest in one
+  // mission's neck). Empty: straight lead-ins only.
+  std::vector<Vec3> lead_in_path;
   // A path state the world finds in collision is moved to the nearest free position within this distance (m), and an
   // edge it finds blocked between free states is bridged through the nearest free position to the middle of its stretch
   // in collision, instead of the path being refused: the smoother's world is not the planner's (it may be built from a

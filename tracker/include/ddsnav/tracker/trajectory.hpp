@@ -75,6 +75,8 @@ struct TrajectoryReport {
   // No lead-in fitted at speed, a braking one did: the start brakes to rest along its heading over this many metres,
   // turns in place and joins the path (SmootherConfig::lead_in_decel); 0 otherwise.
   double lead_in_braking = 0.0;
+  // No straight lead-in fitted at speed, one along the flown trajectory did (SmootherConfig::lead_in_path): its metres.
+  double lead_in_along_flown = 0.0;
 };
 
 struct Trajectory {

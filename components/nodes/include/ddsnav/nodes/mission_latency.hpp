@@ -45,8 +45,13 @@ struct LatencyStats {
 };
 
 struct MissionLatencies {
-  LatencyStats cloud_to_obstacles, cloud_to_map, request_to_path, obstacles_to_trajectory;
-  // The parts of obstacles_to_trajectory, over the same replans.
+  LatencyStats cloud_to_obstacles, cloud_to_map, request_to_path;
+  // For each replan for a blocked trajectory: from the newest obstacles received before its request to the first
+  // trajectory received after it that answers it or a later request (a plan that could not be flown is asked again,
+  // and the vehicle flies the old trajectory until one answers).
+  LatencyStats obstacles_to_trajectory;
+  std::size_t replans_answered_later = 0;  // of them, answered by a later request's trajectory
+  // The parts of obstacles_to_trajectory, over the replans their own trajectory answered.
   LatencyStats replan_obstacles_to_request, replan_request_to_path, replan_path_to_trajectory;
 };
 
