@@ -61,6 +61,7 @@ Mission::Mission(const MissionConfig& config) : config_(config) {
   // The component checks its parameters with their names; this guards other callers.
   if (config_.max_plan_attempts < 1) throw std::invalid_argument("Mission: max_plan_attempts must be at least 1");
   if (!(config_.plan_retry_delay_s >= 0)) throw std::invalid_argument("Mission: plan_retry_delay_s must be >= 0");
+  if (!(config_.refused_retry_delay_s >= 0)) throw std::invalid_argument("Mission: refused_retry_delay_s must be >= 0");
   if (!(config_.time_budget_s > 0)) throw std::invalid_argument("Mission: time_budget_s must be positive");
   if (!(config_.replan_check_period_s > 0)) throw std::invalid_argument("Mission: replan_check_period_s must be positive");
 }
@@ -101,11 +102,11 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
 
 MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok) {
   if (!ok) {
-    // The first refusal in a row is asked again at once: a path refused for a collision on the tracker's world (a
-    // newer map than the planner's) is most often planned anew on that map, and the retry delay held such replans
-    // for a second of the mission (bugtrap_0.4, 2026-12-06: 2 of a mission's 6 replans). Further refusals in a row wait
-    // the delay, so that the attempts are not used up in a moment.
-    const double delay_s = ++refusals_in_a_row_ == 1 ? 0.0 : config_.plan_retry_delay_s;
+    // The first refusal in a row is asked again after refused_retry_delay_s (0 by default: at once): a path refused
+    // for a collision on the tracker's world (a newer map than the planner's) is most often planned anew on that map,
+    // and the retry delay held such replans for a second of the mission (bugtrap_0.4, 2026-12-06: 2 of a mission's 6
+    // replans). Further refusals in a row wait plan_retry_delay_s, so that the attempts are not used up in a moment.
+    const double delay_s = ++refusals_in_a_row_ == 1 ? config_.refused_retry_delay_s : config_.plan_retry_delay_s;
     return retryLater(now_ns, "no drivable trajectory after " + std::to_string(attempts_) + " attempts", "", delay_s);
   }
   refusals_in_a_row_ = 0;

@@ -2,6 +2,8 @@
 
 #include "ddsnav/tracker/vehicle.hpp"
 
+#include "ddsnav/planner/coarse_route.hpp"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -69,13 +71,36 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
   if (!(c.repair_distance >= 0.0) || !std::isfinite(c.repair_distance)) fail("repair_distance must be a number >= 0");
 }
 
+// The most time repairPath spends on lattice detours in one smoothing.
+constexpr double kDetourSearchS = 0.02;
+
+// The way round an edge from `a` to `b` (both free) that the world blocks further than a bridge near its middle mends:
+// the lattice route between them (planner::findCoarseRoute, within `left_s` of wall time, which it reduces), shortcut
+// (planner::pathAlongRoute): the points between a and b, or none. Such edges were planned on an older map than the
+// tracker's: a wall the planner had not seen yet cuts them (a jittered S-tunnel at speed 4, 2026-12-06: 8 of a
+// mission's 10 refused plans), and a refusal costs a new request.
+std::vector<Vec3> latticeDetour(const CollisionWorld& world, const Vec3& a, const Vec3& b, double& left_s) {
+  if (!(left_s > 1e-3)) return {};
+  planner::CoarseRouteOptions options;
+  options.time_limit_s = left_s;
+  const planner::CoarseRoute route = planner::findCoarseRoute(world, a, b, world.robotRadius(), options);
+  left_s -= route.time_s;
+  if (route.outcome != planner::CoarseRoute::Outcome::found) return {};
+  const std::vector<planner::State> path = planner::pathAlongRoute(world, route, planner::State{a, 0.0}, b, 0.0);
+  if (path.size() < 2 || (path.back().position - b).norm() > 1e-9) return {};
+  std::vector<Vec3> between;
+  for (std::size_t i = 1; i + 1 < path.size(); ++i) between.push_back(path[i].position);
+  return between;
+}
+
 // SmootherConfig::repair_distance: the states after the start that the world finds in collision are moved to the
 // nearest free position within max_move (with a quarter of it of clearance where that is as near), then an edge blocked
 // between two free points gets the nearest free position to the middle of its stretch in collision in between, when
-// both halves are free. Returns
+// both halves are free, else the lattice route between them (latticeDetour). Returns
 // how many points were moved or added; what it cannot mend is left for checkPathFree to refuse.
 std::size_t repairPath(std::vector<Vec3>& points, const CollisionWorld& world, double max_move) {
   if (!(max_move > 0.0)) return 0;
+  double lattice_left_s = kDetourSearchS;
   const double step = max_move / 6.0;
   const auto nearestFree = [&](const Vec3& p) { return planner::nearestFreePosition(world, p, max_move, step, 0.25 * max_move); };
   std::size_t repaired = 0;
@@ -105,6 +130,9 @@ std::size_t repairPath(std::vector<Vec3>& points, const CollisionWorld& world, d
       if (around && world.isSegmentFree(a, *around) && world.isSegmentFree(*around, b)) {
         bridged.push_back(*around);
         ++repaired;
+      } else if (const auto detour = latticeDetour(world, a, b, lattice_left_s); !detour.empty()) {
+        bridged.insert(bridged.end(), detour.begin(), detour.end());
+        repaired += detour.size();
       }
     }
     bridged.push_back(b);

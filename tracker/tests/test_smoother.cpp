@@ -400,6 +400,25 @@ TEST(Smoother, AMovingStartInACorridorLeadsInAlongTheFlownTrajectory) {
   EXPECT_DOUBLE_EQ(smoothPath(path, *world, l, cfg).samples.front().speed, 0.0);
 }
 
+// An edge a whole wall now cuts (planned on a map that had not seen it) is neither moved off nor bridged near its
+// middle within the repair distance: the lattice route round the wall's end mends it; with no way round it is refused.
+TEST(Smoother, AnEdgeAWallCutsIsMendedByTheWayRoundIt) {
+  const auto path = pathOf({{5, 10, 0}, {25, 10, 0}});
+  const auto l = limits(1.0, 1.0);
+  SmootherConfig cfg;
+  cfg.repair_distance = 0.5;
+  const auto open = ddsnav::planner::makeScenarioWorld(scenario2d(40, 0.5, "  - {type: box, min: [14, 2], max: [16, 16]}\n"));
+  const Trajectory t = smoothPath(path, *open, l, cfg);
+  EXPECT_GE(t.report.repaired_waypoints, 1u);
+  for (const auto& s : t.samples) EXPECT_TRUE(open->isFree(s.position)) << s.position.transpose();
+  EXPECT_GT(t.report.length, 20.0 + 2.0);  // round the wall's end at y = 16
+  cfg.repair_distance = 0.0;
+  EXPECT_THROW(smoothPath(path, *open, l, cfg), SmoothingError);
+  cfg.repair_distance = 0.5;
+  const auto closed = ddsnav::planner::makeScenarioWorld(scenario2d(40, 0.5, "  - {type: box, min: [14, 0], max: [16, 40]}\n"));
+  EXPECT_THROW(smoothPath(path, *closed, l, cfg), SmoothingError);
+}
+
 // A slow moving start with an obstacle 4.5 m ahead: no lead-in fits the full-speed turn radius (8 m), but the
 // vehicle turns tighter at its own speed, so the trajectory still starts moving instead of at rest.
 TEST(Smoother, ASlowMovingStartTurnsAtItsOwnSpeedsRadius) {

@@ -47,6 +47,7 @@ class TrackerComponent : public runtime::Component {
     double control_rate_hz, time_budget_s;
     std::int64_t seed, max_plan_attempts;
     double plan_retry_delay_s;
+    double refused_retry_delay_s;
     bool wait_for_world;
     double replan_check_period_s;
     tracker::ReplanPolicy replan;
@@ -75,7 +76,12 @@ class TrackerComponent : public runtime::Component {
           seed(p.declare<std::int64_t>("seed", 1, {.doc = "seed of the first request (the n-th asks seed + n - 1)"})),
           max_plan_attempts(p.declare<std::int64_t>("max_plan_attempts", 10, {.min = 1, .doc = "failed plans in a row before giving up"})),
           plan_retry_delay_s(p.declare<double>("plan_retry_delay_s", 1.0, {.min = 0, .unit = "s", .doc = "pause before asking again after a failed plan, or after the second path in a row "
-                                                             "that could not be smoothed (the first is asked again at once)"})),
+                                                             "that could not be smoothed (refused_retry_delay_s: the first)"})),
+          refused_retry_delay_s(p.declare<double>(
+              "refused_retry_delay_s", 0.0,
+              {.min = 0, .max = 3600, .unit = "s",
+               .doc = "pause before asking again after the first path in a row that could not be smoothed (a collision on the tracker's "
+                      "newer map; docs/tracking.md)"})),
           wait_for_world(p.declare<bool>("wait_for_world", true, {.doc = "the first request waits for the planner's world"})),
           replan_check_period_s(p.declare<double>("replan_check_period_s", 0.1, {.above = 0, .unit = "s", .doc = "how often the rest of the trajectory is checked"})) {
       replan.confirm_checks = static_cast<int>(p.declare<std::int64_t>(
@@ -224,6 +230,7 @@ class TrackerComponent : public runtime::Component {
     c.goal_radius = scenario_.goal_radius;
     c.max_plan_attempts = params_.max_plan_attempts;
     c.plan_retry_delay_s = params_.plan_retry_delay_s;
+    c.refused_retry_delay_s = params_.refused_retry_delay_s;
     c.time_budget_s = params_.time_budget_s;
     c.replan_check_period_s = params_.replan_check_period_s;
     c.wait_for_world = params_.wait_for_world;
