@@ -102,7 +102,7 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
 
 MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok) {
   if (!ok) {
-    // The first refusal in a row is asked again after refused_retry_delay_s (0 by default: at once): a path refused
+    // The first refusal in a row is asked again after refused_retry_delay_s (0 here, 0.2 s in the component): a path refused
     // for a collision on the tracker's world (a newer map than the planner's) is most often planned anew on that map,
     // and the retry delay held such replans for a second of the mission (bugtrap_0.4, 2026-12-06: 2 of a mission's 6
     // replans). Further refusals in a row wait plan_retry_delay_s, so that the attempts are not used up in a moment.

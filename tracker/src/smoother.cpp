@@ -94,7 +94,8 @@ std::vector<Vec3> latticeDetour(const CollisionWorld& world, const Vec3& a, cons
 }
 
 // SmootherConfig::repair_distance: the states after the start that the world finds in collision are moved to the
-// nearest free position within max_move (with a quarter of it of clearance where that is as near), then an edge blocked
+// nearest free position within max_move (with a quarter of it of clearance where that is as near), or, deeper in, left
+// out (but the last), then an edge blocked
 // between two free points gets the nearest free position to the middle of its stretch in collision in between, when
 // both halves are free, else the lattice route between them (latticeDetour). Returns
 // how many points were moved or added; what it cannot mend is left for checkPathFree to refuse.
@@ -104,13 +105,20 @@ std::size_t repairPath(std::vector<Vec3>& points, const CollisionWorld& world, d
   const double step = max_move / 6.0;
   const auto nearestFree = [&](const Vec3& p) { return planner::nearestFreePosition(world, p, max_move, step, 0.25 * max_move); };
   std::size_t repaired = 0;
+  std::vector<Vec3> kept{points.front()};
   for (std::size_t i = 1; i < points.size(); ++i) {
-    if (world.isFree(points[i])) continue;
-    if (const auto moved = nearestFree(points[i])) {
-      points[i] = *moved;
+    if (world.isFree(points[i])) {
+      kept.push_back(points[i]);
+    } else if (const auto moved = nearestFree(points[i])) {
+      kept.push_back(*moved);
       ++repaired;
+    } else if (i + 1 == points.size()) {
+      kept.push_back(points[i]);  // the end stays: refused below
+    } else {
+      ++repaired;  // deeper in than max_move (a wall the planner had not seen): the edges round it are mended below
     }
   }
+  points = std::move(kept);
   std::vector<Vec3> bridged{points.front()};
   for (std::size_t i = 1; i < points.size(); ++i) {
     const Vec3 a = bridged.back();

@@ -589,12 +589,17 @@ TEST(Smoother, StatesAndEdgesJustInCollisionAreRepairedWithinTheDistance) {
   EXPECT_GE(bridged.report.repaired_waypoints, 1u);
   expectDrivable(bridged, *world, limits(), repair);
 
-  // Half a metre deep: beyond the distance, refused, and the error names the state.
+  // Half a metre deep, beyond the distance: the state is left out and the path goes on between its neighbours.
+  const Trajectory left_out = smoothPath(pathOf({{2, 5, 0}, {5.5, 5, 0}, {2, 9, 0}}), *world, limits(), repair);
+  EXPECT_EQ(left_out.report.repaired_waypoints, 1u);
+  expectDrivable(left_out, *world, limits(), repair);
+  for (const auto& s : left_out.samples) EXPECT_LT(s.position.x(), 4.7) << s.position.transpose();
+  // The last state is where the path must end: refused, and the error names it.
   try {
-    smoothPath(pathOf({{2, 5, 0}, {5.5, 5, 0}, {2, 9, 0}}), *world, limits(), repair);
-    ADD_FAILURE() << "a state 0.8 m inside the inflated box was repaired";
+    smoothPath(pathOf({{2, 5, 0}, {2, 9, 0}, {5.5, 5, 0}}), *world, limits(), repair);
+    ADD_FAILURE() << "a path ending 0.8 m inside the inflated box was repaired";
   } catch (const SmoothingError& e) {
-    EXPECT_NE(std::string(e.what()).find("path state 1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("path state 2"), std::string::npos) << e.what();
   }
   SmootherConfig bad;
   bad.repair_distance = -1.0;

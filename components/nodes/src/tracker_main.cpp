@@ -77,8 +77,11 @@ class TrackerComponent : public runtime::Component {
           max_plan_attempts(p.declare<std::int64_t>("max_plan_attempts", 10, {.min = 1, .doc = "failed plans in a row before giving up"})),
           plan_retry_delay_s(p.declare<double>("plan_retry_delay_s", 1.0, {.min = 0, .unit = "s", .doc = "pause before asking again after a failed plan, or after the second path in a row "
                                                              "that could not be smoothed (refused_retry_delay_s: the first)"})),
+          // One period of the mapper's default publish rate (5 Hz): a path refused on the tracker's newer map is planned
+          // anew only once the planner has that map too; asked at once, stunnel_1.0's planner answered with the same path
+          // 28 ms later, refused again, and the vehicle stopped (failed_ahead).
           refused_retry_delay_s(p.declare<double>(
-              "refused_retry_delay_s", 0.0,
+              "refused_retry_delay_s", 0.2,
               {.min = 0, .max = 3600, .unit = "s",
                .doc = "pause before asking again after the first path in a row that could not be smoothed (a collision on the tracker's "
                       "newer map; docs/tracking.md)"})),

@@ -21,6 +21,7 @@ struct MissionConfig {
   std::int64_t max_plan_attempts = 10; // requests (answered or not) without a drivable trajectory before giving up
   double plan_retry_delay_s = 1.0;     // s between a failed plan (or a second refused path in a row) and the next request
   double refused_retry_delay_s = 0.0;  // s between the first path in a row that could not be smoothed and the next request
+                                       // (the component's default: 0.2 s, a map period)
   double time_budget_s = 5.0;          // s the planner may take per request
   double replan_check_period_s = 0.5;  // s of driving between two replan checks
   bool wait_for_world = true;          // no first request before the planner's world exists
