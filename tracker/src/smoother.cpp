@@ -13,6 +13,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 namespace ddsnav::tracker {
@@ -83,10 +84,16 @@ std::vector<Vec3> latticeDetour(const CollisionWorld& world, const Vec3& a, cons
   if (!(left_s > 1e-3)) return {};
   planner::CoarseRouteOptions options;
   options.time_limit_s = left_s;
-  const planner::CoarseRoute route = planner::findCoarseRoute(world, a, b, world.robotRadius(), options);
-  left_s -= route.time_s;
-  if (route.outcome != planner::CoarseRoute::Outcome::found) return {};
-  const std::vector<planner::State> path = planner::pathAlongRoute(world, route, planner::State{a, 0.0}, b, 0.0);
+  planner::CoarseRoute route;
+  std::vector<planner::State> path;
+  try {
+    route = planner::findCoarseRoute(world, a, b, world.robotRadius(), options);
+    left_s -= route.time_s;
+    if (route.outcome != planner::CoarseRoute::Outcome::found) return {};
+    path = planner::pathAlongRoute(world, route, planner::State{a, 0.0}, b, 0.0);
+  } catch (const std::invalid_argument&) {
+    return {};  // a world the lattice cannot span (its bounds): no detour, the edge is refused as before
+  }
   if (path.size() < 2 || (path.back().position - b).norm() > 1e-9) return {};
   std::vector<Vec3> between;
   for (std::size_t i = 1; i + 1 < path.size(); ++i) between.push_back(path[i].position);

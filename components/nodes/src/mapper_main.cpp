@@ -121,7 +121,7 @@ class MapperComponent : public runtime::Component {
 
   void shutdown() override {
     clouds_ = bus::Subscription();  // no more insertions while saving
-    publishIfChanged(/*within_export_share=*/false);  // the last map, whatever the last export took
+    publishIfChanged(/*limited=*/false);  // the last map, whatever the last export took and whenever the last went out
     if (params_.save_path.empty() || !map_) return;
     const auto dir = std::filesystem::path(params_.save_path).parent_path();
     if (!dir.empty()) std::filesystem::create_directories(dir);
@@ -158,15 +158,16 @@ class MapperComponent : public runtime::Component {
     if (clock().nowNs() >= next_publish_ns_) publishIfChanged();
   }
 
-  void publishIfChanged(bool within_export_share = true) {
+  // `limited`: at most once a publish period, and within the export share.
+  void publishIfChanged(bool limited = true) {
     if (!map_ || !map_->changedSinceExport()) return;
     const std::int64_t now_ns = clock().nowNs();
-    if (within_export_share && now_ns < next_publish_ns_) return;  // published by a cloud within the period
+    if (limited && now_ns < next_publish_ns_) return;  // one went out within the period
     // Exporting walks the whole tree (a 3-D terrain map: 0.1-0.4 s of wall time); on a clock run faster than real
     // time the publish period in wall time shrinks with it, and the exports alone took the mapper's core. At most
     // export_share of the wall time goes to them: the next one waits for the last one's time / export_share.
     const auto started = std::chrono::steady_clock::now();
-    if (within_export_share && started < next_export_) return;
+    if (limited && started < next_export_) return;
     const auto exported = map_->exportMap();
     const auto took = std::chrono::steady_clock::now() - started;
     next_export_ = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(took / params_.export_share);

@@ -354,8 +354,8 @@ class TrackerComponent : public runtime::Component {
     smoother_config_.initial_heading = request_heading_;
     smoother_config_.initial_speed = request_speed_;
     smoother_config_.initial_vz = request_vz_;
-    // A replan ahead may lead in along the trajectory the vehicle flies (SmootherConfig::lead_in_path), as far as the
-    // longest straight lead-in reaches.
+    // A replan ahead may lead in along the trajectory the vehicle flies (SmootherConfig::lead_in_path): a little farther
+    // than the longest straight lead-in (twice the turn radius) reaches.
     smoother_config_.lead_in_path.clear();
     if (switch_at_ && follower_ && request_speed_ > 0.0) {
       const double reach = 2.5 * limits_.v_max / limits_.omega_max + 1.0;
