@@ -149,6 +149,17 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
     const std::uint64_t answers = digest(*world);
     const double ns_per_query = 1e9 * secondsSince(queried) / (64.0 * 64.0 * 64.0);
     std::printf("| %s | %.1f | %016llx | %.0f |\n", name, ms, static_cast<unsigned long long>(answers), ns_per_query);
+    if (route.size() == 6 && dims == 2 && options.unknown_margin_m > 0.0) {
+      // The seen surfaces continued out of sight from the route's start (the planner's preferred world, 15 m): on a
+      // fresh world, where finding the surfaces' ends is part of it, then once more from the route's end.
+      const auto continued_started = Clock::now();
+      const auto from_start = ddsnav::planner::occludedSurfaceContinuation(*world, Vec3(route[0], route[1], 0.0), 15.0);
+      const double first_ms = 1e3 * secondsSince(continued_started);
+      const auto again_started = Clock::now();
+      const auto from_end = ddsnav::planner::occludedSurfaceContinuation(*world, Vec3(route[3], route[4], 0.0), 15.0);
+      std::printf("|   seen surfaces continued out of sight: %zu cells in %.1f ms on a fresh world, %zu from another viewpoint in %.1f ms | | | |\n",
+                  from_start.cells.size(), first_ms, from_end.cells.size(), 1e3 * secondsSince(again_started));
+    }
     if (route.size() == 6) {
       ddsnav::planner::CoarseRouteOptions lattice;
       lattice.time_limit_s = 60.0;

@@ -345,7 +345,6 @@ class OctoMapWorld final : public CollisionWorld {
     // Only a 2-D map that loaded its free leaves knows which cells were never observed.
     if (!knowsUnobserved() || !viewpoint.allFinite() || !(max_length > 0.0)) return out;
     const auto observedOccupied = [&](std::int64_t x, std::int64_t y) { return this->observedOccupied({x, y, 0}); };
-    const auto observed = [&](std::int64_t x, std::int64_t y) { return this->observed(x, y); };
     // In cells; a viewpoint outside the bounds is taken at the nearest point inside (the walks stay bounded).
     const double vx = std::clamp(viewpoint.x(), bmin_.x(), bmax_.x()) * factor_, vy = std::clamp(viewpoint.y(), bmin_.y(), bmax_.y()) * factor_;
     // Whether the straight line from the centre of cell (x, y) to the viewpoint is blocked: the cells a grid walk

@@ -499,6 +499,16 @@ std::optional<std::vector<Vec3>> brakingLeadIn(const std::vector<Vec3>& points, 
   return std::nullopt;
 }
 
+// The corner a lead-in makes between directions `a` and `b`, rad. The turn radius bounds horizontal turns (omega); a
+// change of climb is the vertical rate's business, left to the time parametrisation. So in 3-D the corner is measured
+// in the horizontal plane: the 3-D angle counted a hillside's 20 degrees of climb as a turn, and every short lead-in
+// of a climbing UAV was "too tight".
+double leadInCorner(const Vec3& a, const Vec3& b, int dims) {
+  Vec3 u = a, w = b;
+  if (dims == 3 && std::hypot(u.x(), u.y()) > 1e-6 && std::hypot(w.x(), w.y()) > 1e-6) u.z() = 0.0, w.z() = 0.0;
+  return std::acos(std::clamp(u.normalized().dot(w.normalized()), -1.0, 1.0));
+}
+
 // A lead-in along `along` (SmootherConfig::lead_in_path; its first point is the start): half a piece along `heading`
 // (a unit vector), then the first `l` metres of `along`, for l from `length` down to 0.5 m (x 0.7), kept a metre or a sixth of
 // l apart, whose edges are free with the clearance a straight lead-in needs or their ends' where less, joined to the path
@@ -570,7 +580,7 @@ std::optional<std::pair<std::vector<Vec3>, double>> leadInAlong(const std::vecto
     for (const Join& join : joins) {
       const Vec3 onward = join.at - end;
       if (onward.norm() < 1e-6 || onward.dot(direction) <= 0.0) continue;  // behind the lead-in's end
-      const auto corner = [](const Vec3& a, const Vec3& b) { return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)); };
+      const auto corner = [&](const Vec3& a, const Vec3& b) { return leadInCorner(a, b, world.dimensions()); };
       const double first_corner = corner(direction, onward);
       // A join on an edge makes a second corner there, onto the edge.
       const bool on_edge = (join.at - points[join.tail]).norm() > 1e-9;
@@ -620,15 +630,7 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
   if (std::isfinite(climb) && std::abs(climb) > 1e-3) directions.push_back(Vec3(std::cos(heading), std::sin(heading), climb).normalized());
   directions.push_back(Vec3(std::cos(heading), std::sin(heading), 0.0));
   const Vec3& start = points.front();
-  // The turn radius bounds horizontal turns (omega); a change of climb is the vertical rate's business, left to the
-  // time parametrisation. So in 3-D the corner is measured in the horizontal plane: the 3-D angle counted a
-  // hillside's 20 degrees of climb as a turn, and every short lead-in of a climbing UAV was "too tight".
-  const bool three_d = world.dimensions() == 3;
-  auto cornerAngle = [&](const Vec3& a, const Vec3& b) {
-    Vec3 u = a, w = b;
-    if (three_d && std::hypot(u.x(), u.y()) > 1e-6 && std::hypot(w.x(), w.y()) > 1e-6) u.z() = 0.0, w.z() = 0.0;
-    return std::acos(std::clamp(u.normalized().dot(w.normalized()), -1.0, 1.0));
-  };
+  const auto cornerAngle = [&](const Vec3& a, const Vec3& b) { return leadInCorner(a, b, world.dimensions()); };
   // Steps of 0.7: between "blocked" (too long) and "too tight" (too short) the halving often had no length left.
   for (double l = length; l >= std::min(0.5, length) - 1e-9; l *= 0.7) {
     for (const Vec3& direction : directions) {
