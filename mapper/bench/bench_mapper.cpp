@@ -108,7 +108,8 @@ int queryMismatches(const octomap::OcTree& a, const octomap::OcTree& b, int poin
 // With `route` (x0 y0 z0 x1 y1 z1), also the lattice route search between the two points on each world (the planner's
 // per-request search, docs/planners.md "Lattice routes"), without its time limit.
 // With a scenario too, gart-lazy from the route's start to its end, seeds 1-10, with the route as its guide and without.
-int timeWorldBuilds(const std::string& path, const std::vector<double>& route, const std::string& scenario_path, double wall_cost) {
+int timeWorldBuilds(const std::string& path, const std::vector<double>& route, const std::string& scenario_path, double wall_cost,
+                    int smoothings, bool samplers) {
   std::ifstream in(path, std::ios::binary);
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
   octomap::OcTree tree(0.1);
@@ -183,13 +184,13 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
                     least_clearance, shortcut_ms);
         if (scenario && scenario->vehicle && path.size() >= 2) {
           // Smoothed as the tracker component smooths a plan (its defaults: 1 m clearance target, repairs within the
-          // robot radius), 5 times: the path -> trajectory share of a replan's latency.
+          // robot radius), --smoothings times (5): the path -> trajectory share of a replan's latency.
           ddsnav::tracker::SmootherConfig smoothing;
           smoothing.clearance_target = 1.0;
           smoothing.repair_distance = scenario->robot_radius;
           std::vector<double> smooth_ms;
           std::string outcome_text;
-          for (int i = 0; i < 5; ++i) {
+          for (int i = 0; i < smoothings; ++i) {
             const auto smoothing_started = Clock::now();
             try {
               const auto trajectory = ddsnav::tracker::smoothPath(path, *world, *scenario->vehicle, smoothing);
@@ -201,11 +202,11 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
             smooth_ms.push_back(1e3 * secondsSince(smoothing_started));
           }
           std::sort(smooth_ms.begin(), smooth_ms.end());
-          std::printf("|   smoothed as the tracker does: %s; ms median %.1f, max %.1f | | | |\n", outcome_text.c_str(), smooth_ms[2],
+          std::printf("|   smoothed as the tracker does: %s; ms median %.1f, max %.1f | | | |\n", outcome_text.c_str(), smooth_ms[smooth_ms.size() / 2],
                       smooth_ms.back());
         }
       }
-      if (scenario) {
+      if (scenario && samplers) {
         // As the planner component queries it (`world: fused`): the map beside perception's ellipses, here none.
         const auto fused = ddsnav::planner::makeFusedWorld(
             world, ddsnav::planner::makeEllipsoidWorld(dims, world->boundsMin(), world->boundsMax(), 0.5, {}));
@@ -410,8 +411,13 @@ int main(int argc, char** argv) {
   double wall_cost = ddsnav::planner::CoarseRouteOptions{}.wall_cost;
   app.add_option("--wall-cost", wall_cost, "with --route: the lattice's extra cost of a move near a wall (CoarseRouteOptions::wall_cost)")
       ->check(CLI::Range(0.0, 100.0));
+  int smoothings = 5;
+  app.add_option("--smoothings", smoothings, "with --route-scenario: how many times the route path is smoothed (more for a profiler)")
+      ->check(CLI::Range(1, 100'000));
+  bool no_samplers = false;
+  app.add_flag("--no-samplers", no_samplers, "with --route-scenario: leave out the gart-lazy runs (a profiler's view of the rest)");
   CLI11_PARSE(app, argc, argv);
-  if (!world_map.empty()) return timeWorldBuilds(world_map, route, route_scenario, wall_cost);
+  if (!world_map.empty()) return timeWorldBuilds(world_map, route, route_scenario, wall_cost, smoothings, !no_samplers);
   if (ring_gaps) return timeRingGaps(scans, resolutions.front(), max_range, first_seed);
   if (planar_corridor) return timePlanarCorridor(scans);
 

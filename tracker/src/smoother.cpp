@@ -69,6 +69,7 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
   if (c.initial_heading && !std::isfinite(*c.initial_heading)) fail("initial_heading must be finite");
   if (!(c.end_tolerance >= 0.0) || !std::isfinite(c.end_tolerance)) fail("end_tolerance must be a number >= 0");
   if (!(c.lead_in_decel >= 0.0) || !std::isfinite(c.lead_in_decel)) fail("lead_in_decel must be a number >= 0");
+  if (!(c.short_braking_m >= 0.0) || !std::isfinite(c.short_braking_m)) fail("short_braking_m must be a number >= 0");
   if (!(c.repair_distance >= 0.0) || !std::isfinite(c.repair_distance)) fail("repair_distance must be a number >= 0");
 }
 
@@ -970,7 +971,8 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
     const double stop = path_speed * path_speed / (2 * std::max(config.lead_in_decel, config.max_accel));
     // Below 0.1 m a stop is no lead-in: starting at rest overshoots the start by no more (the tracker flies such a
     // start from a moving vehicle below 0.5 m/s).
-    const double braking_length = config.lead_in_decel > 0 && stop > 0.1 ? 1.25 * stop + 0.3 : 0.0;
+    const bool may_brake = config.lead_in_decel > 0 || stop <= config.short_braking_m;
+    const double braking_length = may_brake && stop > 0.1 ? 1.25 * stop + 0.3 : 0.0;
     bool braking = false;
     points = leadIn(points, *config.initial_heading, climb, std::max(2 * radius, 1.0), lead_radius, braking_length,
                     config.clearance_target, world, config.shortcut_clearance, config.lead_in_path, traj.report.lead_in_failure, braking,

@@ -529,6 +529,33 @@ TEST(Smoother, AMovingStartWhosePathTurnsBackBrakesAlongItsHeading) {
   EXPECT_DOUBLE_EQ(at_rest.report.lead_in_braking, 0.0);
 }
 
+// Without lead_in_decel a stop no longer than short_braking_m still brakes (at max_accel) where no lead-in fits at
+// speed; a longer one is refused as before (the trajectory starts at rest).
+TEST(Smoother, AShortStopBrakesWithoutLeadInDecel) {
+  const auto sc = scenario2d(60, 0.3, "");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = limits(5.0, 0.6);
+  const auto path = pathOf({{20, 20, 0}, {14, 24, 0}, {5, 40, 0}});  // turns back
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;
+  cfg.initial_speed = 1.2;  // a stop of 0.72 m at 1 m/s^2
+  cfg.short_braking_m = 1.0;
+  const Trajectory braking = smoothPath(path, *world, l, cfg);
+  expectMovingStart(braking, *world, l, 1.2, 0.0);
+  EXPECT_NEAR(braking.report.lead_in_braking, 1.25 * 1.44 / 2.0 + 0.3, 1e-9);
+  for (std::size_t i = 1; i < braking.samples.size(); ++i) {
+    const auto& a = braking.samples[i - 1];
+    const auto& b = braking.samples[i];
+    EXPECT_LE((a.speed - b.speed) / (b.time - a.time), cfg.max_accel + 1e-6) << "t=" << b.time;
+  }
+  cfg.initial_speed = 2.0;  // a stop of 2 m: longer than short_braking_m
+  const Trajectory refused = smoothPath(path, *world, l, cfg);
+  EXPECT_DOUBLE_EQ(refused.samples.front().speed, 0.0);
+  EXPECT_DOUBLE_EQ(refused.report.lead_in_braking, 0.0);
+  cfg.short_braking_m = -1.0;
+  EXPECT_THROW(smoothPath(path, *world, l, cfg), SmoothingError);
+}
+
 // No room to brake along the heading (a wall 2 m ahead of a vehicle at 3 m/s): no braking lead-in either, the
 // trajectory starts at rest and says why.
 TEST(Smoother, ABrakingLeadInNeedsRoomToStop) {

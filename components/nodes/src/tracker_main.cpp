@@ -60,7 +60,8 @@ class TrackerComponent : public runtime::Component {
     double observed_hold_s;
     std::optional<double> observed_crawl_speed;  // default: a stop from it takes a quarter of the robot radius
     std::optional<double> repair_distance;       // default: the robot radius
-    std::optional<double> catch_up_decel;  // default: the smoother's max_accel in 2-D, off in 3-D
+    std::optional<double> catch_up_decel;   // default: the smoother's max_accel in 2-D, off in 3-D
+    std::optional<double> short_braking_m;  // default: the robot's diameter
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
           planner(p.declare<std::string>("planner", "gart-lazy", {.doc = "planner asked for in each request (docs/planners.md)"})),
@@ -113,7 +114,7 @@ class TrackerComponent : public runtime::Component {
       piece_length_m = p.declareOptional<double>(
           "piece_length_m", {.min = 0, .max = 1e6, .unit = "m",
                              .doc = "a path longer than 1.5 x this is smoothed and flown a piece this long at a time, the next piece smoothed "
-                                    "when half of one is flown (docs/tracking.md); default: the larger of 200 m and 2 x the replan horizon "
+                                    "when half of one is flown (docs/tracking.md); default: the larger of 100 m and 2 x the replan horizon "
                                     "distance; 0: the whole path at once"});
       max_decel = p.declare<double>("max_decel", 2.0,
                                     {.above = 0, .max = 1000, .unit = "m/s^2",
@@ -148,6 +149,11 @@ class TrackerComponent : public runtime::Component {
           {.min = 0, .max = 1000, .unit = "m/s^2",
            .doc = "deceleration of a braking lead-in, the stop along the heading a plan that cannot be flown through at speed may start "
                   "with (docs/tracking.md); 0: none, such a plan is refused"});
+      short_braking_m = p.declareOptional<double>(
+          "short_braking_m", {.min = 0, .max = 1000, .unit = "m",
+                              .doc = "without lead_in_decel, a plan that cannot be flown through at speed still starts with a braking "
+                                     "lead-in (at the smoother's max_accel) when that stop is at most this long, instead of being "
+                                     "refused (docs/tracking.md); default: the robot's diameter; 0: only with lead_in_decel"});
       // A plan whose state or edge is in collision on the tracker's world was refused and asked again a retry delay later:
       // 12 and 9 such refusals in the two arms of eight 2-D missions each (2026-12-06). The two worlds differ: the tracker's
       // may be built from a newer map, and it is seen from the path's start.
@@ -177,9 +183,13 @@ class TrackerComponent : public runtime::Component {
         mission_(missionConfig()),
         replan_gate_(params_.replan),
         tracker_config_(trackerConfig()),
-        piece_length_m_(params_.piece_length_m.value_or(std::max(200.0, 2.0 * tracker_config_.replan_horizon_distance))),
+        // Twice the horizon: half a piece, when the next is smoothed, still reaches as far as the replan check looks. The
+        // 100 m floor keeps paths that smooth in a few milliseconds whole; the floor was 200 m until 2026-12-06, and a
+        // 300 m path on a 110 m paper world took 50-120 ms to smooth at real time (stunnel_0.5), most of a replan's wait.
+        piece_length_m_(params_.piece_length_m.value_or(std::max(100.0, 2.0 * tracker_config_.replan_horizon_distance))),
         observed_crawl_speed_(params_.observed_crawl_speed.value_or(std::sqrt(2 * comfortableDecel() * 0.25 * scenario_.robot_radius))) {
     smoother_config_.repair_distance = params_.repair_distance.value_or(scenario_.robot_radius);
+    smoother_config_.short_braking_m = params_.short_braking_m.value_or(2.0 * scenario_.robot_radius);
     spdlog::info("replan check: {:.1f} s or {:.1f} m of the trajectory ahead, whichever reaches farther", tracker_config_.replan_horizon,
                  tracker_config_.replan_horizon_distance);
     if (piece_length_m_ > 0) spdlog::info("paths longer than {:.0f} m are smoothed and flown {:.0f} m at a time", 1.5 * piece_length_m_, piece_length_m_);

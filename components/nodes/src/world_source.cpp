@@ -168,9 +168,21 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
     // ms) that doing it on the executor held up the planner's requests and the tracker's control loop. A
     // newer map supersedes one still waiting to be built.
     map_sub_ = ctx.subscribe(runtime::topics::octomap, [this, &ctx](const msg::OccupancyMap& m) {
-      map_worker_.submit(0, [this, m, &ctx](std::stop_token stop) {
+      std::uint64_t number = 0;
+      {
+        std::lock_guard lock(mutex_);
+        number = ++maps_received_;
+      }
+      map_worker_.submit(0, [this, m, &ctx, number](std::stop_token stop) {
+        if (stop.stop_requested()) return;
+        const bool built = buildMap(m);
+        {
+          std::lock_guard lock(mutex_);
+          maps_settled_ = std::max(maps_settled_, number);  // a map it superseded is settled with it
+        }
+        map_settled_.notify_all();
         // on_map_ is read on the executor, where it is set (as on_obstacles_ is), not here.
-        if (!stop.stop_requested() && buildMap(m)) ctx.executor().post([this] {
+        if (built) ctx.executor().post([this] {
           if (on_map_) on_map_();
         });
       });
@@ -220,6 +232,14 @@ std::shared_ptr<const planner::CollisionWorld> WorldSource::observedSpace() cons
   if (!keep_observed_free_) return nullptr;
   std::lock_guard lock(mutex_);
   return map_world_;
+}
+
+double WorldSource::waitForMapsReceived(std::chrono::milliseconds max_wait) const {
+  const auto began = std::chrono::steady_clock::now();
+  std::unique_lock lock(mutex_);
+  const std::uint64_t wanted = maps_received_;
+  map_settled_.wait_for(lock, max_wait, [&] { return maps_settled_ >= wanted; });
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
 }
 
 bool WorldSource::hasPreferredWorld() const {
