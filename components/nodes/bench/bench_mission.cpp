@@ -72,7 +72,12 @@ pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
   return pid;
 }
 
-// Waits for `pid` until `deadline`; then SIGINT, and SIGKILL 10 s later. Returns the wait status.
+// Set by SIGINT / SIGTERM: the run in progress is ended as at its deadline (its launch and recorder stopped, not left
+// behind as orphans), and no further scenario is started.
+volatile sig_atomic_t stop_requested = 0;
+extern "C" void onStopSignal(int) { stop_requested = 1; }
+
+// Waits for `pid` until `deadline` (or a stop signal); then SIGINT, and SIGKILL 10 s later. Returns the wait status.
 int waitUntil(pid_t pid, std::chrono::steady_clock::time_point deadline) {
   int status = 0;
   bool interrupted = false;
@@ -81,7 +86,7 @@ int waitUntil(pid_t pid, std::chrono::steady_clock::time_point deadline) {
     if (done == pid) return status;
     if (done < 0) return -1;
     const auto now = std::chrono::steady_clock::now();
-    if (now > deadline && !interrupted) {
+    if ((now > deadline || stop_requested) && !interrupted) {
       ::kill(pid, SIGINT);
       interrupted = true;
       deadline = now + std::chrono::seconds(10);
@@ -269,8 +274,16 @@ int main(int argc, char** argv) {
     for (const auto& name : kDefaultScenarios) scenarios.push_back(configs + "/scenarios/" + name + ".yaml");
 
   const std::string bin = binDir();
+  struct sigaction on_stop {};
+  on_stop.sa_handler = onStopSignal;
+  ::sigaction(SIGINT, &on_stop, nullptr);
+  ::sigaction(SIGTERM, &on_stop, nullptr);
   nlohmann::json results = nlohmann::json::array();
   for (const auto& file : scenarios) {
+    if (stop_requested) {
+      spdlog::warn("stopped by a signal: {} scenario(s) not run", scenarios.size() - results.size());
+      break;
+    }
     nlohmann::json row;
     row["scenario_file"] = file;
     if (!sets.empty()) row["sets"] = sets;

@@ -116,9 +116,9 @@ class PlannerComponent : public runtime::Component {
               {.doc = "search the plain map on a thread of its own (at a lower priority) while the worlds tried before it "
                       "(preferred_worlds_s) are searched, and answer with it at once when they find nothing; false: after them"})),
           map_wait_s(p.declare<double>(
-              "map_wait_s", 0.1,
+              "map_wait_s", 0.05,
               {.min = 0, .max = 10, .unit = "s",
-               .doc = "a request waits at most this long (wall time) for the maps received before it to be built into the world: the "
+               .doc = "a request waits at most this long (wall time) for the maps received before it to be built into the plain world: the "
                       "tracker asks for a replan as soon as it has checked a new map, which the planner may still be building "
                       "(docs/world-model.md); 0: plan on the world as it is"})),
           planner_options(p.declare<std::vector<std::string>>("planner_options", {},
@@ -353,10 +353,19 @@ class PlannerComponent : public runtime::Component {
       if (room < 0.01) break;
       const double share = std::min(tier->share(budget - spent), room);
       Skipped skipped = Skipped::no;
+      const bool stale = world_source_.preferredIsStale();  // before its snapshot: then it was planned on an older map
       auto result = attempt(request, algorithm, stop, tier->preferred, tier->continued ? hidden_continuation_m_ : 0.0, share, &skipped);
       if (!result) return std::nullopt;  // answered (failed)
       if (result->stopped) return answeredStopped();
       if (result->solved) {
+        if (const auto crossing = stale ? crossesNewestMap(request, *result) : std::nullopt) {
+          // Planned on an older map's preferred world (the newest one's was still being built): what the tracker would
+          // refuse is not answered (docs/world-model.md, "A request waits for the map it was asked on").
+          spdlog::info("request {}: the path {} crosses what the newest map holds at {}; trying the next world", request.request_id(),
+                       tier->what, *crossing);
+          spent += result->stats.time_s;
+          continue;
+        }
         tier->solved(result->stats.time_s);
         if (plain) plain->thread.request_stop();
         return result;
@@ -377,6 +386,25 @@ class PlannerComponent : public runtime::Component {
     }
     if (stop.stop_requested() || !result || result->stopped) return answeredStopped();
     return result;
+  }
+
+  // Where the path of a world tried before the plain map is blocked on the plain world of the newest map (the edge), or
+  // nothing: the preferred worlds may still be the previous map's (WorldSource::buildMap), and the tracker checks the
+  // path on the newest.
+  std::optional<std::string> crossesNewestMap(const msg::PlanRequest& request, const planner::PlanResult& result) const {
+    std::unique_ptr<planner::CollisionWorld> world;
+    try {
+      world = world_source_.snapshot(nodes::fromMsg(request.start()).position, nodes::fromMsg(request.goal()).position, request.goal_radius());
+    } catch (const std::exception&) {
+      return std::nullopt;  // the solve's own snapshot said why already
+    }
+    if (!world) return std::nullopt;
+    for (std::size_t i = 1; i < result.path.size(); ++i) {
+      const planner::Vec3 &a = result.path[i - 1].position, &b = result.path[i].position;
+      if (!world->isSegmentFree(a, b))
+        return fmt::format("edge {} -> {} ({:.2f}, {:.2f}, {:.2f}) -> ({:.2f}, {:.2f}, {:.2f})", i - 1, i, a.x(), a.y(), a.z(), b.x(), b.y(), b.z());
+    }
+    return std::nullopt;
   }
 
   // One solve on a snapshot of the world; nullopt when there is no world: the request was answered as failed

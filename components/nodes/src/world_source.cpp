@@ -175,16 +175,12 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       }
       map_worker_.submit(0, [this, m, &ctx, number](std::stop_token stop) {
         if (stop.stop_requested()) return;
-        const bool built = buildMap(m);
-        {
-          std::lock_guard lock(mutex_);
-          maps_settled_ = std::max(maps_settled_, number);  // a map it superseded is settled with it
-        }
-        map_settled_.notify_all();
+        const bool built = buildMap(m, number);
         // on_map_ is read on the executor, where it is set (as on_obstacles_ is), not here.
         if (built) ctx.executor().post([this] {
           if (on_map_) on_map_();
         });
+        if (built && !stop.stop_requested()) prepareContinuation();
       });
     });
   }
@@ -200,32 +196,55 @@ planner::OctoMapWorldOptions WorldSource::mapOptions(bool preferred) const {
   return options;
 }
 
-bool WorldSource::buildMap(const msg::OccupancyMap& m) {
+bool WorldSource::buildMap(const msg::OccupancyMap& m, std::uint64_t number) {
   auto checked = buildOccupancyMap(m, kWorldFrame, scenario_, mapOptions(/*preferred=*/false));
-  std::shared_ptr<const planner::CollisionWorld> preferred;      // built now
-  std::shared_ptr<const msg::OccupancyMap> preferred_source;     // or kept to be built on demand
-  if (checked.error.empty() && preferred_unknown_margin_m_ > 0.0) {
-    if (preferred_on_demand_) {
-      preferred_source = std::make_shared<const msg::OccupancyMap>(m);
+  const bool good = checked.error.empty();
+  {
+    std::lock_guard lock(mutex_);
+    if (!good) {
+      ++dropped_maps_;
+      spdlog::warn("map/octomap: dropping a map of {} bytes (stamp {} ns): {}; keeping the {} ({} dropped so far)", m.octree().size(),
+                   m.header().stamp_ns(), checked.error, map_world_ ? "last good map" : "world empty", dropped_maps_);
     } else {
-      auto with_margin = buildOccupancyMap(m, kWorldFrame, scenario_, mapOptions(/*preferred=*/true));
-      if (with_margin.error.empty()) preferred = std::move(with_margin.world);
-      // Here, on the map's worker, and not in the first request's snapshot: where the seen surfaces end took 20-30 ms
-      // of a bug-trap request's snapshot under a mission's load (the continuation from the request's start is the rest).
-      if (preferred) planner::prepareSurfaceContinuation(*preferred);
+      map_world_ = std::move(checked.world);
+      plain_map_number_ = number;
+      // On demand, the cache follows in preferredOnDemand.
+      if (preferred_unknown_margin_m_ > 0.0 && preferred_on_demand_) preferred_source_ = std::make_shared<const msg::OccupancyMap>(m);
     }
+    maps_settled_ = std::max(maps_settled_, number);  // a map it superseded is settled with it
   }
-  std::lock_guard lock(mutex_);
-  if (!checked.error.empty()) {
-    ++dropped_maps_;
-    spdlog::warn("map/octomap: dropping a map of {} bytes (stamp {} ns): {}; keeping the {} ({} dropped so far)", m.octree().size(),
-                 m.header().stamp_ns(), checked.error, map_world_ ? "last good map" : "world empty", dropped_maps_);
-    return false;
+  map_settled_.notify_all();
+  if (!good) return false;
+  // The world with the unknown margin after the plain one is in and the requests waiting for this map are let go: it
+  // takes 10-16 times as long (13-60 ms on three of 2026-12-06's mission maps), and a request that waited for it waited that long.
+  // Until it is in, the preferred worlds are the previous map's; the planner checks their answers on the plain world of
+  // this one (docs/world-model.md, "A request waits for the map it was asked on").
+  if (preferred_unknown_margin_m_ > 0.0 && !preferred_on_demand_) {
+    auto with_margin = buildOccupancyMap(m, kWorldFrame, scenario_, mapOptions(/*preferred=*/true));
+    std::lock_guard lock(mutex_);
+    preferred_map_world_ = with_margin.error.empty() ? std::shared_ptr<const planner::CollisionWorld>(std::move(with_margin.world)) : nullptr;
+    preferred_map_number_ = number;
   }
-  map_world_ = std::move(checked.world);
-  if (preferred_on_demand_) preferred_source_ = std::move(preferred_source);  // the cache follows in preferredOnDemand
-  else preferred_map_world_ = std::move(preferred);
   return true;
+}
+
+bool WorldSource::preferredIsStale() const {
+  std::lock_guard lock(mutex_);
+  return !preferred_on_demand_ && preferred_map_world_ && preferred_map_number_ != plain_map_number_;
+}
+
+void WorldSource::prepareContinuation() const {
+  std::shared_ptr<const planner::CollisionWorld> preferred;
+  {
+    std::lock_guard lock(mutex_);
+    if (preferred_on_demand_) return;
+    preferred = preferred_map_world_;
+  }
+  // Here, on the map's worker, and not in the first request's snapshot: where the seen surfaces end took 20-30 ms of a
+  // bug-trap request's snapshot under a mission's load (the continuation from the request's start is the rest). After
+  // the world is in and the requests waiting for it are let go (waitForMapsReceived): most are answered on the world
+  // with the unknown margin, which needs no continuation; one that does and comes first waits for this (once per world).
+  if (preferred) planner::prepareSurfaceContinuation(*preferred);
 }
 
 std::shared_ptr<const planner::CollisionWorld> WorldSource::observedSpace() const {

@@ -118,17 +118,24 @@ class WorldSource {
   // Called on the component's executor after each good map has been built into its world (on the map worker):
   // a surface the map has just added is checked against the trajectory then, not at the next period.
   void onMap(std::function<void()> callback) { on_map_ = std::move(callback); }
-  // Waits, at most `max_wait` of wall time, until every map received before the call has been built into the world
-  // (or dropped, or superseded by a newer one that has). The wall time waited. A requester that checks its trajectory
-  // on a map as soon as it has built it asks for a plan while that map is still being built here: the planner builds
-  // two worlds of each 2-D map and finds where its seen surfaces end, some 30 ms of work against the tracker's 2 ms.
+  // Waits, at most `max_wait` of wall time, until every map received before the call has been built into the plain
+  // world (or dropped, or superseded by a newer one that has); the preferred world may still be the previous map's. The
+  // wall time waited. A requester that checks its trajectory on a map as soon as it has built it asks for a plan while
+  // that map may still be being built here.
   double waitForMapsReceived(std::chrono::milliseconds max_wait) const;
+  // Whether the preferred world is still an older map's than the plain one (built after it: buildMap).
+  bool preferredIsStale() const;
   // Messages dropped as malformed so far, per topic.
   std::size_t droppedObstacleArrays() const;
   std::size_t droppedMaps() const;
 
  private:
-  bool buildMap(const msg::OccupancyMap& map);  // false: dropped as malformed (logged)
+  // The map's plain world, then (preferred, not on demand) the one with the unknown margin; `number` is settled
+  // (waitForMapsReceived) once the plain one is in. False: dropped as malformed (logged).
+  bool buildMap(const msg::OccupancyMap& map, std::uint64_t number);
+  // Finds where the newest preferred world's seen surfaces end (planner::prepareSurfaceContinuation), on the map worker
+  // after buildMap.
+  void prepareContinuation() const;
   // The options every map of this source is built with; `preferred`: with the preferred unknown margin.
   planner::OctoMapWorldOptions mapOptions(bool preferred) const;
   // On demand: the preferred world of the newest map, built now unless it was already; nullptr without one.
@@ -175,6 +182,7 @@ class WorldSource {
   // Maps numbered as received (on the executor) and the newest number built or dropped (on the map worker), under
   // mutex_: waitForMapsReceived's.
   std::uint64_t maps_received_ = 0, maps_settled_ = 0;
+  std::uint64_t plain_map_number_ = 0, preferred_map_number_ = 0;  // the maps the two worlds were built from
   mutable std::condition_variable map_settled_;
   runtime::Worker map_worker_{"map"};  // after what its jobs use, before the subscriptions that feed it
   std::function<void()> on_obstacles_, on_map_;
