@@ -118,7 +118,7 @@ class PlannerComponent : public runtime::Component {
           map_wait_s(p.declare<double>(
               "map_wait_s", 0.05,
               {.min = 0, .max = 10, .unit = "s",
-               .doc = "a request waits at most this long (wall time) for the maps received before it to be built into the plain world: the "
+               .doc = "a request waits at most this long (wall time) for the maps received before it to be built into its worlds: the "
                       "tracker asks for a replan as soon as it has checked a new map, which the planner may still be building "
                       "(docs/world-model.md); 0: plan on the world as it is"})),
           planner_options(p.declare<std::vector<std::string>>("planner_options", {},

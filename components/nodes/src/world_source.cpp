@@ -212,18 +212,24 @@ bool WorldSource::buildMap(const msg::OccupancyMap& m, std::uint64_t number) {
       if (preferred_unknown_margin_m_ > 0.0 && preferred_on_demand_) preferred_source_ = std::make_shared<const msg::OccupancyMap>(m);
     }
     maps_settled_ = std::max(maps_settled_, number);  // a map it superseded is settled with it
+    const bool builds_preferred = good && preferred_unknown_margin_m_ > 0.0 && !preferred_on_demand_;
+    if (!builds_preferred) preferred_settled_ = std::max(preferred_settled_, number);
   }
   map_settled_.notify_all();
   if (!good) return false;
-  // The world with the unknown margin after the plain one is in and the requests waiting for this map are let go: it
-  // takes 10-16 times as long (13-60 ms on three of 2026-12-06's mission maps), and a request that waited for it waited that long.
-  // Until it is in, the preferred worlds are the previous map's; the planner checks their answers on the plain world of
-  // this one (docs/world-model.md, "A request waits for the map it was asked on").
+  // The world with the unknown margin after the plain one is in: it takes 10-16 times as long (13-60 ms on three of
+  // 2026-12-06's mission maps). Until it is in, the preferred worlds are the previous map's; a request that waited for
+  // it longer than map_wait_s has its answers from them checked on the plain world of this one (docs/world-model.md,
+  // "A request waits for the map it was asked on").
   if (preferred_unknown_margin_m_ > 0.0 && !preferred_on_demand_) {
     auto with_margin = buildOccupancyMap(m, kWorldFrame, scenario_, mapOptions(/*preferred=*/true));
-    std::lock_guard lock(mutex_);
-    preferred_map_world_ = with_margin.error.empty() ? std::shared_ptr<const planner::CollisionWorld>(std::move(with_margin.world)) : nullptr;
-    preferred_map_number_ = number;
+    {
+      std::lock_guard lock(mutex_);
+      preferred_map_world_ = with_margin.error.empty() ? std::shared_ptr<const planner::CollisionWorld>(std::move(with_margin.world)) : nullptr;
+      preferred_map_number_ = number;
+      preferred_settled_ = std::max(preferred_settled_, number);
+    }
+    map_settled_.notify_all();
   }
   return true;
 }
@@ -257,7 +263,7 @@ double WorldSource::waitForMapsReceived(std::chrono::milliseconds max_wait) cons
   const auto began = std::chrono::steady_clock::now();
   std::unique_lock lock(mutex_);
   const std::uint64_t wanted = maps_received_;
-  map_settled_.wait_for(lock, max_wait, [&] { return maps_settled_ >= wanted; });
+  map_settled_.wait_for(lock, max_wait, [&] { return maps_settled_ >= wanted && preferred_settled_ >= wanted; });
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
 }
 

@@ -119,9 +119,10 @@ class WorldSource {
   // a surface the map has just added is checked against the trajectory then, not at the next period.
   void onMap(std::function<void()> callback) { on_map_ = std::move(callback); }
   // Waits, at most `max_wait` of wall time, until every map received before the call has been built into the plain
-  // world (or dropped, or superseded by a newer one that has); the preferred world may still be the previous map's. The
-  // wall time waited. A requester that checks its trajectory on a map as soon as it has built it asks for a plan while
-  // that map may still be being built here.
+  // world and, when this source builds it as maps come, the preferred one (or dropped, or superseded by a newer one that
+  // has). The wall time waited. A requester that checks its trajectory on a map as soon as it has built it asks for a
+  // plan while that map may still be being built here; past `max_wait` the preferred world may still be an older map's
+  // (preferredIsStale).
   double waitForMapsReceived(std::chrono::milliseconds max_wait) const;
   // Whether the preferred world is still an older map's than the plain one (built after it: buildMap).
   bool preferredIsStale() const;
@@ -182,6 +183,7 @@ class WorldSource {
   // Maps numbered as received (on the executor) and the newest number built or dropped (on the map worker), under
   // mutex_: waitForMapsReceived's.
   std::uint64_t maps_received_ = 0, maps_settled_ = 0;
+  std::uint64_t preferred_settled_ = 0;  // the newest number whose preferred world is built (or none is built of it)
   std::uint64_t plain_map_number_ = 0, preferred_map_number_ = 0;  // the maps the two worlds were built from
   mutable std::condition_variable map_settled_;
   runtime::Worker map_worker_{"map"};  // after what its jobs use, before the subscriptions that feed it
