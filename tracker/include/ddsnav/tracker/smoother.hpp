@@ -64,8 +64,8 @@ struct SmootherConfig {
   double lead_in_decel = 0.0;
   // Without lead_in_decel, a braking lead-in at max_accel is still put first when its stop is at most this long (m): a
   // vehicle turning back in a corridor at 0.6-1.4 m/s stops within a metre anyway, and refusing the plan cost a round
-  // trip and a retry delay before that stop (stunnel_0.5 at real time, 2026-12-06: 4 refusals in a mission, its
-  // replans' 250-410 ms). Long stops stay refused: at 4 m/s the stop carries the vehicle 8 m on toward what it stops
+  // trip and a retry delay before that stop (stunnel_0.5 at real time, 2026-12-06: 2 such refusals at 0.6 m/s in a
+  // mission). Long stops stay refused: at 4 m/s the stop carries the vehicle 8 m on toward what it stops
   // for (docs/tracking.md). 0: only with lead_in_decel.
   double short_braking_m = 0.0;
   // The way the vehicle goes on from the start (a replan ahead: the trajectory it flies, from the start on; the start

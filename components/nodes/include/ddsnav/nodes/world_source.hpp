@@ -131,8 +131,8 @@ class WorldSource {
   std::size_t droppedMaps() const;
 
  private:
-  // The map's plain world, then (preferred, not on demand) the one with the unknown margin; `number` is settled
-  // (waitForMapsReceived) once the plain one is in. False: dropped as malformed (logged).
+  // The map's plain world, then (preferred, not on demand) the one with the unknown margin; each settles `number` for
+  // waitForMapsReceived as it is put in. False: dropped as malformed (logged).
   bool buildMap(const msg::OccupancyMap& map, std::uint64_t number);
   // Finds where the newest preferred world's seen surfaces end (planner::prepareSurfaceContinuation), on the map worker
   // after buildMap.
