@@ -1053,4 +1053,87 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
   }
 }
 
+Trajectory smoothAfterBraking(const std::vector<planner::State>& path, const Trajectory& braking, const CollisionWorld& world,
+                              const planner::VehicleLimits& limits, SmootherConfig config) {
+  if (braking.samples.size() < 2) fail("the braking stretch has fewer than two samples");
+  if (path.empty()) fail("the path is empty");
+  for (const auto& s : braking.samples)
+    if (!world.isFree(s.position)) fail("the braking stretch along the flown trajectory is blocked near " + fmt(s.position, world.dimensions()));
+  const TrajectorySample& stop = braking.samples.back();
+  std::vector<planner::State> way;
+  auto add = [&](const Vec3& p) {
+    if (way.empty() || (p - way.back().position).norm() > 0.05) {
+      planner::State state;
+      state.position = p;
+      way.push_back(state);
+    }
+  };
+  add(stop.position);
+  // The way on from the stop: straight to the point of the path — one of its first vertices, or a point on its edges
+  // half a metre apart, as far along it as the stop is from its start and 5 m more — that makes the whole way shortest,
+  // the edge free and as clear as its ends (or shortcut_clearance). A path that turns back is joined near its start; one
+  // that goes on past the stop is joined there, not after a way back to its start and a second turn.
+  std::vector<double> remaining(path.size(), 0.0);
+  for (std::size_t i = path.size() - 1; i-- > 0;) remaining[i] = remaining[i + 1] + (path[i + 1].position - path[i].position).norm();
+  const double reach = stop.arc_length + 5.0;
+  std::optional<std::pair<Vec3, std::size_t>> join;  // the point and the path vertex the path goes on from
+  double best = std::numeric_limits<double>::infinity();
+  const double stop_clearance = world.clearance(stop.position);
+  auto consider = [&](const Vec3& at, std::size_t tail, double after) {
+    const double total = (at - stop.position).norm() + after;
+    if (total >= best || !world.isSegmentFree(stop.position, at) ||
+        !planner::segmentClearanceAtLeast(world, stop.position, at, std::min({config.shortcut_clearance, stop_clearance, world.clearance(at)})))
+      return;
+    best = total, join = std::pair{at, tail};
+  };
+  double along = 0.0;
+  for (std::size_t next = 1; next < path.size() && along <= reach; ++next) {
+    const Vec3 from = path[next - 1].position, to = path[next].position;
+    const double edge = (to - from).norm();
+    for (double t = 0.5; t < edge; t += 0.5) consider(from + (to - from) * (t / edge), next, edge - t + remaining[next]);
+    consider(to, next + 1, remaining[next]);
+    along += edge;
+  }
+  if (join) {
+    add(join->first);
+    for (std::size_t i = join->second; i < path.size(); ++i) add(path[i].position);
+  } else {
+    // Else back along the braking stretch (free: it is being flown), a point every half metre, to the path's start.
+    double last_arc = stop.arc_length;
+    for (auto it = braking.samples.rbegin(); it != braking.samples.rend(); ++it)
+      if (last_arc - it->arc_length >= 0.5) add(it->position), last_arc = it->arc_length;
+    add(braking.samples.front().position);
+    for (const auto& state : path) add(state.position);
+  }
+  config.initial_speed = 0.0;
+  config.initial_vz = 0.0;
+  config.initial_heading = stop.heading;  // unwrapped: the samples after it continue the braking's heading
+  config.lead_in_path.clear();
+  const Trajectory rest = smoothPath(way, world, limits, config);
+
+  Trajectory out = braking;
+  out.dimensions = rest.dimensions;
+  const double t0 = stop.time, s0 = stop.arc_length;
+  // The smoothed trajectory's first sample is the stop itself, at rest.
+  for (std::size_t i = 1; i < rest.samples.size(); ++i) {
+    TrajectorySample sample = rest.samples[i];
+    sample.time += t0;
+    sample.arc_length += s0;
+    out.samples.push_back(sample);
+  }
+  out.report = rest.report;
+  out.report.length = out.length();
+  out.report.duration = out.duration();
+  out.report.lead_in_braking = s0;
+  out.report.lead_in_along_flown = s0;
+  out.report.max_speed = std::max(rest.report.max_speed, std::hypot(braking.samples.front().speed, braking.samples.front().vz));
+  for (const auto& s : braking.samples) {
+    out.report.max_curvature = std::max(out.report.max_curvature, std::abs(s.curvature));
+    out.report.max_yaw_rate = std::max(out.report.max_yaw_rate, std::abs(s.yaw_rate));
+    if (config.compute_clearance) out.report.min_clearance = std::min(out.report.min_clearance, world.clearance(s.position));
+  }
+  out.initial_turn = 0.0;
+  return out;
+}
+
 }  // namespace ddsnav::tracker

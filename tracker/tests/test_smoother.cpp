@@ -556,6 +556,60 @@ TEST(Smoother, AShortStopBrakesWithoutLeadInDecel) {
   EXPECT_THROW(smoothPath(path, *world, l, cfg), SmoothingError);
 }
 
+// A plan that turns back where the vehicle arrives at speed in a corridor: the trajectory being flown, braked to rest
+// along itself, then the path from rest — one trajectory that keeps the vehicle on the flown curve while it brakes,
+// turns in place at the stop and ends at the path's end. A braking stretch the world blocks is refused.
+TEST(Smoother, APlanThatTurnsBackIsFlownAfterBrakingAlongTheFlownTrajectory) {
+  const auto sc = scenario2d(60, 0.5, "  - {type: box, min: [0, 8], max: [60, 9.4]}\n  - {type: box, min: [0, 11.1], max: [60, 12.5]}\n");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto l = limits(5.0, 0.6);
+  // Being flown: east along the corridor, a slight S, at up to 0.85 x 5 m/s.
+  const Trajectory flown = smoothPath(pathOf({{2, 10.2, 0}, {20, 10.4, 0}, {40, 10.1, 0}, {58, 10.3, 0}}), *world, l);
+  const double switch_at = 0.5 * flown.duration();
+  const auto from = flown.at(switch_at);
+  ASSERT_GT(from.speed, 2.0);
+  const double decel = 1.7;
+  const Trajectory braking = brakeAlong(flown, switch_at, from.speed, decel);
+  const auto back = pathOf({{from.position.x(), from.position.y(), 0}, {5, 10.3, 0}});  // the plan: back west
+
+  SmootherConfig cfg;
+  cfg.initial_heading = from.heading;
+  cfg.initial_speed = from.speed;
+  const Trajectory at_speed = smoothPath(back, *world, l, cfg);
+  EXPECT_LT(at_speed.samples.front().speed, 0.1);  // no lead-in at speed: it would be refused
+
+  const Trajectory t = smoothAfterBraking(back, braking, *world, l, cfg);
+  EXPECT_NEAR(t.samples.front().speed, from.speed, 1e-9);
+  EXPECT_NEAR(t.report.lead_in_braking, braking.length(), 1e-9);
+  EXPECT_NEAR(t.report.length, t.length(), 1e-9);
+  const auto stop = braking.samples.back();
+  bool turned_at_rest = false;
+  for (std::size_t i = 1; i < t.samples.size(); ++i) {
+    const auto& a = t.samples[i - 1];
+    const auto& b = t.samples[i];
+    ASSERT_GT(b.time, a.time) << i;
+    EXPECT_TRUE(world->isFree(b.position)) << "t=" << b.time;
+    EXPECT_LE(std::abs(b.heading - a.heading), l.omega_max * (b.time - a.time) + 1e-6) << "t=" << b.time;
+    if (b.time <= stop.time) {
+      EXPECT_LE((a.speed - b.speed) / (b.time - a.time), decel + 1e-6) << "t=" << b.time;
+      EXPECT_LT((b.position - flown.at(timeAtArcLength(flown, flown.at(switch_at).arc_length + b.arc_length)).position).norm(), 0.01)
+          << "off the flown curve at t=" << b.time;
+    }
+    if (b.speed < 0.05 && (b.position - stop.position).norm() < 0.05 && std::abs(b.heading - stop.heading) > 1.0) turned_at_rest = true;
+    EXPECT_LT(b.position.x(), stop.position.x() + 0.05) << "past the stop at t=" << b.time;
+  }
+  EXPECT_TRUE(turned_at_rest);
+  EXPECT_NEAR(t.samples.back().position.x(), 5.0, 1e-6);
+  EXPECT_NEAR(t.samples.back().position.y(), 10.3, 1e-6);
+
+  // The stretch runs into a wall the world now has: refused.
+  const auto walled = ddsnav::planner::makeScenarioWorld(scenario2d(
+      60, 0.5, "  - {type: box, min: [0, 8], max: [60, 9.4]}\n  - {type: box, min: [0, 11.1], max: [60, 12.5]}\n"
+               "  - {type: box, min: [" + std::to_string(stop.position.x() - 1.0) + ", 9.4], max: [60, 11.1]}\n"));
+  EXPECT_THROW(smoothAfterBraking(back, braking, *walled, l, cfg), SmoothingError);
+  EXPECT_THROW(smoothAfterBraking(back, Trajectory{}, *world, l, cfg), SmoothingError);
+}
+
 // No room to brake along the heading (a wall 2 m ahead of a vehicle at 3 m/s): no braking lead-in either, the
 // trajectory starts at rest and says why.
 TEST(Smoother, ABrakingLeadInNeedsRoomToStop) {

@@ -62,6 +62,7 @@ class TrackerComponent : public runtime::Component {
     std::optional<double> repair_distance;       // default: the robot radius
     std::optional<double> catch_up_decel;   // default: the smoother's max_accel in 2-D, off in 3-D
     std::optional<double> short_braking_m;  // default: the robot's diameter
+    std::optional<double> flown_braking_decel;  // default: the stop's (limit_fraction x max_decel)
     explicit Params(runtime::Parameters& p)
         : scenario(p.require<std::string>("scenario", runtime::ParamSpec{.doc = "scenario file: goal, goal radius, vehicle limits"})),
           planner(p.declare<std::string>("planner", "gart-lazy", {.doc = "planner asked for in each request (docs/planners.md)"})),
@@ -154,6 +155,11 @@ class TrackerComponent : public runtime::Component {
                               .doc = "without lead_in_decel, a plan that cannot be flown through at speed still starts with a braking "
                                      "lead-in (at the smoother's max_accel) when that stop is at most this long, instead of being "
                                      "refused (docs/tracking.md); default: the robot's diameter; 0: only with lead_in_decel"});
+      flown_braking_decel = p.declareOptional<double>(
+          "flown_braking_decel", {.min = 0, .max = 1000, .unit = "m/s^2",
+                                  .doc = "a plan that cannot be flown through at speed starts by braking to rest along the trajectory "
+                                         "being flown, at this deceleration, then turns in place and joins the path, instead of being "
+                                         "refused (docs/tracking.md); default: the deceleration of a stop (0.85 x max_decel); 0: refused"});
       // A plan whose state or edge is in collision on the tracker's world was refused and asked again a retry delay later:
       // 12 and 9 such refusals in the two arms of eight 2-D missions each (2026-12-06). The two worlds differ: the tracker's
       // may be built from a newer map, and it is seen from the path's start.
@@ -190,6 +196,7 @@ class TrackerComponent : public runtime::Component {
         observed_crawl_speed_(params_.observed_crawl_speed.value_or(std::sqrt(2 * comfortableDecel() * 0.25 * scenario_.robot_radius))) {
     smoother_config_.repair_distance = params_.repair_distance.value_or(scenario_.robot_radius);
     smoother_config_.short_braking_m = params_.short_braking_m.value_or(2.0 * scenario_.robot_radius);
+    flown_braking_decel_ = params_.flown_braking_decel.value_or(comfortableDecel());
     spdlog::info("replan check: {:.1f} s or {:.1f} m of the trajectory ahead, whichever reaches farther", tracker_config_.replan_horizon,
                  tracker_config_.replan_horizon_distance);
     if (piece_length_m_ > 0) spdlog::info("paths longer than {:.0f} m are smoothed and flown {:.0f} m at a time", 1.5 * piece_length_m_, piece_length_m_);
@@ -352,6 +359,9 @@ class TrackerComponent : public runtime::Component {
     std::uint64_t continues_serial = 0;
     double switch_at = 0.0;
     std::int64_t started_ns = 0;
+    // A replan ahead: the trajectory being flown from the plan's start, braked to rest along itself (flown_braking_decel),
+    // for a plan that can only start at rest there (tracker::smoothAfterBraking).
+    std::optional<tracker::Trajectory> braking;
   };
 
   // Smooths the answer to the current request on the worker (its first piece, when it is long);
@@ -379,7 +389,36 @@ class TrackerComponent : public runtime::Component {
     Smoothed job;
     job.request_id = path.request_id();
     job.rest = std::move(pieces.rest);
+    if (switch_at_ && follower_ && request_speed_ > kFlownThrough && flown_braking_decel_ > 0 && mayBrakeFirst(path)) {
+      const auto& flown = follower_->trajectory();
+      const auto at = flown.at(*switch_at_);
+      try {
+        job.braking = tracker::brakeAlong(flown, *switch_at_, std::hypot(at.speed, at.vz), flown_braking_decel_);
+      } catch (const std::exception& e) {
+        spdlog::debug("plan {}: no braking stretch along the flown trajectory: {}", job.request_id, e.what());
+      }
+    }
     runSmoothing(std::move(job), std::move(pieces.piece), viewpoint, smoother_config_);
+  }
+
+  // Whether a plan that could only start at rest may be answered by braking to rest first (flown_braking_decel): when
+  // its path turns back (more than a right angle from the heading, within its first robot diameter or metre), when
+  // that stop is short (short_braking_m), or when the plan before it was refused for starting at rest. A first corner
+  // too tight for the speed is asked again first: the vehicle a little farther on, or the next plan, mostly gets
+  // round it at speed, where a stop cost a bugtrap_0.4 mission 20 s (1.55x, 2026-12-06).
+  bool mayBrakeFirst(const msg::Path& path) const {
+    if (rest_start_refusals_ >= 1) return true;
+    const double stop = request_speed_ * request_speed_ / (2 * flown_braking_decel_);
+    if (stop <= smoother_config_.short_braking_m) return true;
+    const auto states = nodes::statesOf(path);
+    if (states.empty()) return false;
+    const double reach = std::max(1.0, 2.0 * scenario_.robot_radius);
+    for (const auto& s : states) {
+      const Eigen::Vector2d away = (s.position - states.front().position).head<2>();
+      if (away.norm() < reach) continue;
+      return away.dot(Eigen::Vector2d(std::cos(request_heading_), std::sin(request_heading_))) < 0.0;
+    }
+    return false;
   }
 
   // A long path's next piece, smoothed while the vehicle flies the current one: from the current trajectory's
@@ -422,14 +461,27 @@ class TrackerComponent : public runtime::Component {
         // and corners on the plain map cut into exactly the space the planner kept out of (stunnel_1.0: a
         // shortcut back across the unseen part of a wall made a hairpin, and the check blocked it 10 s later).
         // A path the planner could only find on the plain map is in collision there: smoothed on the plain map.
+        std::unique_ptr<planner::CollisionWorld> preferred;
         if (world_source_.hasPreferredWorld()) {
           try {
-            if (auto preferred = currentWorld(position, /*preferred=*/true)) job.trajectory = tracker::smoothPath(states, *preferred, limits_, config);
+            if ((preferred = currentWorld(position, /*preferred=*/true))) job.trajectory = tracker::smoothPath(states, *preferred, limits_, config);
           } catch (const tracker::SmoothingError& e) {
             spdlog::debug("{}: not smoothed keeping clear of unseen surfaces ({}); on the plain map", what, e.what());
           }
         }
+        const planner::CollisionWorld& on = job.trajectory ? *preferred : *world;  // the world it was smoothed on
         if (!job.trajectory) job.trajectory = tracker::smoothPath(states, *world, limits_, config);
+        // No lead-in fits where the vehicle arrives moving: brake along the flown trajectory and go on from rest,
+        // instead of a refusal (adoptSmoothed), a second request, a stop and a plan from rest.
+        if (job.braking && job.trajectory->samples.front().speed < kAtRestStart && config.initial_speed > kFlownThrough) {
+          try {
+            auto braked = tracker::smoothAfterBraking(states, *job.braking, on, limits_, config);
+            braked.report.lead_in_failure = job.trajectory->report.lead_in_failure;
+            job.trajectory = std::move(braked);
+          } catch (const tracker::SmoothingError& e) {
+            job.trajectory->report.lead_in_failure += "; braking along the flown trajectory: " + std::string(e.what());
+          }
+        }
         const auto t2 = std::chrono::steady_clock::now();
         spdlog::debug("{}: world snapshot {:.1f} ms, smoothing {:.1f} ms (wall)", what, std::chrono::duration<double, std::milli>(t1 - t0).count(),
                       std::chrono::duration<double, std::milli>(t2 - t1).count());
@@ -463,7 +515,7 @@ class TrackerComponent : public runtime::Component {
     if (!follower_ || smoothed.continues_serial != trajectory_serial_ || next_trajectory_ || mission_.awaitingPlan() || stopping_for_) return;
     last_piece_smoothing_s_ = static_cast<double>(clock().nowNs() - smoothed.started_ns) * 1e-9;
     const auto& current = follower_->trajectory();
-    if (smoothed.trajectory && current.at(smoothed.switch_at).speed > 0.5 && smoothed.trajectory->samples.front().speed < 0.1) {
+    if (smoothed.trajectory && current.at(smoothed.switch_at).speed > kFlownThrough && smoothed.trajectory->samples.front().speed < kAtRestStart) {
       smoothed.error = "it could only start at rest, where the vehicle flies on";
       smoothed.trajectory.reset();
     }
@@ -517,7 +569,7 @@ class TrackerComponent : public runtime::Component {
     // rest (no lead-in along the heading was free) would make it overshoot its start. Asked again (ahead, or
     // from rest once the block is close enough to stop for it).
     // One whose lead-in brakes to rest first is flown.
-    if (request_speed_ > 0.5 && trajectory.samples.front().speed < 0.1) {
+    if (request_speed_ > kFlownThrough && trajectory.samples.front().speed < kAtRestStart) {
       spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
                    smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
       // Twice in a row: nothing ahead leaves room to go on at speed (inside a bug trap every plan turns back), and
@@ -577,6 +629,9 @@ class TrackerComponent : public runtime::Component {
   }
 
   static constexpr double kAtRest = 0.05;  // m/s: the vehicle has stopped
+  // A trajectory starting slower than kAtRestStart starts at rest; a vehicle reaching its start faster than kFlownThrough
+  // would overshoot it (adoptSmoothed refuses such a plan).
+  static constexpr double kAtRestStart = 0.1, kFlownThrough = 0.5;
   static constexpr std::int64_t kFailedAheadBeforeStop = 2;  // failed plans from a start ahead before stopping for one from rest
   static constexpr std::uint32_t kFirstRequestId = 1;  // tracker::Mission numbers its requests from 1
 
@@ -1031,6 +1086,7 @@ class TrackerComponent : public runtime::Component {
   bool next_is_piece_ = false;             // next_trajectory_ continues the one flown
   // A long path's later pieces: the path after the end of the trajectory flown (docs/tracking.md).
   const double piece_length_m_;
+  double flown_braking_decel_ = 0.0;  // m/s^2 (parameter flown_braking_decel); 0: plans that could only start at rest are refused
   const double observed_crawl_speed_;  // observed_crawl_speed, or its default for the scenario
   std::vector<planner::State> rest_of_path_;
   double rest_length_m_ = 0.0;           // of rest_of_path_ when it was set (a next piece's job takes the path itself)

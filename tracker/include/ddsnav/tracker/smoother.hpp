@@ -87,6 +87,16 @@ struct SmootherConfig {
 Trajectory smoothPath(const std::vector<planner::State>& path, const planner::CollisionWorld& world,
                       const planner::VehicleLimits& limits, const SmootherConfig& config = {});
 
+// A plan that cannot be flown through at speed (no lead-in fits where the vehicle arrives moving: the path turns back,
+// or its first corner is too tight), flown without refusing it: `braking` — the trajectory being flown from the plan's
+// start, braked to rest along itself (brakeAlong) — then, from where it comes to rest, `path` smoothed from rest with
+// the vehicle's heading there: back along the braking stretch to the path's start and on along the path, shortcut
+// where that is free. One trajectory: the braking's samples, then the smoothed ones; its report is the smoothed path's
+// with the braking's length and time added and `lead_in_braking` set to the braking's length. Throws SmoothingError
+// as smoothPath does, and when the braking stretch is not free in `world` or has fewer than two samples.
+Trajectory smoothAfterBraking(const std::vector<planner::State>& path, const Trajectory& braking, const planner::CollisionWorld& world,
+                              const planner::VehicleLimits& limits, SmootherConfig config);
+
 // Where the trajectory crawls: below 1 cm/s for more than 5 s while not turning in place (a cusp the time
 // parametrisation turned into a near stop; on stunnel_0.5 a 148 m trajectory took 298 s, the vehicle standing at its
 // start until the mission's timeout). smoothPath refuses such a trajectory with this text. Nothing when it does not.
