@@ -478,7 +478,7 @@ class TrackerComponent : public runtime::Component {
             auto braked = tracker::smoothAfterBraking(states, *job.braking, on, limits_, config);
             braked.report.lead_in_failure = job.trajectory->report.lead_in_failure;
             job.trajectory = std::move(braked);
-          } catch (const tracker::SmoothingError& e) {
+          } catch (const std::exception& e) {  // the plan is then refused as before
             job.trajectory->report.lead_in_failure += "; braking along the flown trajectory: " + std::string(e.what());
           }
         }

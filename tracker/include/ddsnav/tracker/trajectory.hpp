@@ -72,8 +72,9 @@ struct TrajectoryReport {
   // length tried (and the braking lead-in, when that did not fit either: the trajectory then starts at rest); empty
   // otherwise.
   std::string lead_in_failure;
-  // No lead-in fitted at speed, a braking one did: the start brakes to rest along its heading over this many metres,
-  // turns in place and joins the path (SmootherConfig::lead_in_decel); 0 otherwise.
+  // No lead-in fitted at speed, a braking one did: the start brakes to rest over this many metres — along its heading
+  // (SmootherConfig::lead_in_decel, short_braking_m), or along the flown trajectory (smoothAfterBraking, which sets
+  // lead_in_along_flown to the same length) —, turns in place and joins the path; 0 otherwise.
   double lead_in_braking = 0.0;
   // No straight lead-in fitted at speed, one along the flown trajectory did (SmootherConfig::lead_in_path): its metres.
   double lead_in_along_flown = 0.0;
