@@ -590,6 +590,19 @@ class TrackerComponent : public runtime::Component {
     // The mission's first request may wait for the planner's world (3.3 s of simulated time on gart_terrain_3d):
     // not a planning time to predict replans by.
     if (smoothed.request_id != kFirstRequestId) replan_gate_.planReady(latency);
+    if (stopping_for_ && braking_rest_) {
+      // Asked from where the braking ends: published now, stamped with when the braking reaches its end, and flown
+      // once the vehicle is at rest (control).
+      const double due_in_s = braking_ ? std::max(0.0, braking_->trajectory().duration() - braking_->status().reference_time) : 0.0;
+      trajectories_.publish(nodes::toMsg(trajectory, smoothed.request_id, clock().nowNs() + static_cast<std::int64_t>(due_in_s * 1e9)));
+      spdlog::info("trajectory {}: flown once the vehicle is at rest (in about {:.1f} s)", smoothed.request_id, due_in_s);
+      next_trajectory_ = std::move(trajectory);
+      next_rest_ = std::move(smoothed.rest);
+      next_is_piece_ = false;
+      next_since_ns_ = clock().nowNs();
+      next_wait_limit_s_ = std::numeric_limits<double>::infinity();
+      return true;
+    }
     if (follower_ && switch_at_ && follower_->status().reference_time < *switch_at_) {
       // Published now, stamped with when its first sample is due (the reference reaches the switch point in
       // about that many seconds): the new trajectory is known from the moment it is ready, which is what the
@@ -783,7 +796,28 @@ class TrackerComponent : public runtime::Component {
     stopping_for_ = std::move(reason);
     stopping_since_ns_ = clock().nowNs();
     spdlog::warn("stopping: {}", *stopping_for_);
+    requestWhileBraking(state);
   }
+
+  // The plan after a stop is asked for while the vehicle brakes, from where the braking along its trajectory ends (at
+  // rest, its heading there), not once it is at rest: the braking from 4 m/s alone took 2-3.6 s, and the vehicle then
+  // stood until the plan from rest was smoothed (4.1-4.3 s from the obstacles to a trajectory at real time, bugtrap_0.4
+  // and stunnel_0.5, 2026-12-06). The answer is published when ready, stamped with when the braking ends, and flown
+  // once the vehicle is at rest (control). Without a braking trajectory (the vehicle was told to stop where it is), the
+  // request waits for rest as before.
+  void requestWhileBraking(const tracker::VehicleState& state) {
+    if (!braking_ || braking_->trajectory().samples.empty()) return;
+    const auto& end = braking_->trajectory().samples.back();
+    tracker::VehicleState rest = state;
+    rest.position = end.position;
+    rest.heading = tracker::wrapAngle(end.heading);
+    rest.v = rest.omega = rest.vz = 0.0;
+    braking_rest_ = rest;
+    act(mission_.replan(clock().nowNs(), rest, *stopping_for_));
+  }
+
+  // The state the mission plans from: while the vehicle brakes to a plan asked from its rest point, that point.
+  tracker::VehicleState missionState(const tracker::VehicleState& state) const { return braking_rest_ && stopping_for_ ? *braking_rest_ : state; }
 
   // `announced`: published when it was ready (a trajectory that waited for its switch point).
   // `rest`: the path after its end, smoothed when half of it is flown; `next_piece`: it continues the one flown.
@@ -850,12 +884,28 @@ class TrackerComponent : public runtime::Component {
     if (stopping_for_ && state) {
       if (braking_) commands_.publish(nodes::toMsg(braking_->update(*state, dt), clock().nowNs()));
       else stop();
+      // The plan asked from the rest point meanwhile: its answer is smoothed and held (adoptSmoothed) while braking.
+      if (braking_rest_) {
+        if (auto decision = takeSmoothed(missionState(*state))) act(*decision);
+        else if (new_path_ && !smoothing_.valid()) act(missionUpdate(missionState(*state)));
+      }
       const double stopping_s = static_cast<double>(clock().nowNs() - stopping_since_ns_) * 1e-9;
       if (std::abs(state->v) > kAtRest && stopping_s < 10.0) return;
       if (std::abs(state->v) > kAtRest)
-        spdlog::warn("the vehicle is not at rest after {:.1f} s ({:.2f} m/s): asking from here", stopping_s, state->v);
+        spdlog::warn("the vehicle is not at rest after {:.1f} s ({:.2f} m/s): {}", stopping_s, state->v,
+                     braking_rest_ ? "going on" : "asking from here");
       braking_.reset();
       stop();
+      if (braking_rest_) {
+        // At rest: the plan's trajectory when it is ready, else its answer (or a retry, or the failure) comes as usual.
+        braking_rest_.reset();
+        stopping_for_.reset();
+        if (next_trajectory_) {
+          switchTrajectory(std::move(*next_trajectory_), std::move(next_rest_), next_is_piece_, mission_.requestId(), *state, /*announced=*/true);
+          next_trajectory_.reset();
+        }
+        return;
+      }
       act(mission_.replan(clock().nowNs(), *state, *stopping_for_));
       stopping_for_.reset();
       return;
@@ -892,7 +942,12 @@ class TrackerComponent : public runtime::Component {
       return std::nullopt;
     }
     if (smoothed.request_id != mission_.requestId()) return std::nullopt;
-    return mission_.pathSmoothed(clock().nowNs(), state, adoptSmoothed(std::move(smoothed), state));
+    const std::uint32_t request_id = smoothed.request_id;
+    const bool flown = adoptSmoothed(std::move(smoothed), state);
+    // A refusal that stopped the vehicle has asked the next plan already (requestWhileBraking): this answer's outcome
+    // is no attempt of that one.
+    if (request_id != mission_.requestId()) return std::nullopt;
+    return mission_.pathSmoothed(clock().nowNs(), state, flown);
   }
 
   // Between control steps, when a path, a smoothed trajectory or a replan check has just come in: what the
@@ -902,10 +957,10 @@ class TrackerComponent : public runtime::Component {
   // posts, then returns it): that one is waited for, briefly.
   enum class Arrived { Path, Smoothing, Check };
   void takeUpNow(Arrived what) {
-    if (!planner_seen_ || stopping_for_ || !vehicle_) return;
+    if (!planner_seen_ || (stopping_for_ && !braking_rest_) || !vehicle_) return;
     if (what == Arrived::Smoothing && smoothing_.valid()) smoothing_.wait_for(std::chrono::milliseconds(2));
     if (what == Arrived::Check && checking_.valid()) checking_.wait_for(std::chrono::milliseconds(2));
-    const tracker::VehicleState state = *vehicle_;
+    const tracker::VehicleState state = missionState(*vehicle_);
     if (auto decision = takeSmoothed(state)) {
       act(*decision);
     } else if (new_path_ && !smoothing_.valid()) {
@@ -1047,9 +1102,10 @@ class TrackerComponent : public runtime::Component {
         dropTrajectory();
         mission_.hold();
         if (mission_.awaitingPlan()) spdlog::warn("stopping; plan {} is superseded: {}", mission_.requestId(), verdict.reason);
-        else spdlog::info("stopping to replan once at rest: {}", verdict.reason);  // the request follows at rest
+        else spdlog::info("stopping to replan from where the vehicle comes to rest: {}", verdict.reason);
         stopping_for_ = verdict.reason;
         stopping_since_ns_ = clock().nowNs();
+        requestWhileBraking(current);
       } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan() && !smoothing_.valid()) {
         replanAheadFrom(verdict.start, *state, verdict.reason);
       }
@@ -1077,6 +1133,7 @@ class TrackerComponent : public runtime::Component {
   double request_vz_ = 0.0;           // and climb rate (3-D), for the lead-in's direction
   std::optional<tracker::TrajectoryTracker> follower_;
   std::optional<tracker::TrajectoryTracker> braking_;  // while stopping_for_: the rest of the trajectory, braked along
+  std::optional<tracker::VehicleState> braking_rest_;  // while stopping_for_: where braking_ ends, the plan asked from there
   // A replan from a predicted start: the new trajectory waits until the vehicle's reference on the current
   // one reaches that start (switch_at_, s of the current trajectory), so a plan ready early is not flown
   // from behind its start; a late one is switched to at once.
