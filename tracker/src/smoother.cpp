@@ -33,6 +33,13 @@ std::string fmt(const Vec3& p, int dims) {
 
 [[noreturn]] void fail(const std::string& what) { throw SmoothingError("smoother: " + what); }
 
+// The path length from each point to the last, to compare ways back to a path by their whole length.
+std::vector<double> lengthToEnd(const std::vector<Vec3>& points) {
+  std::vector<double> remaining(points.size(), 0.0);
+  for (std::size_t i = points.size(); i-- > 1;) remaining[i - 1] = remaining[i] + (points[i] - points[i - 1]).norm();
+  return remaining;
+}
+
 // ---- input checks ---------------------------------------------------------------------------------
 
 std::vector<Vec3> cleanPath(const std::vector<planner::State>& path, int dims) {
@@ -470,9 +477,7 @@ std::optional<std::vector<Vec3>> brakingLeadIn(const std::vector<Vec3>& points, 
   // 0.1 m allowed, the vehicle 0.13 m into it).
   const double start_clearance = world.clearance(start);
   const double need = std::max(std::min(min_clearance, start_clearance), std::min(stop_clearance, 0.7 * start_clearance));
-  // Remaining path length from each point, to compare the ways back.
-  std::vector<double> remaining(points.size(), 0.0);
-  for (std::size_t i = points.size() - 1; i-- > 0;) remaining[i] = remaining[i + 1] + (points[i + 1] - points[i]).norm();
+  const std::vector<double> remaining = lengthToEnd(points);
   constexpr std::size_t kJoinCandidates = 10;  // path points tried as the way back: the first ten after the start
   for (const Vec3& direction : directions) {
     const Vec3 ahead = start + braking_length * direction;
@@ -1073,8 +1078,9 @@ Trajectory smoothAfterBraking(const std::vector<planner::State>& path, const Tra
   // half a metre apart, as far along it as the stop is from its start and 5 m more — that makes the whole way shortest,
   // the edge free and as clear as its ends (or shortcut_clearance). A path that turns back is joined near its start; one
   // that goes on past the stop is joined there, not after a way back to its start and a second turn.
-  std::vector<double> remaining(path.size(), 0.0);
-  for (std::size_t i = path.size() - 1; i-- > 0;) remaining[i] = remaining[i + 1] + (path[i + 1].position - path[i].position).norm();
+  std::vector<Vec3> points;
+  for (const auto& state : path) points.push_back(state.position);
+  const std::vector<double> remaining = lengthToEnd(points);
   const double reach = stop.arc_length + 5.0;
   std::optional<std::pair<Vec3, std::size_t>> join;  // the point and the path vertex the path goes on from
   double best = std::numeric_limits<double>::infinity();
@@ -1087,8 +1093,8 @@ Trajectory smoothAfterBraking(const std::vector<planner::State>& path, const Tra
     best = total, join = std::pair{at, tail};
   };
   double along = 0.0;
-  for (std::size_t next = 1; next < path.size() && along <= reach; ++next) {
-    const Vec3 from = path[next - 1].position, to = path[next].position;
+  for (std::size_t next = 1; next < points.size() && along <= reach; ++next) {
+    const Vec3 from = points[next - 1], to = points[next];
     const double edge = (to - from).norm();
     for (double t = 0.5; t < edge; t += 0.5) consider(from + (to - from) * (t / edge), next, edge - t + remaining[next]);
     consider(to, next + 1, remaining[next]);
@@ -1096,14 +1102,14 @@ Trajectory smoothAfterBraking(const std::vector<planner::State>& path, const Tra
   }
   if (join) {
     add(join->first);
-    for (std::size_t i = join->second; i < path.size(); ++i) add(path[i].position);
+    for (std::size_t i = join->second; i < points.size(); ++i) add(points[i]);
   } else {
     // Else back along the braking stretch (free: it is being flown), a point every half metre, to the path's start.
     double last_arc = stop.arc_length;
     for (auto it = braking.samples.rbegin(); it != braking.samples.rend(); ++it)
       if (last_arc - it->arc_length >= 0.5) add(it->position), last_arc = it->arc_length;
     add(braking.samples.front().position);
-    for (const auto& state : path) add(state.position);
+    for (const Vec3& p : points) add(p);
   }
   config.initial_speed = 0.0;
   config.initial_vz = 0.0;

@@ -384,12 +384,13 @@ class TrackerComponent : public runtime::Component {
         smoother_config_.lead_in_path.push_back(s.position);
       }
     }
-    auto pieces = tracker::splitPath(nodes::statesOf(path), piece_length_m_);
+    const std::vector<planner::State> states = nodes::statesOf(path);
+    auto pieces = tracker::splitPath(states, piece_length_m_);
     const Eigen::Vector3d viewpoint = pieces.piece.empty() ? state.position : pieces.piece.front().position;
     Smoothed job;
     job.request_id = path.request_id();
     job.rest = std::move(pieces.rest);
-    if (switch_at_ && follower_ && request_speed_ > kFlownThrough && flown_braking_decel_ > 0 && mayBrakeFirst(path)) {
+    if (switch_at_ && follower_ && request_speed_ > kFlownThrough && flown_braking_decel_ > 0 && mayBrakeFirst(states)) {
       const auto& flown = follower_->trajectory();
       const auto at = flown.at(*switch_at_);
       try {
@@ -406,11 +407,10 @@ class TrackerComponent : public runtime::Component {
   // that stop is short (short_braking_m), or when the plan before it was refused for starting at rest. A first corner
   // too tight for the speed is asked again first: the vehicle a little farther on, or the next plan, mostly gets
   // round it at speed, where a stop cost a bugtrap_0.4 mission 20 s (1.55x, 2026-12-06).
-  bool mayBrakeFirst(const msg::Path& path) const {
+  bool mayBrakeFirst(const std::vector<planner::State>& states) const {
     if (rest_start_refusals_ >= 1) return true;
     const double stop = request_speed_ * request_speed_ / (2 * flown_braking_decel_);
     if (stop <= smoother_config_.short_braking_m) return true;
-    const auto states = nodes::statesOf(path);
     if (states.empty()) return false;
     const double reach = std::max(1.0, 2.0 * scenario_.robot_radius);
     for (const auto& s : states) {
