@@ -165,9 +165,12 @@ class alignas(64) NodeOps {  // one cache line each: the per-thread counters are
 // The walk over Morton-ordered voxels described in fast_insert.hpp, below one subtree root.
 class TreeWalk {
  public:
-  TreeWalk(const octomap::OcTree& tree, NodeOps& ops)
+  // `changed_regions` (may be null): where a voxel changes class, its region is appended (once per run of
+  // voxels in one region, the walk's order keeps them together).
+  TreeWalk(const octomap::OcTree& tree, NodeOps& ops, std::vector<std::uint64_t>* changed_regions)
       : tree_(tree),
         ops_(ops),
+        changed_regions_(changed_regions),
         hit_(tree.getProbHitLog()),
         miss_(tree.getProbMissLog()),
         clamp_min_(tree.getClampingThresMinLog()),
@@ -233,9 +236,12 @@ class TreeWalk {
       fresh_[d] = created;
     }
     valid_ = d;
+    if (fresh_[d]) changed(morton);  // was unknown
     if (fill != FillMode::none && !decideFill(fresh_[d] ? nullptr : node)) return;
     if (!fresh_[d] && atClamp(node, delta)) return;
+    const bool was_occupied = tree_.isNodeOccupied(node);
     tree_.updateNodeLogOdds(node, delta);
+    if (!fresh_[d] && tree_.isNodeOccupied(node) != was_occupied) changed(morton);
   }
 
   // Whether the node of the brick holding `key` (depth kBrickDepth) exists and has children. Reads only
@@ -254,6 +260,12 @@ class TreeWalk {
   void finish() { settleDownTo(base_ - 1); }
 
  private:
+  void changed(std::uint64_t morton) {
+    if (changed_regions_ == nullptr) return;
+    const std::uint64_t region = changeRegionOf(morton);
+    if (changed_regions_->empty() || changed_regions_->back() != region) changed_regions_->push_back(region);
+  }
+
   bool atClamp(const octomap::OcTreeNode* node, float delta) const {
     const float v = node->getLogOdds();
     return (delta >= 0 && v >= clamp_max_) || (delta <= 0 && v <= clamp_min_);
@@ -269,6 +281,7 @@ class TreeWalk {
 
   const octomap::OcTree& tree_;
   NodeOps& ops_;
+  std::vector<std::uint64_t>* changed_regions_;
   const float hit_, miss_, clamp_min_, clamp_max_;
   std::array<octomap::OcTreeNode*, kTreeDepth + 1> path_{};
   std::array<bool, kTreeDepth + 1> fresh_{};
@@ -330,7 +343,8 @@ struct Subtree {
 // walking whole subtrees below a split depth after the paths down to that depth exist.
 // Returns the number of threads that walked.
 int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& bricks,
-                const std::vector<std::uint64_t>& sorted, std::size_t cells, int threads) {
+                const std::vector<std::uint64_t>& sorted, std::size_t cells, int threads,
+                std::vector<std::uint64_t>* changed_regions) {
   octomap::OcTreeNode*& root = TreeAccess::rootOf(tree);
   NodeOps main_ops(tree);
   bool root_fresh = false;
@@ -406,7 +420,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
   }
 
   if (split_depth == 0) {
-    TreeWalk walk(tree, main_ops);
+    TreeWalk walk(tree, main_ops, changed_regions);
     walk.begin(root, 0, root_fresh);
     walkBricks(bricks, sorted.data(), sorted.data() + sorted.size(), walk);
     walk.finish();
@@ -418,9 +432,10 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
   // processes) holds up at most one subtree instead of a fixed share.
   std::vector<std::unique_ptr<NodeOps>> ops;
   for (int t = 0; t < threads; ++t) ops.push_back(std::make_unique<NodeOps>(tree));
+  std::vector<std::vector<std::uint64_t>> thread_changes(changed_regions != nullptr ? threads : 0);
   std::atomic<std::size_t> next{0};
   auto work = [&](int t) {
-    TreeWalk walk(tree, *ops[t]);
+    TreeWalk walk(tree, *ops[t], changed_regions != nullptr ? &thread_changes[t] : nullptr);
     for (std::size_t i = next.fetch_add(1); i < subtrees.size(); i = next.fetch_add(1)) {
       const Subtree& st = subtrees[i];
       walk.begin(st.node, split_depth, st.fresh);
@@ -432,6 +447,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
   for (int t = 1; t < threads; ++t) workers.emplace_back(work, t);
   work(0);
   for (std::thread& w : workers) w.join();
+  for (const std::vector<std::uint64_t>& c : thread_changes) changed_regions->insert(changed_regions->end(), c.begin(), c.end());
 
   // The nodes above the split, deepest first, once their subtrees are final.
   for (int d = split_depth - 1; d >= 0; --d) {
@@ -706,10 +722,17 @@ InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap:
   return counts;
 }
 
-int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads) {
+int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads, std::vector<std::uint64_t>* changed_regions) {
   if (keys.cells == 0) return 0;
-  return applyToTree(tree, keys.maps[0].bricks(), keys.sorted, keys.cells, std::clamp<int>(threads, 1, 64));
+  return applyToTree(tree, keys.maps[0].bricks(), keys.sorted, keys.cells, std::clamp<int>(threads, 1, 64), changed_regions);
 }
+
+namespace {
+void sortUnique(std::vector<std::uint64_t>& v) {
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+}
+}  // namespace
 
 std::size_t ScanKeys::memoryUsage() const {
   std::size_t bytes = discrete_points.capacity() * sizeof(octomap::point3d) + sorted.capacity() * sizeof(std::uint64_t);
@@ -726,8 +749,9 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
     ScanKeys& keys = keys_[0];
     InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells, clear_rays);
     const auto started = std::chrono::steady_clock::now();
-    counts.walk_threads = applyKeys(tree, keys, threads);
+    counts.walk_threads = applyKeys(tree, keys, threads, &changed_regions_);
     counts.seconds_tree = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    if (changed_regions_.size() > kMaxChangedRegions) sortUnique(changed_regions_);
     return counts;
   }
   // The previous scan's tree update runs on the background thread while this scan's keys are computed
@@ -748,7 +772,8 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   if (waited_for_walk) walk_is_slower_ = counts.seconds_wait > 0.2 * counts.seconds_rays;
   if (walk_is_slower_ && threads > 1) {
     const auto started = std::chrono::steady_clock::now();
-    counts.walk_threads = applyKeys(tree, keys, threads);
+    counts.walk_threads = applyKeys(tree, keys, threads, &changed_regions_);
+    if (changed_regions_.size() > kMaxChangedRegions) sortUnique(changed_regions_);
     const double walked = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     counts.seconds_tree += walked;
     // One thread would take up to `threads` times as long (the walk scales a little less than that, so this
@@ -779,7 +804,8 @@ void FastInserter::treeThread() {
     const auto started = std::chrono::steady_clock::now();
     std::exception_ptr error;
     try {
-      applyKeys(*tree, *keys, 1);  // one walk thread: the other core computes the next scan's keys
+      applyKeys(*tree, *keys, 1, &changed_regions_);  // one walk thread: the other core computes the next scan's keys
+      if (changed_regions_.size() > kMaxChangedRegions) sortUnique(changed_regions_);
     } catch (...) {
       error = std::current_exception();
     }
@@ -797,6 +823,12 @@ void FastInserter::finish() {
   std::unique_lock lock(mutex_);
   done_.wait(lock, [&] { return job_ == nullptr; });
   if (job_error_) std::rethrow_exception(std::exchange(job_error_, nullptr));
+}
+
+std::vector<std::uint64_t> FastInserter::takeChangedRegions() {
+  finish();
+  sortUnique(changed_regions_);
+  return std::exchange(changed_regions_, {});
 }
 
 FastInserter::~FastInserter() {

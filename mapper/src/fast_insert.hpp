@@ -37,6 +37,13 @@ namespace ddsnav::mapper::detail {
 // brick code & 511, and codes in ascending order visit voxels in the octree's depth-first order.
 std::uint64_t mortonCode(const octomap::OcTreeKey& key);
 
+// The insertion reports which regions — cubes of 16 voxels a side, the tree's nodes at depth 12 — had a voxel change
+// class (unknown, free, occupied: what the maximum-likelihood map shows), so the mapper's export re-walks only
+// those (OccupancyMapper::exportMap). A region is named by the Morton prefix of its voxels.
+constexpr int kChangeRegionDepth = 12;
+constexpr unsigned kChangeRegionShift = 3u * (16u - kChangeRegionDepth);
+inline std::uint64_t changeRegionOf(std::uint64_t voxel_morton) { return voxel_morton >> kChangeRegionShift; }
+
 // The voxels one scan updates, as bitmasks over 8x8x8 bricks.
 class BrickMap {
  public:
@@ -136,8 +143,10 @@ InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap:
                          const octomap::point3d& origin, double max_range, bool discretize, int threads, ScanKeys& keys,
                          const std::vector<octomap::point3d>* surface_cells = nullptr,
                          const std::vector<octomap::point3d>* clear_rays = nullptr);
-// Stage 2: applies the keys to the tree; returns the number of threads that walked it.
-int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads);
+// Stage 2: applies the keys to the tree; returns the number of threads that walked it. `changed_regions` (may be
+// null): the regions (changeRegionOf) where a voxel changed class are appended, some more than once.
+int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads,
+              std::vector<std::uint64_t>* changed_regions = nullptr);
 
 class FastInserter {
  public:
@@ -157,6 +166,9 @@ class FastInserter {
                       const std::vector<octomap::point3d>* clear_rays = nullptr);
   // Waits until every handed-over tree update is applied; rethrows an exception it raised.
   void finish();
+  // The regions (changeRegionOf) where a voxel changed class since the last call, sorted, each once; waits for
+  // a pending update first.
+  std::vector<std::uint64_t> takeChangedRegions();
   std::size_t memoryUsage() const;
   // Drops the scratch buffers (they are kept between scans to avoid re-allocating them).
   void releaseScratch();
@@ -177,6 +189,10 @@ class FastInserter {
   // empty tree create most of its nodes, the slowest walks there are.
   bool walk_is_slower_ = true;
   std::exception_ptr job_error_;
+  // Appended by whichever thread applies an update (one at a time), read after finish(). Sorted and de-duplicated
+  // when it grows past kMaxChangedRegions, so it stays within the number of regions the map has.
+  std::vector<std::uint64_t> changed_regions_;
+  static constexpr std::size_t kMaxChangedRegions = 1 << 16;
 };
 
 }  // namespace ddsnav::mapper::detail

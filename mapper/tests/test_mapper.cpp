@@ -234,6 +234,60 @@ TEST(MapperExport, BinaryBytesAreOctoMapsOwn) {
   EXPECT_EQ(exported.leaf_count, max_likelihood.getNumLeafNodes());
 }
 
+TEST(MapperExport, KeptRegionWalksGiveTheWholeWalksBytes) {
+  // The export keeps each region's walk until a voxel in it changes class. Scans that see new ground, scans that
+  // only look again (classes settle, leaves clamp, prune and expand) and exports after one scan or after several
+  // must all give OctoMap's own maximum-likelihood stream of the live tree, its leaf count and its bounds.
+  struct Setup {
+    const char* name;
+    MapperConfig config;
+    LidarPattern lidar;
+    int export_every;
+  };
+  LidarPattern planar;
+  planar.rings = 1;
+  planar.columns = 480;
+  planar.range_noise = 0.01;
+  std::vector<Setup> setups;
+  setups.push_back({"3-D 0.2 m, pipelined on 2 threads", {}, lidar3d(16, 300), 1});
+  setups.back().config.resolution = 0.2;
+  setups.back().config.threads = 2;
+  setups.back().config.pipeline = true;
+  setups.push_back({"3-D 0.1 m, 1 thread, every 3rd scan", {}, lidar3d(8, 300), 3});
+  setups.back().config.resolution = 0.1;
+  setups.back().config.threads = 1;
+  setups.push_back({"2-D 0.05 m", {}, planar, 2});
+  setups.back().config.dimensions = 2;
+  setups.back().config.slab_z = 0.5;
+  setups.back().config.resolution = 0.05;
+  const CityBlock city = makeCityBlock(6);
+  for (const Setup& setup : setups) {
+    OccupancyMapper mapper(setup.config);
+    const float z = setup.config.dimensions == 2 ? 0.5f : 1.8f;
+    for (int i = 0; i < 14; ++i) {
+      // Out along a line, then back over the same ground in small steps.
+      const float along = i < 7 ? 2.0f * float(i) : 2.0f * float(13 - i) + 0.1f * float(i % 2);
+      Scan scan = simulateScan(city, setup.lidar, {along, 0.3f * float(i % 3), z}, 100 + i);
+      scan.max_range = 14.0;
+      ASSERT_TRUE(mapper.insert(scan).inserted) << setup.name;
+      if ((i + 1) % setup.export_every != 0 && i != 13) continue;
+      const ExportedMap map = mapper.exportMap();
+      octomap::OcTree max_likelihood(mapper.octree());
+      std::ostringstream bytes;
+      max_likelihood.writeBinary(bytes);
+      ASSERT_EQ(std::string(map.octree_binary.begin(), map.octree_binary.end()), bytes.str()) << setup.name << ", scan " << i;
+      EXPECT_EQ(map.leaf_count, max_likelihood.getNumLeafNodes()) << setup.name << ", scan " << i;
+      double lo[3], hi[3];
+      max_likelihood.getMetricMin(lo[0], lo[1], lo[2]);
+      max_likelihood.getMetricMax(hi[0], hi[1], hi[2]);
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_NEAR(map.bounds_min[a], lo[a], 1e-9) << setup.name << ", scan " << i << ", axis " << a;
+        EXPECT_NEAR(map.bounds_max[a], hi[a], 1e-9) << setup.name << ", scan " << i << ", axis " << a;
+      }
+    }
+  }
+}
+
 TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
   MapperConfig config;
   config.resolution = 0.2;
