@@ -477,6 +477,24 @@ TEST(Smoother, ALeadInsCornerIsMeasuredInTheHorizontal) {
   EXPECT_NEAR(t.samples.front().heading, 0.0, 1e-6);
 }
 
+// A moving start 6 m before a 60 degree corner: a lead-in along the heading fits, but from 4 m/s the vehicle cannot
+// slow to the corner's speed in that room, so the trajectory starts slower than the vehicle (3.6 m/s), at what the
+// corner allows (SmootherConfig::initial_speed; the tracker refuses a start more than 0.5 m/s below the vehicle's; a
+// sharper corner this near fits no lead-in at all). With room to slow down it keeps the vehicle's speed.
+TEST(Smoother, AMovingStartBeforeATightCornerStartsAtWhatTheCornerAllows) {
+  const auto world = ddsnav::planner::makeScenarioWorld(scenario2d(60, 0.3, ""));
+  const auto l = limits(5.0, 0.6);
+  SmootherConfig cfg;
+  cfg.initial_heading = 0.0;
+  cfg.initial_speed = 4.0;
+  const Trajectory near = smoothPath(pathOf({{5, 30, 0}, {11, 30, 0}, {14, 35.2, 0}}), *world, l, cfg);
+  EXPECT_TRUE(near.report.lead_in_failure.empty()) << near.report.lead_in_failure;
+  EXPECT_GT(near.samples.front().speed, 0.1);
+  EXPECT_LT(near.samples.front().speed, 4.0 - 0.3);
+  const Trajectory far = smoothPath(pathOf({{5, 30, 0}, {35, 30, 0}, {38, 35.2, 0}}), *world, l, cfg);
+  EXPECT_NEAR(far.samples.front().speed, 4.0, 1e-6);
+}
+
 // No room for a lead-in (a wall right ahead of the heading): the trajectory starts at rest and turns.
 TEST(Smoother, AMovingStartWithoutRoomStartsAtRest) {
   const auto sc = scenario2d(60, 0.3, "  - {type: box, min: [5.6, 0], max: [7, 60]}\n");  // 0.3 m of room ahead

@@ -473,7 +473,7 @@ class TrackerComponent : public runtime::Component {
         if (!job.trajectory) job.trajectory = tracker::smoothPath(states, *world, limits_, config);
         // No lead-in fits where the vehicle arrives moving: brake along the flown trajectory and go on from rest,
         // instead of a refusal (adoptSmoothed), a second request, a stop and a plan from rest.
-        if (job.braking && job.trajectory->samples.front().speed < kAtRestStart && config.initial_speed > kFlownThrough) {
+        if (job.braking && startsTooSlow(job.trajectory->samples.front().speed, config.initial_speed)) {
           try {
             auto braked = tracker::smoothAfterBraking(states, *job.braking, on, limits_, config);
             braked.report.lead_in_failure = job.trajectory->report.lead_in_failure;
@@ -515,8 +515,9 @@ class TrackerComponent : public runtime::Component {
     if (!follower_ || smoothed.continues_serial != trajectory_serial_ || next_trajectory_ || mission_.awaitingPlan() || stopping_for_) return;
     last_piece_smoothing_s_ = static_cast<double>(clock().nowNs() - smoothed.started_ns) * 1e-9;
     const auto& current = follower_->trajectory();
-    if (smoothed.trajectory && current.at(smoothed.switch_at).speed > kFlownThrough && smoothed.trajectory->samples.front().speed < kAtRestStart) {
-      smoothed.error = "it could only start at rest, where the vehicle flies on";
+    if (smoothed.trajectory && startsTooSlow(smoothed.trajectory->samples.front().speed, current.at(smoothed.switch_at).speed)) {
+      smoothed.error = fmt::format("it could only start at {:.1f} m/s, where the vehicle flies on at {:.1f} m/s",
+                                   smoothed.trajectory->samples.front().speed, current.at(smoothed.switch_at).speed);
       smoothed.trajectory.reset();
     }
     if (!smoothed.trajectory) {
@@ -566,17 +567,24 @@ class TrackerComponent : public runtime::Component {
     if (!smoothed.trajectory) return false;
     auto& trajectory = *smoothed.trajectory;
     // A plan from a predicted start the vehicle reaches at speed must be flown through; one that starts at
-    // rest (no lead-in along the heading was free) would make it overshoot its start. Asked again (ahead, or
-    // from rest once the block is close enough to stop for it).
+    // rest (no lead-in along the heading was free) would make it overshoot its start, one that starts much slower
+    // run ahead of it (startsTooSlow). Asked again (ahead, or from rest once the block is close enough to stop for it).
     // One whose lead-in brakes to rest first is flown.
-    if (request_speed_ > kFlownThrough && trajectory.samples.front().speed < kAtRestStart) {
-      spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
-                   smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
+    if (startsTooSlow(trajectory.samples.front().speed, request_speed_)) {
+      if (trajectory.samples.front().speed < kAtRestStart) {
+        spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
+                     smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
+      } else {
+        spdlog::warn("trajectory {} starts at {:.1f} m/s, but the vehicle reaches its start at {:.1f} m/s: not flown (a curve near its start "
+                     "is too tight for the vehicle's speed{}{})",
+                     smoothed.request_id, trajectory.samples.front().speed, request_speed_,
+                     trajectory.report.lead_in_failure.empty() ? "" : "; ", trajectory.report.lead_in_failure);
+      }
       // Twice in a row: nothing ahead leaves room to go on at speed (inside a bug trap every plan turns back), and
       // flying on toward the block between refusals only makes it worse (bugtrap_1.0: 23 refusals, 74 m short at
       // the timeout). Stop, and plan from rest.
       if (++rest_start_refusals_ >= 2 && follower_) {
-        stopToPlanAtRest(state, fmt::format("rest_start: {} plans in a row could only start at rest while the vehicle flies on",
+        stopToPlanAtRest(state, fmt::format("rest_start: {} plans in a row could only start at rest or too slowly while the vehicle flies on",
                                             rest_start_refusals_));
         rest_start_refusals_ = 0;
       }
@@ -645,6 +653,18 @@ class TrackerComponent : public runtime::Component {
   // A trajectory starting slower than kAtRestStart starts at rest; a vehicle reaching its start faster than kFlownThrough
   // would overshoot it (adoptSmoothed refuses such a plan).
   static constexpr double kAtRestStart = 0.1, kFlownThrough = 0.5;
+  // m/s: how much slower than the vehicle arrives a trajectory may start (the smoother starts it slower when a tight
+  // curve comes within braking distance of its start). A vehicle braking at its limit runs ahead of the reference by
+  // about the difference squared over twice its deceleration, and off a curving path: stunnel_0.5 at real time,
+  // 2026-12-06, a trajectory starting at 1.6 m/s under a vehicle at 4.3 m/s left it 2.35 m ahead and 0.67 m beside
+  // its path, 4 mm into a wall. 0.5 m/s is about 6 cm ahead at 2 m/s^2.
+  static constexpr double kStartSpeedSlack = 0.5;
+  // Whether a trajectory starting at `start_speed` cannot take over from a vehicle arriving at `arrival_speed`: it
+  // starts at rest (the vehicle would overshoot its start) or more than kStartSpeedSlack slower. Such a plan is braked
+  // for along the flown trajectory where that is allowed (mayBrakeFirst), else refused and asked again.
+  static bool startsTooSlow(double start_speed, double arrival_speed) {
+    return arrival_speed > kFlownThrough && (start_speed < kAtRestStart || start_speed < arrival_speed - kStartSpeedSlack);
+  }
   static constexpr std::int64_t kFailedAheadBeforeStop = 2;  // failed plans from a start ahead before stopping for one from rest
   static constexpr std::uint32_t kFirstRequestId = 1;  // tracker::Mission numbers its requests from 1
 
@@ -1152,7 +1172,7 @@ class TrackerComponent : public runtime::Component {
   std::future<Smoothed> smoothing_;
   std::optional<std::int64_t> held_since_ns_;  // stop_within_observed: since when the vehicle is held at rest
   std::int64_t last_observed_log_ns_ = 0;
-  unsigned rest_start_refusals_ = 0;  // plans refused in a row for starting at rest while the vehicle is moving
+  unsigned rest_start_refusals_ = 0;  // plans refused in a row for starting at rest or too slowly while the vehicle is moving
   std::optional<std::string> stopping_for_;  // a stop-and-replan's reason, until the vehicle is at rest
   std::int64_t stopping_since_ns_ = 0;
   std::int64_t speed_window_clock_ns_ = 0;

@@ -51,7 +51,9 @@ struct SmootherConfig {
   // starts moving, so the new trajectory must not begin at rest (the vehicle would stop at every switch).
   // With initial_heading set, a straight lead-in along that heading is put first when it is collision free,
   // so the curve leaves the start tangent to the vehicle's heading and no turn in place is needed; where it
-  // is not, the trajectory starts at rest with the turn. 0: start at rest.
+  // is not, the trajectory starts at rest with the turn. Where a curve near the start is too tight to be reached from
+  // this speed at max_accel (or lead_in_decel along a braking lead-in), it starts slower, at what the curve allows: the
+  // caller decides whether the vehicle can take that over (the tracker refuses more than 0.5 m/s slower). 0: start at rest.
   double initial_speed = 0.0;
   // Climb rate (m/s) the vehicle has at the start, 3-D: the lead-in follows the vehicle's climb first (a UAV
   // climbing a hillside at 15 deg found no level lead-in clear of the slope ahead, and each plan ahead started at
