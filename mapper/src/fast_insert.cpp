@@ -751,7 +751,7 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
     const auto started = std::chrono::steady_clock::now();
     counts.walk_threads = applyKeys(tree, keys, threads, &changed_regions_);
     counts.seconds_tree = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    if (changed_regions_.size() > kMaxChangedRegions) sortUnique(changed_regions_);
+    boundChangedRegions();
     return counts;
   }
   // The previous scan's tree update runs on the background thread while this scan's keys are computed
@@ -773,7 +773,7 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   if (walk_is_slower_ && threads > 1) {
     const auto started = std::chrono::steady_clock::now();
     counts.walk_threads = applyKeys(tree, keys, threads, &changed_regions_);
-    if (changed_regions_.size() > kMaxChangedRegions) sortUnique(changed_regions_);
+    boundChangedRegions();
     const double walked = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     counts.seconds_tree += walked;
     // One thread would take up to `threads` times as long (the walk scales a little less than that, so this
@@ -805,7 +805,7 @@ void FastInserter::treeThread() {
     std::exception_ptr error;
     try {
       applyKeys(*tree, *keys, 1, &changed_regions_);  // one walk thread: the other core computes the next scan's keys
-      if (changed_regions_.size() > kMaxChangedRegions) sortUnique(changed_regions_);
+      boundChangedRegions();
     } catch (...) {
       error = std::current_exception();
     }
@@ -823,6 +823,13 @@ void FastInserter::finish() {
   std::unique_lock lock(mutex_);
   done_.wait(lock, [&] { return job_ == nullptr; });
   if (job_error_) std::rethrow_exception(std::exchange(job_error_, nullptr));
+}
+
+void FastInserter::boundChangedRegions() {
+  if (changed_regions_.size() <= changed_regions_bound_) return;
+  sortUnique(changed_regions_);
+  // Twice what is left: a map with more regions than kMaxChangedRegions is not sorted again after every scan.
+  changed_regions_bound_ = std::max(kMaxChangedRegions, 2 * changed_regions_.size());
 }
 
 std::vector<std::uint64_t> FastInserter::takeChangedRegions() {

@@ -190,9 +190,12 @@ class FastInserter {
   bool walk_is_slower_ = true;
   std::exception_ptr job_error_;
   // Appended by whichever thread applies an update (one at a time), read after finish(). Sorted and de-duplicated
-  // when it grows past kMaxChangedRegions, so it stays within the number of regions the map has.
+  // when it grows past changed_regions_bound_ (boundChangedRegions), so it stays within twice the number of regions
+  // the map has.
+  void boundChangedRegions();
   std::vector<std::uint64_t> changed_regions_;
   static constexpr std::size_t kMaxChangedRegions = 1 << 16;
+  std::size_t changed_regions_bound_ = kMaxChangedRegions;
 };
 
 }  // namespace ddsnav::mapper::detail
