@@ -479,7 +479,7 @@ TEST(Smoother, ALeadInsCornerIsMeasuredInTheHorizontal) {
 
 // A moving start 6 m before a 60 degree corner: a lead-in along the heading fits, but from 4 m/s the vehicle cannot
 // slow to the corner's speed in that room, so the trajectory starts slower than the vehicle (3.6 m/s), at what the
-// corner allows (SmootherConfig::initial_speed; the tracker refuses a start more than 0.5 m/s below the vehicle's; a
+// corner allows (SmootherConfig::initial_speed; the tracker judges whether the vehicle can take that over; a
 // sharper corner this near fits no lead-in at all). With room to slow down it keeps the vehicle's speed.
 TEST(Smoother, AMovingStartBeforeATightCornerStartsAtWhatTheCornerAllows) {
   const auto world = ddsnav::planner::makeScenarioWorld(scenario2d(60, 0.3, ""));

@@ -473,7 +473,7 @@ class TrackerComponent : public runtime::Component {
         if (!job.trajectory) job.trajectory = tracker::smoothPath(states, *world, limits_, config);
         // No lead-in fits where the vehicle arrives moving: brake along the flown trajectory and go on from rest,
         // instead of a refusal (adoptSmoothed), a second request, a stop and a plan from rest.
-        if (job.braking && startsTooSlow(job.trajectory->samples.front().speed, config.initial_speed)) {
+        if (job.braking && cannotTakeOver(*job.trajectory, config.initial_speed)) {
           try {
             auto braked = tracker::smoothAfterBraking(states, *job.braking, on, limits_, config);
             braked.report.lead_in_failure = job.trajectory->report.lead_in_failure;
@@ -515,7 +515,7 @@ class TrackerComponent : public runtime::Component {
     if (!follower_ || smoothed.continues_serial != trajectory_serial_ || next_trajectory_ || mission_.awaitingPlan() || stopping_for_) return;
     last_piece_smoothing_s_ = static_cast<double>(clock().nowNs() - smoothed.started_ns) * 1e-9;
     const auto& current = follower_->trajectory();
-    if (smoothed.trajectory && startsTooSlow(smoothed.trajectory->samples.front().speed, current.at(smoothed.switch_at).speed)) {
+    if (smoothed.trajectory && cannotTakeOver(*smoothed.trajectory, current.at(smoothed.switch_at).speed)) {
       smoothed.error = fmt::format("it could only start at {:.1f} m/s, where the vehicle flies on at {:.1f} m/s",
                                    smoothed.trajectory->samples.front().speed, current.at(smoothed.switch_at).speed);
       smoothed.trajectory.reset();
@@ -568,15 +568,15 @@ class TrackerComponent : public runtime::Component {
     auto& trajectory = *smoothed.trajectory;
     // A plan from a predicted start the vehicle reaches at speed must be flown through; one that starts at
     // rest (no lead-in along the heading was free) would make it overshoot its start, one that starts much slower
-    // run ahead of it (startsTooSlow). Asked again (ahead, or from rest once the block is close enough to stop for it).
+    // run ahead of it round a curve it cannot turn at that speed (cannotTakeOver). Asked again (ahead, or from rest once the block is close enough to stop for it).
     // One whose lead-in brakes to rest first is flown.
-    if (startsTooSlow(trajectory.samples.front().speed, request_speed_)) {
+    if (cannotTakeOver(trajectory, request_speed_)) {
       if (trajectory.samples.front().speed < kAtRestStart) {
         spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
                      smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
       } else {
-        spdlog::warn("trajectory {} starts at {:.1f} m/s, but the vehicle reaches its start at {:.1f} m/s: not flown (a curve near its start "
-                     "is too tight for the vehicle's speed{}{})",
+        spdlog::warn("trajectory {} starts at {:.1f} m/s, but the vehicle reaches its start at {:.1f} m/s: not flown (braking, it would "
+                     "reach a curve near the start too fast to turn, or a stop{}{})",
                      smoothed.request_id, trajectory.samples.front().speed, request_speed_,
                      trajectory.report.lead_in_failure.empty() ? "" : "; ", trajectory.report.lead_in_failure);
       }
@@ -653,17 +653,31 @@ class TrackerComponent : public runtime::Component {
   // A trajectory starting slower than kAtRestStart starts at rest; a vehicle reaching its start faster than kFlownThrough
   // would overshoot it (adoptSmoothed refuses such a plan).
   static constexpr double kAtRestStart = 0.1, kFlownThrough = 0.5;
-  // m/s: how much slower than the vehicle arrives a trajectory may start (the smoother starts it slower when a tight
-  // curve comes within braking distance of its start). A vehicle braking at its limit runs ahead of the reference by
-  // about the difference squared over twice its deceleration, and off a curving path: stunnel_0.5 at real time,
-  // 2026-12-06, a trajectory starting at 1.6 m/s under a vehicle at 4.3 m/s left it 2.35 m ahead and 0.67 m beside
-  // its path, 4 mm into a wall. 0.5 m/s is about 6 cm ahead at 2 m/s^2.
+  // m/s: a trajectory that starts at most this much slower than the vehicle arrives is flown without a look (about
+  // 6 cm ahead of its reference at 2 m/s^2).
   static constexpr double kStartSpeedSlack = 0.5;
-  // Whether a trajectory starting at `start_speed` cannot take over from a vehicle arriving at `arrival_speed`: it
-  // starts at rest (the vehicle would overshoot its start) or more than kStartSpeedSlack slower. Such a plan is braked
-  // for along the flown trajectory where that is allowed (mayBrakeFirst), else refused and asked again.
-  static bool startsTooSlow(double start_speed, double arrival_speed) {
-    return arrival_speed > kFlownThrough && (start_speed < kAtRestStart || start_speed < arrival_speed - kStartSpeedSlack);
+  // Whether a trajectory cannot take over from a vehicle arriving at `arrival_speed` (horizontal, as the samples'
+  // speed): it starts at rest (the vehicle would overshoot its start), or it starts slower (the smoother starts slower
+  // than the vehicle where a curve near the start is too tight to be reached from its speed) and the vehicle, braking at
+  // max_decel until it is down to the trajectory's speed, would need more than omega_max for the trajectory's curve on
+  // the way, or would meet a stop of the trajectory. On stunnel_0.5 at real time, 2026-12-06, a start at 1.6 m/s under a
+  // vehicle at 4.3 m/s, 0.9 m before a curve, left it turning at omega_max, 2.35 m ahead of its reference, 0.67 m beside
+  // the path and 4 mm into a wall. A start slower on a straight or gentle stretch is flown: the vehicle runs ahead on
+  // the path and the reference catches up (a first version refused every start 0.5 m/s slower, and the terrain's
+  // climbs were refused and asked again in 4 of 6 runs, 330 ms each). Such a plan is braked for along the flown
+  // trajectory where that is allowed (mayBrakeFirst), else refused and asked again.
+  bool cannotTakeOver(const tracker::Trajectory& trajectory, double arrival_speed) const {
+    if (arrival_speed <= kFlownThrough || trajectory.samples.empty()) return false;
+    const double start = trajectory.samples.front().speed;
+    if (start < kAtRestStart) return true;
+    if (start >= arrival_speed - kStartSpeedSlack) return false;
+    const double arc0 = trajectory.samples.front().arc_length;
+    for (const auto& sample : trajectory.samples) {
+      const double vehicle = std::sqrt(std::max(0.0, arrival_speed * arrival_speed - 2.0 * params_.max_decel * (sample.arc_length - arc0)));
+      if (vehicle <= sample.speed + kStartSpeedSlack) return false;  // caught up
+      if (sample.speed < kAtRestStart || vehicle * std::abs(sample.curvature) > limits_.omega_max) return true;
+    }
+    return false;
   }
   static constexpr std::int64_t kFailedAheadBeforeStop = 2;  // failed plans from a start ahead before stopping for one from rest
   static constexpr std::uint32_t kFirstRequestId = 1;  // tracker::Mission numbers its requests from 1

@@ -53,7 +53,8 @@ struct SmootherConfig {
   // so the curve leaves the start tangent to the vehicle's heading and no turn in place is needed; where it
   // is not, the trajectory starts at rest with the turn. Where a curve near the start is too tight to be reached from
   // this speed at max_accel (or lead_in_decel along a braking lead-in), it starts slower, at what the curve allows: the
-  // caller decides whether the vehicle can take that over (the tracker refuses more than 0.5 m/s slower). 0: start at rest.
+  // caller decides whether the vehicle can take that over (the tracker: not when, braking from its speed, it would reach
+  // the curve too fast to turn). 0: start at rest.
   double initial_speed = 0.0;
   // Climb rate (m/s) the vehicle has at the start, 3-D: the lead-in follows the vehicle's climb first (a UAV
   // climbing a hillside at 15 deg found no level lead-in clear of the slope ahead, and each plan ahead started at
