@@ -219,4 +219,19 @@ Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double spe
   return out;
 }
 
+bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
+                    double flown_through, double at_rest, double slack) {
+  if (!(arrival_speed > flown_through) || trajectory.samples.empty()) return false;
+  const double start = trajectory.samples.front().speed;
+  if (start < at_rest) return true;
+  if (start >= arrival_speed - slack) return false;
+  const double arc0 = trajectory.samples.front().arc_length;
+  for (const auto& sample : trajectory.samples) {
+    const double vehicle = std::sqrt(std::max(0.0, arrival_speed * arrival_speed - 2.0 * max_decel * (sample.arc_length - arc0)));
+    if (vehicle <= sample.speed + slack) return false;  // down to the trajectory's speed: its reference has caught up
+    if (sample.speed < at_rest || vehicle * std::abs(sample.curvature) > omega_max) return true;
+  }
+  return false;
+}
+
 }  // namespace ddsnav::tracker

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <cstdio>
 
 using namespace ddsnav::tracker;
@@ -25,6 +26,41 @@ ClosedLoopConfig loopConfig(const ddsnav::planner::VehicleLimits& limits, Vehicl
 }
 
 }  // namespace
+
+// A trajectory along x sampled every 0.1 m over `length` metres: speed and curvature by arc length.
+static Trajectory sampledAlong(double length, const std::function<double(double)>& speed, const std::function<double(double)>& curvature) {
+  Trajectory t;
+  for (double s = 0.0; s <= length + 1e-9; s += 0.1) {
+    TrajectorySample sample;
+    sample.arc_length = s;
+    sample.position = Vec3(s, 0.0, 0.0);
+    sample.speed = speed(s);
+    sample.curvature = curvature(s);
+    t.samples.push_back(sample);
+  }
+  return t;
+}
+
+// stunnel_0.5 at real time, 2026-12-06: a vehicle at 4.29 m/s, a trajectory starting at 1.6 m/s 0.9 m before a
+// 0.181 1/m curve (omega_max 0.628 rad/s, max_decel 2 m/s^2). Braking, the vehicle reaches the curve at 3.85 m/s and
+// needs 0.70 rad/s: it cannot take over. It can where the curve comes after it is down to the trajectory's speed, where
+// the curve is gentle, and where the start is at most the slack slower; not where the trajectory stops first.
+TEST(TakeOver, AVehicleArrivingFasterCannotTakeOverBeforeACurveItCannotTurn) {
+  const double omega = 0.628, decel = 2.0;
+  const auto slowThenSpeedUp = [](double s) { return std::min(4.0, 1.6 + 0.5 * s); };
+  const auto curveAfter = [](double at, double kappa) { return [=](double s) { return s >= at ? kappa : 0.0; }; };
+  EXPECT_TRUE(cannotTakeOver(sampledAlong(10, slowThenSpeedUp, curveAfter(0.9, 0.181)), 4.29, decel, omega));
+  EXPECT_FALSE(cannotTakeOver(sampledAlong(10, slowThenSpeedUp, curveAfter(4.0, 0.181)), 4.29, decel, omega));
+  EXPECT_FALSE(cannotTakeOver(sampledAlong(10, slowThenSpeedUp, curveAfter(0.0, 0.05)), 4.29, decel, omega));
+  const auto constant = [](double v) { return [=](double) { return v; }; };
+  EXPECT_FALSE(cannotTakeOver(sampledAlong(10, constant(3.9), curveAfter(0.5, 0.181)), 4.29, decel, omega));  // within the slack
+  // At rest: not under a moving vehicle; under one that hardly moves it is flown.
+  EXPECT_TRUE(cannotTakeOver(sampledAlong(10, constant(0.0), curveAfter(20, 0.0)), 4.29, decel, omega));
+  EXPECT_FALSE(cannotTakeOver(sampledAlong(10, constant(0.0), curveAfter(20, 0.0)), 0.4, decel, omega));
+  // A stop 1 m on, before the vehicle (3 m/s, braking) is down to the trajectory's 1 m/s.
+  EXPECT_TRUE(cannotTakeOver(sampledAlong(3, [](double s) { return s < 1.0 ? 1.0 : 0.0; }, curveAfter(20, 0.0)), 3.0, decel, omega));
+  EXPECT_FALSE(cannotTakeOver(Trajectory{}, 4.29, decel, omega));
+}
 
 TEST(Tracker, StatusOnAStraightTrajectory) {
   auto sc = scenario2d(20, 0.3, "");

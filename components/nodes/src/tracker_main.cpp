@@ -656,28 +656,14 @@ class TrackerComponent : public runtime::Component {
   // m/s: a trajectory that starts at most this much slower than the vehicle arrives is flown without a look (about
   // 6 cm ahead of its reference at 2 m/s^2).
   static constexpr double kStartSpeedSlack = 0.5;
-  // Whether a trajectory cannot take over from a vehicle arriving at `arrival_speed` (horizontal, as the samples'
-  // speed): it starts at rest (the vehicle would overshoot its start), or it starts slower (the smoother starts slower
-  // than the vehicle where a curve near the start is too tight to be reached from its speed) and the vehicle, braking at
-  // max_decel until it is down to the trajectory's speed, would need more than omega_max for the trajectory's curve on
-  // the way, or would meet a stop of the trajectory. On stunnel_0.5 at real time, 2026-12-06, a start at 1.6 m/s under a
-  // vehicle at 4.3 m/s, 0.9 m before a curve, left it turning at omega_max, 2.35 m ahead of its reference, 0.67 m beside
-  // the path and 4 mm into a wall. A start slower on a straight or gentle stretch is flown: the vehicle runs ahead on
-  // the path and the reference catches up (a first version refused every start 0.5 m/s slower, and the terrain's
-  // climbs were refused and asked again in 4 of 6 runs, 330 ms each). Such a plan is braked for along the flown
-  // trajectory where that is allowed (mayBrakeFirst), else refused and asked again.
+  // Whether a trajectory cannot take over from a vehicle arriving at `arrival_speed` (tracker::cannotTakeOver: at rest,
+  // or slower where the vehicle, braking at max_decel, would reach a curve too fast to turn or meet a stop). Such a
+  // plan is braked for along the flown trajectory where that is allowed (mayBrakeFirst), else refused and asked again.
+  // A first version refused every start more than kStartSpeedSlack slower: the terrain's climbs, flown safely before,
+  // were refused and asked again in 4 of 6 runs (330 ms each, docs/benchmarks/mission.md 2026-12-06 15:3x).
   bool cannotTakeOver(const tracker::Trajectory& trajectory, double arrival_speed) const {
-    if (arrival_speed <= kFlownThrough || trajectory.samples.empty()) return false;
-    const double start = trajectory.samples.front().speed;
-    if (start < kAtRestStart) return true;
-    if (start >= arrival_speed - kStartSpeedSlack) return false;
-    const double arc0 = trajectory.samples.front().arc_length;
-    for (const auto& sample : trajectory.samples) {
-      const double vehicle = std::sqrt(std::max(0.0, arrival_speed * arrival_speed - 2.0 * params_.max_decel * (sample.arc_length - arc0)));
-      if (vehicle <= sample.speed + kStartSpeedSlack) return false;  // caught up
-      if (sample.speed < kAtRestStart || vehicle * std::abs(sample.curvature) > limits_.omega_max) return true;
-    }
-    return false;
+    return tracker::cannotTakeOver(trajectory, arrival_speed, params_.max_decel, limits_.omega_max, kFlownThrough, kAtRestStart,
+                                   kStartSpeedSlack);
   }
   static constexpr std::int64_t kFailedAheadBeforeStop = 2;  // failed plans from a start ahead before stopping for one from rest
   static constexpr std::uint32_t kFirstRequestId = 1;  // tracker::Mission numbers its requests from 1

@@ -110,4 +110,16 @@ double brakingDecel(double speed, double room, double comfortable, double limit)
 // trajectory, a negative or non-finite speed or a decel that is not positive.
 Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double speed, double decel);
 
+// Whether a vehicle arriving at `arrival_speed` (m/s, horizontal, as the samples' speed) at the start of `trajectory`
+// cannot take it over. Not when it arrives slower than `flown_through` or the trajectory starts at most `slack` slower.
+// Otherwise it cannot when the trajectory starts at rest (below `at_rest`: the vehicle would overshoot its start), or
+// when the vehicle, braking at `max_decel` along the trajectory's arc until it is down to the trajectory's speed
+// (within `slack`), would meet a stop of the trajectory or need more than `omega_max` for its curve on the way. The
+// smoother starts a trajectory slower than the vehicle where a curve near the start cannot be reached from its speed
+// (SmootherConfig::initial_speed); on a straight or gentle stretch the vehicle runs ahead on the path until its
+// reference catches up, before a tight curve it turns at its limit and leaves the path (stunnel_0.5, 2026-12-06: a
+// start at 1.6 m/s under 4.3 m/s, 0.9 m before a 0.18 1/m curve, 0.67 m off the path and 4 mm into a wall).
+bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
+                    double flown_through = 0.5, double at_rest = 0.1, double slack = 0.5);
+
 }  // namespace ddsnav::tracker
