@@ -568,7 +568,8 @@ class TrackerComponent : public runtime::Component {
     auto& trajectory = *smoothed.trajectory;
     // A plan from a predicted start the vehicle reaches at speed must be flown through; one that starts at
     // rest (no lead-in along the heading was free) would make it overshoot its start, one that starts much slower
-    // run ahead of it round a curve it cannot turn at that speed (cannotTakeOver). Asked again (ahead, or from rest once the block is close enough to stop for it).
+    // run ahead of it round a curve it cannot turn at that speed (cannotTakeOver). Asked again (ahead, or from rest
+    // once the block is close enough to stop for it).
     // One whose lead-in brakes to rest first is flown.
     if (cannotTakeOver(trajectory, request_speed_)) {
       if (trajectory.samples.front().speed < kAtRestStart) {
