@@ -7,7 +7,8 @@ namespace ddsnav::tracker {
 ClosedLoopResult runClosedLoop(const Trajectory& trajectory, const ClosedLoopConfig& config,
                                const planner::CollisionWorld* world) {
   TrajectoryTracker tracker(trajectory, config.vehicle.limits, config.tracker);
-  VehicleState start;
+  VehicleState start = config.start_motion.value_or(VehicleState{});
+  start.time = 0.0;
   start.position = trajectory.samples.front().position;
   start.heading = trajectory.samples.front().heading;
   UnicycleVehicle vehicle(config.vehicle, start);

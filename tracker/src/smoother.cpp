@@ -70,6 +70,7 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
   if (!positive(c.limit_fraction) || c.limit_fraction > 1.0) fail("limit_fraction must be in (0, 1]");
   if (!positive(c.max_accel)) fail("max_accel must be a positive number");
   if (!(c.max_lateral_accel > 0.0)) fail("max_lateral_accel must be > 0");
+  if (!(c.max_vertical_accel > 0.0)) fail("max_vertical_accel must be > 0 (infinity: no limit)");
   if (!std::isfinite(c.corner_radius)) fail("corner_radius must be finite");
   if (!(c.shortcut_clearance >= 0.0)) fail("shortcut_clearance must be >= 0");
   if (!(c.clearance_target >= 0.0) || !std::isfinite(c.clearance_target)) fail("clearance_target must be a number >= 0");
@@ -82,6 +83,14 @@ void checkLimits(const planner::VehicleLimits& l, int dims, const SmootherConfig
 
 // The most time repairPath spends on lattice detours in one smoothing.
 constexpr double kDetourSearchS = 0.02;
+
+// How far (m) the vehicle may fall behind in z where the trajectory's vertical speed jumps (a kink in its climb):
+// the reference's vz changes at once, the vehicle's at the vertical acceleration, so it lags by dvz^2 / (2 a).
+constexpr double kVerticalKinkM = 0.05;
+double verticalKinkDeviation(double dvz, double a_vz) { return dvz * dvz / (2.0 * a_vz); }
+// The arc length (m) over which the slope on each side of a curve point is measured for its vertical curvature: long
+// enough that a kink reads as the change it makes over it, short against a corner rounded at the turn radius.
+constexpr double kClimbWindowM = 0.25;
 
 // The way round an edge from `a` to `b` (both free) that the world blocks further than a bridge near its middle mends:
 // the lattice route between them (planner::findCoarseRoute, within `left_s` of wall time, which it reduces), shortcut
@@ -515,6 +524,13 @@ double leadInCorner(const Vec3& a, const Vec3& b, int dims) {
   return std::acos(std::clamp(u.normalized().dot(w.normalized()), -1.0, 1.0));
 }
 
+// The change of climb angle between directions `a` and `b`, rad (3-D; 0 where either is vertical).
+double climbChange(const Vec3& a, const Vec3& b) {
+  const double ha = std::hypot(a.x(), a.y()), hb = std::hypot(b.x(), b.y());
+  if (ha < 1e-9 || hb < 1e-9) return 0.0;
+  return std::abs(std::atan2(b.z(), hb) - std::atan2(a.z(), ha));
+}
+
 // A lead-in along `along` (SmootherConfig::lead_in_path; its first point is the start): half a piece along `heading`
 // (a unit vector), then the first `l` metres of `along`, for l from `length` down to 0.5 m (x 0.7), kept a metre or a sixth of
 // l apart, whose edges are free with the clearance a straight lead-in needs or their ends' where less, joined to the path
@@ -616,12 +632,17 @@ std::optional<std::pair<std::vector<Vec3>, double>> leadInAlong(const std::vecto
 // along it after the start, the longest of a few candidates (x 0.7 down to 0.5 m) whose two new edges are
 // collision free with `min_clearance` and whose corner at the new point is at most a right angle and can be rounded
 // at `turn_radius` (both edges at least radius x tan(corner / 2) long: a tighter corner is a near stop, and the
-// tracker then deviates). At each length the climbing direction is tried first, then the level one. When none is, one
-// along `lead_in_path` (leadInAlong; `along_flown` set to its length), else, when `braking_length` > 0, a braking
-// lead-in of that length (`braking` set). Returns the points unchanged when none fits.
-std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double climb, double length, double turn_radius,
-                         double braking_length, double stop_clearance, const CollisionWorld& world, double min_clearance,
-                         const std::vector<Vec3>& lead_in_path, std::string& failure, bool& braking, double& along_flown) {
+// tracker then deviates). In 3-D the change of climb at the new point must also be roundable at `vertical_radius`
+// (the radius at which the vertical acceleration turns the climb at the start's speed). At each length the climbing
+// direction is tried first, then the level one when `level_allowed` (a level start from a climb is a kink in the
+// vertical speed at the start, which the vehicle meets late: from a descent at 1.2 m/s it sank 0.69 m below a level
+// lead-in, descend_3d). When none is, one along `lead_in_path` (leadInAlong; `along_flown` set to its length), else,
+// when `braking_length` > 0, a braking lead-in of that length (`braking` set). Returns the points unchanged when none
+// fits.
+std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double climb, bool level_allowed, double length,
+                         double turn_radius, double vertical_radius, double braking_length, double stop_clearance,
+                         const CollisionWorld& world, double min_clearance, const std::vector<Vec3>& lead_in_path,
+                         std::string& failure, bool& braking, double& along_flown) {
   braking = false;
   along_flown = 0.0;
   if (points.size() < 2 || !(length > 0)) return points;
@@ -633,8 +654,9 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
     shortest_failure = text;
   };
   std::vector<Vec3> directions;
-  if (std::isfinite(climb) && std::abs(climb) > 1e-3) directions.push_back(Vec3(std::cos(heading), std::sin(heading), climb).normalized());
-  directions.push_back(Vec3(std::cos(heading), std::sin(heading), 0.0));
+  const bool climbing = std::isfinite(climb) && std::abs(climb) > 1e-3;
+  if (climbing) directions.push_back(Vec3(std::cos(heading), std::sin(heading), climb).normalized());
+  if (!climbing || level_allowed) directions.push_back(Vec3(std::cos(heading), std::sin(heading), 0.0));
   const Vec3& start = points.front();
   const auto cornerAngle = [&](const Vec3& a, const Vec3& b) { return leadInCorner(a, b, world.dimensions()); };
   // Steps of 0.7: between "blocked" (too long) and "too tight" (too short) the halving often had no length left.
@@ -654,6 +676,11 @@ std::vector<Vec3> leadIn(const std::vector<Vec3>& points, double heading, double
         const double tangent = turn_radius * std::tan(0.5 * corner);
         if (corner > 0.5 * std::numbers::pi) { failed(l, "the path turns back more than a right angle"); continue; }
         if (l < tangent - 1e-9 || onward.norm() < tangent - 1e-9) { failed(l, "the corner is too tight for the turn radius"); continue; }
+        const double vertical_tangent = vertical_radius * std::tan(0.5 * climbChange(direction, onward));
+        if (l < vertical_tangent - 1e-9 || onward.norm() < vertical_tangent - 1e-9) {
+          failed(l, "the climb changes too sharply for the vertical acceleration");
+          continue;
+        }
         if (!world.isFree(ahead) || !world.isSegmentFree(start, ahead)) { failed(l, "the lead-in is blocked"); break; }
         if (!world.isSegmentFree(ahead, points[next])) { failed(l, "the edge back to the path is blocked"); continue; }
         const double need = std::min(min_clearance, world.clearance(start));
@@ -730,9 +757,39 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
     cap[i] = std::min(cap[i], limit);
     cap[i + 1] = std::min(cap[i + 1], limit);
   }
+  // 3-D: vz = speed x slope changes at speed^2 x the slope's change per metre (plus slope x the path's acceleration),
+  // which the vertical acceleration bounds. The corners are rounded at the turn radius, but a corner tightened for
+  // room, or between short edges, changes the climb within centimetres.
+  const double a_vz = cfg.limit_fraction * cfg.max_vertical_accel;
+  std::vector<double> arc_at(n, 0.0);
+  for (std::size_t i = 0; i + 1 < n; ++i) arc_at[i + 1] = arc_at[i] + ds[i];
+  if (dims == 3 && std::isfinite(a_vz) && n > 2) {
+    for (std::size_t i = 1, before = 0, after = 1; i + 1 < n; ++i) {
+      while (before + 1 < i && arc_at[i] - arc_at[before + 1] >= kClimbWindowM) ++before;
+      after = std::max(after, i + 1);
+      while (after + 1 < n && arc_at[after] - arc_at[i] < kClimbWindowM) ++after;
+      const double back = arc_at[i] - arc_at[before], ahead = arc_at[after] - arc_at[i];
+      if (back <= 0.0 || ahead <= 0.0) continue;
+      const double slope_in = (pts[i].position.z() - pts[before].position.z()) / back;
+      const double slope_out = (pts[after].position.z() - pts[i].position.z()) / ahead;
+      const double change_per_m = std::abs(slope_out - slope_in) / (0.5 * (back + ahead));
+      if (change_per_m < 1e-9) continue;
+      const double budget = std::max(0.5 * a_vz, a_vz - std::max(std::abs(slope_in), std::abs(slope_out)) * cfg.max_accel);
+      cap[i] = std::min(cap[i], std::sqrt(budget / change_per_m));
+    }
+  }
   // Start at the vehicle's speed (0: at rest); in 3-D along the path, its climb included (initial_speed is horizontal).
   const double initial = dims == 3 && cfg.initial_speed > 0 ? std::hypot(cfg.initial_speed, cfg.initial_vz) : cfg.initial_speed;
   cap.front() = std::min(cap.front(), initial);
+  // A moving 3-D start whose first slope is not the vehicle's climb jumps in vz: at most as fast as leaves the vehicle
+  // kVerticalKinkM behind (the tracker then brakes for the slower start, or refuses it: cannotTakeOver).
+  if (dims == 3 && initial > 0 && std::isfinite(a_vz) && ds.front() > 0) {
+    std::size_t to = 1;
+    while (to + 1 < n && arc_at[to] < kClimbWindowM) ++to;
+    const double slope = (pts[to].position.z() - pts.front().position.z()) / arc_at[to];
+    const double jump = std::abs(slope - cfg.initial_vz / initial);
+    if (jump > 1e-9) cap.front() = std::min(cap.front(), std::sqrt(2.0 * a_vz * kVerticalKinkM) / jump);
+  }
   cap.back() = 0.0;                                        // end at rest
 
   // Forward-backward pass: the fastest profile under the caps with |ds/dt change| <= max_accel.
@@ -979,7 +1036,12 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
     const bool may_brake = config.lead_in_decel > 0 || stop <= config.short_braking_m;
     const double braking_length = may_brake && stop > 0.1 ? 1.25 * stop + 0.3 : 0.0;
     bool braking = false;
-    points = leadIn(points, *config.initial_heading, climb, std::max(2 * radius, 1.0), lead_radius, braking_length,
+    // In 3-D the climb turns at the vertical acceleration: at the start's speed, over this radius; and a level start
+    // from a climb is allowed only where the kink in vz leaves the vehicle no more than kVerticalKinkM off.
+    const double a_vz = config.limit_fraction * config.max_vertical_accel;
+    const double vertical_radius = dims == 3 ? path_speed * path_speed / a_vz : 0.0;
+    const bool level_allowed = dims != 3 || verticalKinkDeviation(config.initial_vz, a_vz) <= kVerticalKinkM;
+    points = leadIn(points, *config.initial_heading, climb, level_allowed, std::max(2 * radius, 1.0), lead_radius, vertical_radius, braking_length,
                     config.clearance_target, world, config.shortcut_clearance, config.lead_in_path, traj.report.lead_in_failure, braking,
                     traj.report.lead_in_along_flown);
     if (braking) braking_arc = traj.report.lead_in_braking = braking_length;

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <cstdio>
@@ -224,6 +225,80 @@ TEST(ClosedLoop, ThreeDimensionalClimb) {
   EXPECT_LT(r.status.mean_cross_track_error, 0.1);
   EXPECT_NEAR(r.track.back().position.z(), 3.0, 0.1);
   EXPECT_EQ(r.track_states_in_collision, 0u);
+}
+
+// A descent under the edge of an overhang, level under it, then a climb past its other edge: 0.1 m from the edges,
+// the corners are tightened for room, so the climb changes within a metre or so. The vehicle's vertical speed changes
+// at max_vertical_accel at most; a trajectory that changes it faster at full speed left the vehicle 0.35 m below it
+// (before the smoother capped the speed there, 2026-12-06: the trajectory took 15.4 s, now 18.4 s).
+TEST(ClosedLoop, AChangeOfClimbIsFlownWithinTheVerticalAcceleration) {
+  const std::string text =
+      "name: valley\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [40, 10, 20]}\nrobot_radius: 0.3\nstart: [2, 5, 12]\n"
+      "goal: [38, 5, 12]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 4.0, omega_max: 0.6, vz_max: 1.5, dt: 1.0}\n"
+      "obstacles:\n  - {type: box, min: [15, 0, 7.0], max: [25, 10, 20]}\n";
+  const auto sc = ddsnav::planner::parseScenario(text, "valley");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig scfg;
+  scfg.initial_heading = 0.0;
+  const auto traj = smoothPath(pathOf({{2, 5, 12}, {15, 5, 6.6}, {25, 5, 6.6}, {38, 5, 12}}), *world, *sc.vehicle, scfg);
+  // The reference's own vertical speed changes within the limit, over any half second.
+  const double a_z = scfg.limit_fraction * scfg.max_vertical_accel;
+  for (std::size_t i = 0, j = 0; i < traj.samples.size(); ++i) {
+    while (j < traj.samples.size() && traj.samples[j].time < traj.samples[i].time + 0.5) ++j;
+    if (j == traj.samples.size()) break;
+    const double dt = traj.samples[j].time - traj.samples[i].time;
+    EXPECT_LE(std::abs(traj.samples[j].vz - traj.samples[i].vz), a_z * dt * 1.15 + 0.05) << "at t = " << traj.samples[i].time;
+  }
+  auto cfg = loopConfig(*sc.vehicle);
+  cfg.vehicle.dimensions = 3;
+  ASSERT_EQ(cfg.vehicle.max_vertical_accel, scfg.max_vertical_accel);  // one default for the smoother and the vehicle
+  const auto r = runClosedLoop(traj, cfg, world.get());
+  EXPECT_TRUE(r.goal_reached);
+  double deepest = 0.0;  // how far the vehicle sank below the trajectory at its position along it
+  for (const auto& s : r.track) {
+    const auto& ref = *std::min_element(traj.samples.begin(), traj.samples.end(), [&](const TrajectorySample& a, const TrajectorySample& b) {
+      return (a.position - s.position).head<2>().norm() < (b.position - s.position).head<2>().norm();
+    });
+    deepest = std::max(deepest, ref.position.z() - s.position.z());
+  }
+  EXPECT_LT(deepest, 0.15);
+  EXPECT_LT(r.status.max_cross_track_error, 0.2);
+}
+
+// A replan from a descent onto a level path over a floor that leaves no room to descend far: a level lead-in makes
+// the reference's vz jump from -1.24 m/s to 0 at the start, and the vehicle, changing vz at max_vertical_accel, sinks
+// below it (descend_3d: 0.69 m, with the vehicle 0.07 m into a hill). The start keeps the descent and turns it level
+// within the vertical acceleration, slower where the room is short.
+TEST(ClosedLoop, ADescendingStartTurnsLevelWithinTheVerticalAcceleration) {
+  const std::string text =
+      "name: descent\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [40, 10, 20]}\nrobot_radius: 0.3\nstart: [2, 5, 12]\n"
+      "goal: [38, 5, 12]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 4.0, omega_max: 0.6, vz_max: 1.5, dt: 1.0}\n"
+      "obstacles:\n  - {type: box, min: [0, 0, 0], max: [40, 10, 10.6]}\n";
+  const auto sc = ddsnav::planner::parseScenario(text, "descent");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  SmootherConfig scfg;
+  scfg.initial_heading = 0.0;
+  scfg.initial_speed = 3.4;
+  scfg.initial_vz = -1.24;
+  const auto traj = smoothPath(pathOf({{2, 5, 12}, {38, 5, 12}}), *world, *sc.vehicle, scfg);
+  // The reference's vz starts where the vehicle's is, within what kVerticalKinkM (0.05 m of lag) allows.
+  const double a_z = scfg.limit_fraction * scfg.max_vertical_accel;
+  EXPECT_LE(std::abs(traj.samples.front().vz - scfg.initial_vz), std::sqrt(2 * a_z * 0.05) + 1e-6);
+  auto cfg = loopConfig(*sc.vehicle);
+  cfg.vehicle.dimensions = 3;
+  VehicleState moving;
+  moving.v = 3.4;
+  moving.vz = -1.24;
+  cfg.start_motion = moving;
+  const auto r = runClosedLoop(traj, cfg, world.get());
+  EXPECT_TRUE(r.goal_reached);
+  EXPECT_EQ(r.track_states_in_collision, 0u);
+  double lowest = 1e9;
+  for (const auto& s : r.track) lowest = std::min(lowest, s.position.z());
+  double lowest_reference = 1e9;
+  for (const auto& s : traj.samples) lowest_reference = std::min(lowest_reference, s.position.z());
+  EXPECT_GT(lowest, lowest_reference - 0.1);  // the vehicle sinks no deeper than its trajectory, give or take the lag
+  EXPECT_LT(r.status.max_cross_track_error, 0.15);
 }
 
 // A trajectory switched to late (planned from a predicted start the vehicle has passed) is followed from

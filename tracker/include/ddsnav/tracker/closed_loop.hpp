@@ -7,6 +7,7 @@
 #include "ddsnav/tracker/tracker.hpp"
 #include "ddsnav/tracker/vehicle.hpp"
 
+#include <optional>
 #include <vector>
 
 namespace ddsnav::tracker {
@@ -16,6 +17,8 @@ struct ClosedLoopConfig {
   double timeout_factor = 2.0;   // give up after timeout_factor * duration + 10 s
   VehicleConfig vehicle;         // limits, acceleration limits, noise
   TrackerConfig tracker;
+  // The vehicle's speeds at the first sample (v, omega, vz; a replan's moving start); at rest when not given.
+  std::optional<VehicleState> start_motion;
 };
 
 struct ClosedLoopResult {

@@ -30,6 +30,10 @@ struct SmootherConfig {
   double limit_fraction = 0.85;
   double max_accel = 1.0;        // m/s^2 along the path
   double max_lateral_accel = std::numeric_limits<double>::infinity();  // m/s^2, v^2 * curvature
+  // 3-D: m/s^2 on the vertical speed (the simulated vehicle's VehicleConfig::max_vertical_accel; this fraction of it
+  // is used, limit_fraction). Where the climb changes along the curve the speed is capped so that vz follows at this
+  // rate: a descent that turns into a climb within a metre, at full speed, left the vehicle 0.69 m below it.
+  double max_vertical_accel = 2.0;
   bool shortcut = true;          // collision-checked shortcutting before smoothing
   // Shortcuts must keep at least this clearance (m) from obstacles; the planner's own edges are kept
   // as they are even when closer.
