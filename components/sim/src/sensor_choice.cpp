@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 #include <spdlog/fmt/fmt.h>
@@ -22,8 +23,22 @@ constexpr int kSonar3dRings = 8;
 // The 3-D lidar: 16 rings x 512 columns (2 degrees x 0.7 degrees) still put several beams on a 10 m hill
 // flank at the default range; 32 x 1024 made the simulator, perception and the mapper fall behind
 // simulated time four to one (gart_terrain_3d ran at speed 0.6 when asked for 4).
-constexpr int kLidarRings = 16;
 constexpr int kLidarColumns = 512;
+// Its vertical field of view covers the steepest climb the vehicle flies, atan(vz_max / v_max), and a few degrees
+// more, at least +-15 degrees and at most +-45; 16 rings (2 degrees apart at +-15), more only where they would be more
+// than 3.4 degrees apart (at most 24). Why the fan: the planner and the tracker block space outside it near the vehicle
+// (it sees nothing there, docs/world-model.md), so with +-15 degrees a vehicle that climbs at 22-34 degrees climbed
+// at 15 at most near itself. An A/B at speed 4 (+-25 degrees, 26 rings; docs/benchmarks/mission.md 2026-12-06 19:xx)
+// took r3d_42 from 2.07x and 1.33x to 1.07x and 1.05x, and a 12 x 10 x 6 m world climbing at 27 degrees from not
+// reached and 0.90x to 1.08x and 1.02x. Why so few rings: 26 rings doubled the map's latency at real time
+// (cloud -> map median 140 ms against 80-96 with 16 over the same fan; gart_terrain_3d 1.13x and 1.21x with p99 167
+// and 206 ms from obstacles to trajectory, 1.10x and 0.99x with p99 121 and 125 ms with 16).
+constexpr double kLidarMinHalfFovDeg = 15.0;
+constexpr double kLidarMaxHalfFovDeg = 45.0;
+constexpr double kClimbViewMarginDeg = 3.0;
+constexpr double kLidarWidestRingStepDeg = 3.4;
+constexpr int kLidarMinRings = 16;
+constexpr int kLidarMaxRings = 24;
 
 double horizontalExtent(const planner::Scenario& s) {
   return std::max(s.bounds_max.x() - s.bounds_min.x(), s.bounds_max.y() - s.bounds_min.y());
@@ -44,6 +59,19 @@ int beamsFor(double fov_deg) {
 }
 
 }  // namespace
+
+double defaultLidarHalfFovDeg(const planner::Scenario& scenario) {
+  double climb_deg = 0.0;
+  if (scenario.vehicle && scenario.vehicle->v_max > 0.0 && scenario.vehicle->vz_max > 0.0)
+    climb_deg = std::atan2(scenario.vehicle->vz_max, scenario.vehicle->v_max) * 180.0 / std::numbers::pi;
+  const double half = std::clamp(climb_deg + kClimbViewMarginDeg, kLidarMinHalfFovDeg, kLidarMaxHalfFovDeg);
+  return std::isfinite(half) ? std::ceil(half) : kLidarMinHalfFovDeg;
+}
+
+int defaultLidarRings(double vertical_span_deg) {
+  const double rings = std::ceil(vertical_span_deg / kLidarWidestRingStepDeg - 1e-9) + 1.0;
+  return std::isfinite(rings) ? static_cast<int>(std::clamp(rings, double(kLidarMinRings), double(kLidarMaxRings))) : kLidarMinRings;
+}
 
 std::string sensorKindName(SensorKind kind) {
   switch (kind) {
@@ -105,8 +133,10 @@ SensorChoice chooseSensor(const planner::Scenario& scenario, const SensorRequest
   if (planar) {
     config = RangeSensorConfig::scanner2d(beams, range);
   } else if (choice.kind == SensorKind::Lidar) {
-    config = RangeSensorConfig::lidar3d(request.rings.value_or(kLidarRings), request.beams.value_or(kLidarColumns),
-                                        request.vertical_min_deg.value_or(-15.0), request.vertical_max_deg.value_or(15.0), range);
+    const double half = defaultLidarHalfFovDeg(scenario);
+    const double low = request.vertical_min_deg.value_or(-half), high = request.vertical_max_deg.value_or(half);
+    config = RangeSensorConfig::lidar3d(request.rings.value_or(defaultLidarRings(high - low)), request.beams.value_or(kLidarColumns),
+                                        low, high, range);
   } else {
     config = RangeSensorConfig::lidar3d(request.rings.value_or(kSonar3dRings), beams,
                                         request.vertical_min_deg.value_or(-0.5 * kSonar3dApertureDeg),

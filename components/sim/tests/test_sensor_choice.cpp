@@ -156,5 +156,34 @@ TEST(SensorChoice, BlindOrMismatchedSensorsAreRefusedByName) {
   EXPECT_EQ(parseSensorKind("sonar"), SensorKind::Sonar);
 }
 
+// The lidar's fan covers the vehicle's steepest climb: the planner blocks what the fan cannot see near the vehicle.
+TEST(SensorChoice, TheLidarsFanCoversTheVehiclesSteepestClimb) {
+  auto steep = square(60, 3.0, 0.4, 3);
+  steep.vehicle->vz_max = 2.0;  // 33.7 degrees
+  const auto choice = chooseSensor(steep);
+  EXPECT_DOUBLE_EQ(choice.config.vertical_max_deg, 37.0);
+  EXPECT_DOUBLE_EQ(choice.config.vertical_min_deg, -37.0);
+  EXPECT_EQ(choice.config.rings, 23);  // 16 would be 4.9 degrees apart: 3.4 at most
+  auto gentle = square(60, 5.0, 0.6, 3);
+  gentle.vehicle->vz_max = 0.5;  // 5.7 degrees: the +-15 degree fan of 16 rings
+  EXPECT_DOUBLE_EQ(chooseSensor(gentle).config.vertical_max_deg, 15.0);
+  EXPECT_EQ(chooseSensor(gentle).config.rings, 16);
+  auto climber = square(60, 5.0, 0.6, 3);
+  climber.vehicle->vz_max = 2.0;  // 21.8 degrees: +-25 degrees, 16 rings 3.3 degrees apart
+  EXPECT_DOUBLE_EQ(chooseSensor(climber).config.vertical_max_deg, 25.0);
+  EXPECT_EQ(chooseSensor(climber).config.rings, 16);
+  auto rocket = square(60, 1.0, 0.6, 3);
+  rocket.vehicle->vz_max = 10.0;  // 84 degrees: capped at +-45
+  EXPECT_DOUBLE_EQ(chooseSensor(rocket).config.vertical_max_deg, 45.0);
+  EXPECT_EQ(chooseSensor(rocket).config.rings, 24);
+  // What the user sets wins; the rings follow the span they set.
+  SensorRequest request;
+  request.vertical_min_deg = -10.0;
+  request.vertical_max_deg = 10.0;
+  const auto set = chooseSensor(steep, request);
+  EXPECT_DOUBLE_EQ(set.config.vertical_max_deg, 10.0);
+  EXPECT_EQ(set.config.rings, 16);
+}
+
 }  // namespace
 }  // namespace ddsnav::sim

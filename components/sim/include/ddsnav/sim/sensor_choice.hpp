@@ -10,7 +10,9 @@
 //              diameter of the tightest turn) and extent the larger horizontal side of the bounds.
 //   fov        scanner and lidar 360 degrees; sonar 130 degrees centred on the heading.
 //   beams      one every 0.5 degrees for the scanner and the sonar (perception's default beam spacing);
-//              the lidar has 16 rings x 512 columns over -15..+15 degrees.
+//              the lidar has 512 columns and 16 rings (more where they would be over 3.4 degrees apart, at most
+//              24) over +-h degrees, h the vehicle's steepest climb atan(vz_max / v_max) + 3 degrees, rounded up,
+//              within [15, 45] (defaultLidarHalfFovDeg, defaultLidarRings).
 //
 //   sim::SensorRequest request;            // all unset: the default for the scenario
 //   request.max_range = 80.0;              // the user's override
@@ -57,6 +59,14 @@ struct SensorChoice {
 double defaultMaxRange(const planner::Scenario& scenario);
 // The default kind for `scenario` (the rule at the top).
 SensorKind defaultSensorKind(const planner::Scenario& scenario);
+
+// The default 3-D lidar's vertical half field of view, degrees: the vehicle's steepest climb (atan(vz_max / v_max))
+// + 3, rounded up, within [15, 45]; 15 without a vehicle block.
+double defaultLidarHalfFovDeg(const planner::Scenario& scenario);
+
+// The default 3-D lidar's rings over a vertical span (degrees): 16, or more where 16 would be over 3.4 degrees apart,
+// at most 24.
+int defaultLidarRings(double vertical_span_deg);
 
 // The sensor for `scenario` with `request` applied. Throws std::invalid_argument naming the bad field.
 // Noise, invalid returns, walls and seed keep RangeSensorConfig's defaults; the caller sets them.
