@@ -227,16 +227,22 @@ TEST(ClosedLoop, ThreeDimensionalClimb) {
   EXPECT_EQ(r.track_states_in_collision, 0u);
 }
 
+// A 40 x 10 x 20 m lane along x for a UAV of 4 m/s, 0.6 rad/s and 1.5 m/s up (descend_3d's), from (2, 5, 12) to
+// (38, 5, 12), with one obstacle (a scenario-format line).
+static ddsnav::planner::Scenario uavLane(const std::string& obstacle) {
+  return ddsnav::planner::parseScenario(
+      "name: lane\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [40, 10, 20]}\nrobot_radius: 0.3\nstart: [2, 5, 12]\n"
+      "goal: [38, 5, 12]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 4.0, omega_max: 0.6, vz_max: 1.5, dt: 1.0}\n"
+      "obstacles:\n  - " + obstacle + "\n",
+      "lane");
+}
+
 // A descent under the edge of an overhang, level under it, then a climb past its other edge: 0.1 m from the edges,
 // the corners are tightened for room, so the climb changes within a metre or so. The vehicle's vertical speed changes
 // at max_vertical_accel at most; a trajectory that changes it faster at full speed left the vehicle 0.35 m below it
 // (before the smoother capped the speed there, 2026-12-06: the trajectory took 15.4 s, now 18.4 s).
 TEST(ClosedLoop, AChangeOfClimbIsFlownWithinTheVerticalAcceleration) {
-  const std::string text =
-      "name: valley\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [40, 10, 20]}\nrobot_radius: 0.3\nstart: [2, 5, 12]\n"
-      "goal: [38, 5, 12]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 4.0, omega_max: 0.6, vz_max: 1.5, dt: 1.0}\n"
-      "obstacles:\n  - {type: box, min: [15, 0, 7.0], max: [25, 10, 20]}\n";
-  const auto sc = ddsnav::planner::parseScenario(text, "valley");
+  const auto sc = uavLane("{type: box, min: [15, 0, 7.0], max: [25, 10, 20]}");
   auto world = ddsnav::planner::makeScenarioWorld(sc);
   SmootherConfig scfg;
   scfg.initial_heading = 0.0;
@@ -270,11 +276,7 @@ TEST(ClosedLoop, AChangeOfClimbIsFlownWithinTheVerticalAcceleration) {
 // below it (descend_3d: 0.69 m, with the vehicle 0.07 m into a hill). The start keeps the descent and turns it level
 // within the vertical acceleration, slower where the room is short.
 TEST(ClosedLoop, ADescendingStartTurnsLevelWithinTheVerticalAcceleration) {
-  const std::string text =
-      "name: descent\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [40, 10, 20]}\nrobot_radius: 0.3\nstart: [2, 5, 12]\n"
-      "goal: [38, 5, 12]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 4.0, omega_max: 0.6, vz_max: 1.5, dt: 1.0}\n"
-      "obstacles:\n  - {type: box, min: [0, 0, 0], max: [40, 10, 10.6]}\n";
-  const auto sc = ddsnav::planner::parseScenario(text, "descent");
+  const auto sc = uavLane("{type: box, min: [0, 0, 0], max: [40, 10, 10.6]}");
   auto world = ddsnav::planner::makeScenarioWorld(sc);
   SmootherConfig scfg;
   scfg.initial_heading = 0.0;
