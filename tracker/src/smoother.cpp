@@ -761,8 +761,10 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
   // which the vertical acceleration bounds. The corners are rounded at the turn radius, but a corner tightened for
   // room, or between short edges, changes the climb within centimetres.
   const double a_vz = cfg.limit_fraction * cfg.max_vertical_accel;
-  std::vector<double> arc_at(n, 0.0);
-  for (std::size_t i = 0; i + 1 < n; ++i) arc_at[i + 1] = arc_at[i] + ds[i];
+  Profile prof;
+  prof.arc.assign(n, 0.0);
+  for (std::size_t i = 0; i + 1 < n; ++i) prof.arc[i + 1] = prof.arc[i] + ds[i];
+  const std::vector<double>& arc_at = prof.arc;
   if (dims == 3 && std::isfinite(a_vz) && n > 2) {
     for (std::size_t i = 1, before = 0, after = 1; i + 1 < n; ++i) {
       while (before + 1 < i && arc_at[i] - arc_at[before + 1] >= kClimbWindowM) ++before;
@@ -793,18 +795,15 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
   cap.back() = 0.0;                                        // end at rest
 
   // Forward-backward pass: the fastest profile under the caps with |ds/dt change| <= max_accel.
-  Profile prof;
   auto& v = prof.speed;
   v.assign(n, 0.0);
   v.front() = cap.front();
   for (std::size_t i = 0; i + 1 < n; ++i) v[i + 1] = std::min(cap[i + 1], std::sqrt(v[i] * v[i] + 2 * cfg.max_accel * ds[i]));
   std::vector<double> decel(n - 1, cfg.max_accel);
-  double arc = 0.0;
-  for (std::size_t i = 0; i + 1 < n && arc < braking_arc; arc += ds[i], ++i) decel[i] = std::max(cfg.max_accel, cfg.lead_in_decel);
+  for (std::size_t i = 0; i + 1 < n && arc_at[i] < braking_arc; ++i) decel[i] = std::max(cfg.max_accel, cfg.lead_in_decel);
   for (std::size_t i = n - 1; i-- > 0;) v[i] = std::min(v[i], std::sqrt(v[i + 1] * v[i + 1] + 2 * decel[i] * ds[i]));
 
   prof.time.assign(n, 0.0);
-  prof.arc.assign(n, 0.0);
   for (std::size_t i = 0; i + 1 < n; ++i) {
     double tau = 0.0;
     if (ds[i] > 0) {
@@ -826,7 +825,6 @@ Profile timeParametrise(const std::vector<CurvePoint>& pts, const planner::Vehic
     // The speed caps already imply these; they matter for pure rotations and guard rounding.
     tau = std::max({tau, std::abs(dth[i]) / w_eff, std::abs(dz[i]) / vz_eff});
     prof.time[i + 1] = prof.time[i] + tau;
-    prof.arc[i + 1] = prof.arc[i] + ds[i];
   }
   return prof;
 }

@@ -28,7 +28,7 @@ constexpr int kLidarColumns = 512;
 // more, at least +-15 degrees and at most +-45; 16 rings (2 degrees apart at +-15), more only where they would be more
 // than 3.4 degrees apart (at most 24). Why the fan: the planner and the tracker block space outside it near the vehicle
 // (it sees nothing there, docs/world-model.md), so with +-15 degrees a vehicle that climbs at 22-34 degrees climbed
-// at 15 at most near itself. An A/B at speed 4 (+-25 degrees, 26 rings; docs/benchmarks/mission.md 2026-12-06 19:xx)
+// at 15 at most near itself. An A/B at speed 4 (+-25 degrees, 26 rings; docs/benchmarks/mission.md 2026-12-06 18:2x-20:xx)
 // took r3d_42 from 2.07x and 1.33x to 1.07x and 1.05x, and a 12 x 10 x 6 m world climbing at 27 degrees from not
 // reached and 0.90x to 1.08x and 1.02x. Why so few rings: 26 rings doubled the map's latency at real time
 // (cloud -> map median 140 ms against 80-96 with 16 over the same fan; gart_terrain_3d 1.13x and 1.21x with p99 167

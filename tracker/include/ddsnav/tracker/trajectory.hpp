@@ -119,7 +119,11 @@ Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double spe
 // (SmootherConfig::initial_speed); on a straight or gentle stretch the vehicle runs ahead on the path until its
 // reference catches up, before a tight curve it turns at its limit and leaves the path (stunnel_0.5, 2026-12-06: a
 // start at 1.6 m/s under 4.3 m/s, 0.9 m before a 0.18 1/m curve, 0.67 m off the path and 4 mm into a wall).
+// The rule's speeds, m/s (the tracker component's too): a trajectory starting slower than kAtRestSpeed starts at rest; a
+// vehicle reaching a start faster than kFlownThroughSpeed flies through it; a start at most kStartSpeedSlack slower is
+// taken over without a look (about 6 cm ahead of the reference at 2 m/s^2).
+inline constexpr double kAtRestSpeed = 0.1, kFlownThroughSpeed = 0.5, kStartSpeedSlack = 0.5;
 bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
-                    double flown_through = 0.5, double at_rest = 0.1, double slack = 0.5);
+                    double flown_through = kFlownThroughSpeed, double at_rest = kAtRestSpeed, double slack = kStartSpeedSlack);
 
 }  // namespace ddsnav::tracker
