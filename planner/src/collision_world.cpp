@@ -30,13 +30,31 @@ bool segmentClearanceAtLeast(const CollisionWorld& world, const Vec3& a, const V
   }
 }
 
+namespace {
+
+// Whether a straight free segment `length` long leaves q along one of the lattice's directions (8 in 2-D, 26 in 3-D).
+bool leadsOut(const CollisionWorld& world, const Vec3& q, double length) {
+  const bool flat = world.dimensions() == 2;
+  for (int k = flat ? 0 : -1; k <= (flat ? 0 : 1); ++k)
+    for (int j = -1; j <= 1; ++j)
+      for (int i = -1; i <= 1; ++i) {
+        if (i == 0 && j == 0 && k == 0) continue;
+        if (world.isSegmentFree(q, q + Vec3(i, j, k).normalized() * length)) return true;
+      }
+  return false;
+}
+
+}  // namespace
+
 std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step,
-                                        double wanted_clearance) {
+                                        double wanted_clearance, double escape_length) {
   if (!p.allFinite()) throw std::invalid_argument("nearestFreePosition: the position must be finite");
   if (!std::isfinite(max_distance) || max_distance < 0.0) throw std::invalid_argument("nearestFreePosition: max_distance must be finite and >= 0");
   if (!std::isfinite(step) || !(step > 0.0)) throw std::invalid_argument("nearestFreePosition: step must be finite and > 0");
   if (!std::isfinite(wanted_clearance) || wanted_clearance < 0.0)
     throw std::invalid_argument("nearestFreePosition: wanted_clearance must be finite and >= 0");
+  if (!std::isfinite(escape_length) || escape_length < 0.0)
+    throw std::invalid_argument("nearestFreePosition: escape_length must be finite and >= 0");
   if (world.isFree(p)) return p;
   const bool flat = world.dimensions() == 2;
   const int n = static_cast<int>(std::floor(max_distance / step));
@@ -56,15 +74,31 @@ std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3&
       }
   // Nearest first; among equals the lattice order above, so the answer does not depend on the sort.
   std::stable_sort(offsets.begin(), offsets.end(), [](const Offset& a, const Offset& b) { return a.distance < b.distance; });
-  std::optional<Vec3> nearest_free;
+  // A free pocket inside what the world blocks (a hole in a map's widened terrain) is no way out: at most this many
+  // free positions are tested for a way out, 26 segments each, so that a start buried deep costs milliseconds.
+  constexpr int kMaxEscapeTests = 100;
+  int escape_tests = 0;
+  std::optional<Vec3> nearest_free;   // the last resort: free, but neither clear enough nor known to lead out
+  std::optional<Vec3> nearest_clear;  // clear enough, not known to lead out
+  std::optional<Vec3> nearest_out;    // leading out, not clear enough
   double give_up_at = max_distance;
   for (const Offset& o : offsets) {
     if (o.distance > give_up_at) break;
-    if (!world.isFree(p + o.d)) continue;
-    if (wanted_clearance <= 0.0 || world.clearance(p + o.d) >= wanted_clearance) return p + o.d;
-    if (!nearest_free) nearest_free = p + o.d, give_up_at = std::min(max_distance, o.distance + wanted_clearance + 1e-9);
+    const Vec3 q = p + o.d;
+    if (!world.isFree(q)) continue;
+    if (!nearest_free) nearest_free = q;
+    const bool clear = wanted_clearance <= 0.0 || world.clearance(q) >= wanted_clearance;
+    if (escape_length > 0.0) {
+      if (escape_tests++ >= kMaxEscapeTests) break;
+      if (!leadsOut(world, q, escape_length)) {
+        if (clear && !nearest_clear) nearest_clear = q;
+        continue;
+      }
+    }
+    if (clear) return q;
+    if (!nearest_out) nearest_out = q, give_up_at = std::min(max_distance, o.distance + wanted_clearance + 1e-9);
   }
-  return nearest_free;
+  return nearest_out ? nearest_out : nearest_clear ? nearest_clear : nearest_free;
 }
 
 }  // namespace ddsnav::planner

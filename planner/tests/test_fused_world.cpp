@@ -126,6 +126,38 @@ TEST(FusedWorld, AStartAgainstTheMapMovesToTheNearestFreeStateOnItsSide) {
   EXPECT_THROW(nearestFreePosition(*world, against, 100.0, 0.01), std::invalid_argument);
 }
 
+// Terrain below z = 1 with a free pocket of 0.1 m radius inside it, 0.05 m from a buried start (a point robot): the
+// nearest free position is in the pocket, from which nothing leads out; asked for a way out, it is the surface above.
+class PocketWorld : public CollisionWorld {
+ public:
+  int dimensions() const override { return 3; }
+  Vec3 boundsMin() const override { return {-5, -5, -5}; }
+  Vec3 boundsMax() const override { return {5, 5, 5}; }
+  double robotRadius() const override { return 0.0; }
+  bool isFree(const Vec3& p) const override {
+    countCheck();
+    return p.z() >= 1.0 || (p - kPocket).norm() <= 0.1;
+  }
+  double clearance(const Vec3& p) const override { return p.z() >= 1.0 ? p.z() - 1.0 : 0.1 - (p - kPocket).norm(); }
+  std::vector<NearbyObstacle> obstaclesNear(const Vec3&, double) const override { return {}; }
+  static inline const Vec3 kPocket{0.15, 0.0, 0.8};
+};
+
+TEST(FusedWorld, ABuriedStartMovesToAFreeStateThatLeadsOut) {
+  const PocketWorld world;
+  const Vec3 buried(0, 0, 0.8);
+  const auto nearest = nearestFreePosition(world, buried, 0.5, 0.05);
+  ASSERT_TRUE(nearest.has_value());
+  EXPECT_LT((*nearest - PocketWorld::kPocket).norm(), 0.1 + 1e-9);  // the pocket: 0.05 m away
+  const auto out = nearestFreePosition(world, buried, 0.5, 0.05, 0.0, 0.5);
+  ASSERT_TRUE(out.has_value());
+  EXPECT_NEAR(out->z(), 1.0, 1e-9);  // straight up, 0.2 m away
+  EXPECT_NEAR((*out - buried).norm(), 0.2, 1e-9);
+  // No way out within reach: the answer is as without the requirement.
+  EXPECT_EQ(*nearestFreePosition(world, buried, 0.15, 0.05, 0.0, 0.5), *nearest);
+  EXPECT_THROW(nearestFreePosition(world, buried, 0.5, 0.05, 0.0, -1.0), std::invalid_argument);
+}
+
 TEST(SensorViewWorld, BlocksWhatTheFanCannotSeeNearTheVehicleOnly) {
   SensorView view;
   view.origin = Vec3(2, 4, 2);

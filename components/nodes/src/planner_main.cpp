@@ -443,10 +443,13 @@ class PlannerComponent : public runtime::Component {
     // is not (docs/world-model.md): plan from the nearest free state within the robot radius instead (in 3-D
     // plus the surface margin, by which a map widens observed terrain), and on to half the robot radius of
     // clearance when that is near: a barely free start grazes the voxels with the first edge (nearestFreePosition).
+    // Where the map widens terrain, the state must also lead out of it by a free straight segment as long as the reach:
+    // the widening leaves free pockets of a few centimetres beside a buried start, with no free edge out of them.
     const double reach = scenario_.robot_radius + world_source_.surfaceMargin();
     if (reach > 0.0 && !world->isFree(problem.start.position)) {
       const double wanted_clearance = std::min(0.5 * scenario_.robot_radius, 0.3);
-      if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0, wanted_clearance)) {
+      const double escape_length = world_source_.surfaceMargin() > 0.0 ? reach : 0.0;
+      if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0, wanted_clearance, escape_length)) {
         spdlog::info("request {}: the start ({:.2f}, {:.2f}, {:.2f}) is in collision in the planner's world; planning from the nearest "
                      "free state, {:.2f} m away", request.request_id(), problem.start.position.x(), problem.start.position.y(),
                      problem.start.position.z(), (*moved - problem.start.position).norm());

@@ -85,8 +85,14 @@ class CollisionWorld {
 // free one when none is: a start barely free sits on the edge of the map's voxels, where the first edge of any
 // path from it grazes them (gart_terrain_3d: a vehicle stopped against a hill had ten plans from 0.25 m away,
 // each refused by the smoother, "passes too close to an obstacle" 0.4 m from the vehicle).
+//
+// With `escape_length` > 0 a moved position must also lead out: a straight free segment that long leaves it along
+// one of the lattice's directions (8 in 2-D, 26 in 3-D), tested on the nearest 100 free positions at most. A map's
+// widened terrain can leave a free pocket of a few centimetres next to a buried start (r3d_53: a vehicle 0.5 m above
+// a 40-degree flank, moved 0.38 m into a pocket from which no edge was free; 1.9 M iterations and no path in 5 s, ten
+// times). When no position within reach leads out, the answer is as without it.
 std::optional<Vec3> nearestFreePosition(const CollisionWorld& world, const Vec3& p, double max_distance, double step,
-                                        double wanted_clearance = 0.0);
+                                        double wanted_clearance = 0.0, double escape_length = 0.0);
 
 // The smallest clearance along the segment a-b is at least `required` (true when required <= 0). Clearance is
 // 1-Lipschitz, so a point with clearance c vouches for everything within c - required of it: long free stretches take
