@@ -220,7 +220,7 @@ Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double spe
 }
 
 bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
-                    double flown_through, double at_rest, double slack) {
+                    double flown_through, double at_rest, double slack, double vz_max) {
   if (!(arrival_speed > flown_through) || trajectory.samples.empty()) return false;
   const double start = trajectory.samples.front().speed;
   if (start < at_rest) return true;
@@ -230,6 +230,8 @@ bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double m
     const double vehicle = std::sqrt(std::max(0.0, arrival_speed * arrival_speed - 2.0 * max_decel * (sample.arc_length - arc0)));
     if (vehicle <= sample.speed + slack) return false;  // down to the trajectory's speed: its reference has caught up
     if (sample.speed < at_rest || vehicle * std::abs(sample.curvature) > omega_max) return true;
+    // The same climb at the vehicle's speed: vz grows with it, and a vehicle that cannot climb that fast flies under it.
+    if (vehicle * std::abs(sample.vz) > vz_max * sample.speed) return true;
   }
   return false;
 }

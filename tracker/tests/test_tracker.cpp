@@ -63,6 +63,27 @@ TEST(TakeOver, AVehicleArrivingFasterCannotTakeOverBeforeACurveItCannotTurn) {
   EXPECT_FALSE(cannotTakeOver(Trajectory{}, 4.29, decel, omega));
 }
 
+// terrain_ridge_3d at speed 4, 2026-12-06: a replan's trajectory started at 0.56 m/s climbing at 0.79 (vz 0.44 m/s)
+// under a vehicle at 3.8 m/s that climbs at 2 m/s at most. At 3.8 m/s that slope needs 3 m/s: the vehicle flew under
+// the trajectory, 0.72 m off it. Braking, it is down to 2.5 m/s (the steepest it can fly that slope at) only after
+// 2 m; a slope it can fly at its speed, or a climb that starts after it has slowed enough, takes over.
+TEST(TakeOver, AVehicleArrivingFasterCannotTakeOverBeforeAClimbTooSteepForItsSpeed) {
+  const double omega = 0.6, decel = 2.0, vz_max = 2.0;
+  const auto slowThenSpeedUp = [](double s) { return std::min(4.0, 0.56 + 0.5 * s); };
+  const auto straight = [](double) { return 0.0; };
+  const auto climbing = [&](double slope, double from) {
+    Trajectory t = sampledAlong(10, slowThenSpeedUp, straight);
+    for (auto& sample : t.samples)
+      if (sample.arc_length >= from) sample.vz = slope * sample.speed;
+    return t;
+  };
+  EXPECT_TRUE(cannotTakeOver(climbing(0.79, 0.0), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max));
+  EXPECT_FALSE(cannotTakeOver(climbing(0.79, 0.0), 3.8, decel, omega));  // without a vertical limit: as before
+  EXPECT_FALSE(cannotTakeOver(climbing(0.5, 0.0), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max));
+  EXPECT_FALSE(cannotTakeOver(climbing(0.79, 2.5), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max));
+  EXPECT_TRUE(cannotTakeOver(climbing(-0.79, 0.0), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max));
+}
+
 TEST(Tracker, StatusOnAStraightTrajectory) {
   auto sc = scenario2d(20, 0.3, "");
   auto world = ddsnav::planner::makeScenarioWorld(sc);

@@ -655,12 +655,14 @@ class TrackerComponent : public runtime::Component {
   // would overshoot it (adoptSmoothed refuses such a plan).
   static constexpr double kAtRestStart = tracker::kAtRestSpeed, kFlownThrough = tracker::kFlownThroughSpeed;
   // Whether a trajectory cannot take over from a vehicle arriving at `arrival_speed` (tracker::cannotTakeOver: at rest,
-  // or slower where the vehicle, braking at max_decel, would reach a curve too fast to turn or meet a stop). Such a
+  // or slower where the vehicle, braking at max_decel, would reach a curve too fast to turn, a climb too steep for its
+  // speed, or a stop). Such a
   // plan is braked for along the flown trajectory where that is allowed (mayBrakeFirst), else refused and asked again.
   // A first version refused every start more than tracker::kStartSpeedSlack slower: the terrain's climbs, flown safely
   // before, were refused and asked again in 4 of 6 runs (330 ms each, docs/benchmarks/mission.md 2026-12-06 15:3x).
   bool cannotTakeOver(const tracker::Trajectory& trajectory, double arrival_speed) const {
-    return tracker::cannotTakeOver(trajectory, arrival_speed, params_.max_decel, limits_.omega_max);
+    return tracker::cannotTakeOver(trajectory, arrival_speed, params_.max_decel, limits_.omega_max, tracker::kFlownThroughSpeed,
+                                   tracker::kAtRestSpeed, tracker::kStartSpeedSlack, limits_.vz_max);
   }
   static constexpr std::int64_t kFailedAheadBeforeStop = 2;  // failed plans from a start ahead before stopping for one from rest
   static constexpr std::uint32_t kFirstRequestId = 1;  // tracker::Mission numbers its requests from 1

@@ -119,11 +119,15 @@ Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double spe
 // (SmootherConfig::initial_speed); on a straight or gentle stretch the vehicle runs ahead on the path until its
 // reference catches up, before a tight curve it turns at its limit and leaves the path (stunnel_0.5, 2026-12-06: a
 // start at 1.6 m/s under 4.3 m/s, 0.9 m before a 0.18 1/m curve, 0.67 m off the path and 4 mm into a wall).
+// In 3-D it also cannot where, on the way, the trajectory climbs or descends more steeply than `vz_max` allows at the
+// vehicle's speed (terrain_ridge_3d, 2026-12-06: a start at 0.56 m/s climbing at 0.79 under a vehicle at 3.8 m/s,
+// which could climb at 2 m/s, not the 3 m/s that slope needed: 0.72 m off the trajectory).
 // The rule's speeds, m/s (the tracker component's too): a trajectory starting slower than kAtRestSpeed starts at rest; a
 // vehicle reaching a start faster than kFlownThroughSpeed flies through it; a start at most kStartSpeedSlack slower is
 // taken over without a look (about 6 cm ahead of the reference at 2 m/s^2).
 inline constexpr double kAtRestSpeed = 0.1, kFlownThroughSpeed = 0.5, kStartSpeedSlack = 0.5;
 bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
-                    double flown_through = kFlownThroughSpeed, double at_rest = kAtRestSpeed, double slack = kStartSpeedSlack);
+                    double flown_through = kFlownThroughSpeed, double at_rest = kAtRestSpeed, double slack = kStartSpeedSlack,
+                    double vz_max = std::numeric_limits<double>::infinity());
 
 }  // namespace ddsnav::tracker
