@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <iterator>
 #include <numbers>
 #include <stdexcept>
 #include <vector>
@@ -87,13 +88,13 @@ ReplanVerdict ReplanGate::check(const ReplanDecision& decision, const Trajectory
 namespace {
 
 // Metres free along `direction` from `position` (up to `look`), counted from where the robot there is first
-// free within its radius; 0 when it is not.
-double freeAlong(const planner::CollisionWorld& world, const Vec3& position, const Vec3& direction, double look) {
+// free within `reach`; 0 when it is not.
+double freeAlong(const planner::CollisionWorld& world, const Vec3& position, const Vec3& direction, double look, double reach) {
   const double step = std::max(0.02, std::min(0.1, world.checkResolution()));
   double travelled = 0.0;
   while (!world.isFree(position + travelled * direction)) {
     travelled += step;
-    if (travelled > world.robotRadius()) return 0.0;
+    if (travelled > reach) return 0.0;
   }
   while (travelled < look && world.isFree(position + (travelled + step) * direction)) travelled += step;
   return travelled;
@@ -106,16 +107,26 @@ double restStartRoom(double robot_radius, std::int64_t failed_plans) {
   return base * static_cast<double>(std::int64_t(1) << std::clamp<std::int64_t>(failed_plans, 0, 3));
 }
 
-double restStartHeading(const planner::CollisionWorld& world, const Vec3& position, double heading, double min_free) {
-  const auto direction = [](double angle) { return Vec3(std::cos(angle), std::sin(angle), 0.0); };
-  if (freeAlong(world, position, direction(heading), min_free) >= min_free) return heading;
+double restStartHeading(const planner::CollisionWorld& world, const Vec3& position, double heading, double min_free, double reach) {
+  const double escape = std::isfinite(reach) ? std::max(reach, world.robotRadius()) : world.robotRadius();
+  // In 3-D a vehicle at rest may climb as it sets off (the planner's edges climb at any slope, the smoother flies them
+  // within vz_max): a heading is free when it is level, climbing at 15, 30 or 45 degrees, or descending at 15.
+  static constexpr double kSlopes[] = {0.0, 0.2679491924311228, 0.5773502691896257, 1.0, -0.2679491924311228};
+  const std::size_t slopes = world.dimensions() == 3 ? std::size(kSlopes) : 1;
+  const auto freeToward = [&](double angle) {
+    double most = 0.0;
+    for (std::size_t i = 0; i < slopes && most < min_free; ++i)
+      most = std::max(most, freeAlong(world, position, Vec3(std::cos(angle), std::sin(angle), kSlopes[i]).normalized(), min_free, escape));
+    return most;
+  };
+  if (freeToward(heading) >= min_free) return heading;
   constexpr int kDirections = 16;
   double best = heading, best_free = 0.0;
   // The least turn first: +k and -k steps from the heading, k = 1 .. 8.
   for (int k = 1; k <= kDirections / 2; ++k) {
     for (const int sign : {1, -1}) {
       const double angle = wrapAngle(heading + sign * k * (2.0 * std::numbers::pi / kDirections));
-      const double free = freeAlong(world, position, direction(angle), min_free);
+      const double free = freeToward(angle);
       if (free >= min_free) return angle;
       if (free > best_free) best = angle, best_free = free;
       if (k == kDirections / 2) break;  // +8 and -8 steps are the same direction

@@ -255,5 +255,29 @@ TEST(RestStartHeading, AsksForMoreRoomAfterEachFailedPlan) {
   for (double t = 0; t <= 4.0; t += 0.25) EXPECT_TRUE(world->isFree(at + t * dir)) << t;
 }
 
+// A vehicle at rest 0.6 m above a 28-degree flank, facing up it (a random world, seed 62): nothing is free level ahead,
+// but climbing is, so it keeps its heading in 3-D; it used to turn round and fly away downhill first. Buried a little
+// deeper than its radius (as a map's widened terrain does), free space counts from where the climb leaves it.
+TEST(RestStartHeading, InThreeDimensionsAHeadingUpAFlankIsKeptWhereTheVehicleCanClimb) {
+  const auto sc = ddsnav::planner::parseScenario(
+      "name: flank\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [60, 60, 25]}\nrobot_radius: 0.3\n"
+      "start: [4.8, 6.0, 4.39]\ngoal: [55, 54, 12]\ngoal_radius: 2\n"
+      "vehicle: {model: unicycle, v_max: 5.0, omega_max: 0.7, vz_max: 2.0, dt: 1.0}\n"
+      "obstacles:\n  - {type: hill, center: [12.3, 21.4], height: 13.0, sigma: 10.9}\n",
+      "flank");
+  const auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const double uphill = 44.0 * std::numbers::pi / 180.0;
+  const Vec3 at(4.8, 6.0, 4.39);
+  ASSERT_TRUE(world->isFree(at));
+  const Vec3 level(std::cos(uphill), std::sin(uphill), 0.0);
+  EXPECT_FALSE(world->isFree(at + 1.2 * level));  // level ahead: into the flank
+  EXPECT_DOUBLE_EQ(restStartHeading(*world, at, uphill, 1.2), uphill);
+  // 0.5 m lower the robot is inside the flank: within its radius nothing leaves it, within radius + 1 m climbing does.
+  const Vec3 buried = at - Vec3(0, 0, 0.5);
+  ASSERT_FALSE(world->isFree(buried));
+  EXPECT_NE(restStartHeading(*world, buried, uphill, 1.2), uphill);
+  EXPECT_DOUBLE_EQ(restStartHeading(*world, buried, uphill, 1.2, 1.3), uphill);
+}
+
 }  // namespace
 }  // namespace ddsnav::tracker

@@ -340,7 +340,8 @@ class TrackerComponent : public runtime::Component {
     // Room for a few of the planner's shortest useful edges, and at least a metre; more after each plan that
     // failed since the last trajectory (tracker::restStartRoom).
     const double min_free = tracker::restStartRoom(scenario_.robot_radius, mission_.attempts() - 1);
-    const double heading = tracker::restStartHeading(*world, from.position, from.heading, min_free);
+    const double heading = tracker::restStartHeading(*world, from.position, from.heading, min_free,
+                                                     scenario_.robot_radius + world_source_.surfaceMargin());
     if (heading != from.heading)
       spdlog::info("at rest with less than {:.1f} m free ahead ({} failed plans before): the plan starts at heading {:.0f} deg, the vehicle "
                    "turns in place from {:.0f} deg first",

@@ -78,9 +78,14 @@ class ReplanGate {
 // iterations each, then the mission gave up). `heading` itself while at least `min_free` metres straight ahead
 // are free; otherwise, of 16 directions, the one with the least turn from it that has `min_free` metres free
 // (the natural way on out of a corner, not the longest way back), or failing that the one with the most free
-// space. Free space along a direction is counted from where it leaves collision, within the robot radius (a
-// vehicle that stopped touching a wall). Directions are horizontal.
-double restStartHeading(const planner::CollisionWorld& world, const Vec3& position, double heading, double min_free);
+// space. Free space along a direction is counted from where it leaves collision, within `reach` (at least the robot
+// radius: a vehicle that stopped touching a wall; a 3-D map's widened terrain buries a vehicle resting near a flank
+// deeper, and the planner searches its start within the radius plus that margin). Directions are horizontal in 2-D; in
+// 3-D a heading also counts as free climbing at 15, 30 or 45 degrees or descending at 15: a vehicle resting 0.6 m
+// above a 28-degree flank, facing up it, was turned round to fly away downhill and back (a random world, seed 62: 1.75x
+// and 1.95x the oracle; 1.62x with this rule), where it can climb as it sets off.
+double restStartHeading(const planner::CollisionWorld& world, const Vec3& position, double heading, double min_free,
+                        double reach = 0.0);
 // The room restStartHeading asks for: max(1 m, 4 robot radii) — a few of the planner's shortest useful edges —
 // doubled for each plan that failed before this one since the last trajectory, up to 8 times. Why: the base room
 // is less than one edge of a fast vehicle's tree (GART's UAV: up to 5 m); bugtrap_0.4, a vehicle stopped 1.5 m
