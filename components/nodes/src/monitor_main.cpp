@@ -141,6 +141,7 @@ class MonitorComponent : public runtime::Component {
                                              [this](const msg::Path& m) {
                                                if (const auto error = nodes::checkPath(m); !error.empty()) return bad_paths_.drop(error);
                                                seen_.paths.push_back(m);
+                                               nodes::notePathAnswer(seen_.requests, m.request_id(), simSeconds());
                                              }));
     subs_.push_back(subscribe(runtime::topics::trajectory, [this](const msg::Trajectory& m) {
       if (const auto error = nodes::checkTrajectory(m); !error.empty()) return bad_trajectories_.drop(error);
@@ -151,10 +152,7 @@ class MonitorComponent : public runtime::Component {
     subs_.push_back(ctx.subscribe<msg::PlanRequest>(
         runtime::topics::plan_request.name,
         bus::Qos{runtime::topics::plan_request.qos.reliability, runtime::topics::plan_request.qos.durability, 64}, [this](const msg::PlanRequest& m) {
-          // A copy (the tracker repeats its first request until a planner answers) is the same plan.
-          if (!seen_.requests.empty() && seen_.requests.back().request_id == m.request_id()) return;
-          const double at = started_ns_ ? (clock().nowNs() - started_ns_) * 1e-9 : 0.0;
-          seen_.requests.push_back({m.request_id(), at, bus::printable(m.reason())});
+          nodes::noteRequest(seen_.requests, m.request_id(), simSeconds(), bus::printable(m.reason()));
         }));
     subs_.push_back(subscribe(runtime::topics::tracking, [this](const msg::TrackingStatus& m) {
       if (const auto error = nodes::checkTrackingStatus(m); !error.empty()) return bad_statuses_.drop(error);
@@ -274,6 +272,7 @@ class MonitorComponent : public runtime::Component {
       bad_statuses_{"control/tracking"}, bad_maps_{"map/octomap", "keeping the last good map"};
   std::chrono::steady_clock::time_point wall_started_, last_clock_advance_wall_;
   std::int64_t started_ns_ = 0, last_log_ns_ = 0, last_clock_ns_ = 0;  // on the component's clock; 0 until it runs
+  double simSeconds() const { return started_ns_ ? static_cast<double>(clock().nowNs() - started_ns_) * 1e-9 : 0.0; }
   std::string clock_stopped_;
   bool timed_out_ = false, claim_logged_ = false;
   std::vector<bus::Subscription> subs_;

@@ -5,6 +5,7 @@
 
 #include <spdlog/fmt/fmt.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 
@@ -48,6 +49,20 @@ void judgeGoal(RunObservations& run, const planner::Scenario& scenario, bool tra
   why += goal.why;
   if (timed_out_after_s) why += fmt::format("; timeout_s ({:g} s) passed", *timed_out_after_s);
   run.not_reached_why = std::move(why);
+}
+
+void noteRequest(std::vector<PlanRequestSeen>& requests, std::uint32_t request_id, double sim_time_s, std::string reason) {
+  const auto at = std::find_if(requests.begin(), requests.end(), [&](const PlanRequestSeen& r) { return r.request_id >= request_id; });
+  if (at != requests.end() && at->request_id == request_id) {
+    if (at->reason == kRequestNotHeard) at->reason = std::move(reason);
+    return;
+  }
+  requests.insert(at, PlanRequestSeen{request_id, sim_time_s, std::move(reason)});
+}
+
+void notePathAnswer(std::vector<PlanRequestSeen>& requests, std::uint32_t request_id, double sim_time_s) {
+  const bool heard = std::any_of(requests.begin(), requests.end(), [&](const PlanRequestSeen& r) { return r.request_id == request_id; });
+  if (!heard) noteRequest(requests, request_id, sim_time_s, kRequestNotHeard);
 }
 
 std::string reasonKind(const std::string& reason) {

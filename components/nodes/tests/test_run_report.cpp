@@ -273,3 +273,28 @@ TEST(RunReport, SummaryCountsReplansByReasonAndCarriesTheTruthNumbers) {
   EXPECT_EQ(nodes::reasonKind("trajectory sample at t=13.8 s (14.8, 25.9, 0) is no longer collision free"),
             "trajectory sample at t=# s is no longer collision free");
 }
+
+// The first request can be published while the monitor and the tracker still discover each other (r3d_70, 2026-12-06:
+// one plan, "0 plan requests"): a path answering a request never heard counts it, with a reason that says so; the
+// request heard late (a copy the tracker repeats) gives it its own reason; copies and answers add nothing more.
+TEST(RunReport, ARequestKnownOnlyFromItsAnswerIsCounted) {
+  std::vector<nodes::PlanRequestSeen> requests;
+  nodes::notePathAnswer(requests, 1, 0.4);
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_EQ(requests[0].reason, nodes::kRequestNotHeard);
+  nodes::noteRequest(requests, 2, 5.0, "trajectory_blocked: x");
+  nodes::notePathAnswer(requests, 2, 5.1);
+  nodes::noteRequest(requests, 2, 5.2, "trajectory_blocked: x");  // a copy
+  ASSERT_EQ(requests.size(), 2u);
+  nodes::noteRequest(requests, 1, 5.3, "start");  // heard late: its reason, in its place
+  ASSERT_EQ(requests.size(), 2u);
+  EXPECT_EQ(requests[0].request_id, 1u);
+  EXPECT_EQ(requests[0].reason, "start");
+  EXPECT_DOUBLE_EQ(requests[0].sim_time_s, 0.4);
+  EXPECT_EQ(requests[1].request_id, 2u);
+  nodes::RunObservations run;
+  run.requests = requests;
+  const auto summary = nodes::summaryJson(run);
+  EXPECT_EQ(summary["plan_requests"], 2);
+  EXPECT_EQ(summary["replans"].size(), 1u);
+}

@@ -47,6 +47,17 @@ struct PlanRequestSeen {
   std::string reason;       // the requester's (msg::PlanRequest::reason); empty when it gave none
 };
 
+// The reason given to a request the monitor never heard but saw answered (notePathAnswer).
+inline constexpr const char* kRequestNotHeard = "not heard (answered by a path; the monitor was still discovering the requester)";
+
+// A planning/request heard: added in request-id order. A copy of one already in the list (the tracker repeats its
+// first request until a planner answers) is the same plan; one known only from its answer gets its reason.
+void noteRequest(std::vector<PlanRequestSeen>& requests, std::uint32_t request_id, double sim_time_s, std::string reason);
+// A planning/path answering `request_id`: a request the monitor never heard (the first one can be published while
+// the monitor and the tracker still discover each other: r3d_70, 2026-12-06, reported 0 plan requests for its one
+// plan) is added with kRequestNotHeard as its reason, so that the plans are counted.
+void notePathAnswer(std::vector<PlanRequestSeen>& requests, std::uint32_t request_id, double sim_time_s);
+
 // The first word group of a reason, for counting: "path blocked: trajectory sample at ..." -> "path blocked".
 std::string reasonKind(const std::string& reason);
 
