@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 namespace ddsnav::tracker {
@@ -219,21 +220,40 @@ Trajectory brakeAlong(const Trajectory& trajectory, double from_time, double spe
   return out;
 }
 
-bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
-                    double flown_through, double at_rest, double slack, double vz_max) {
-  if (!(arrival_speed > flown_through) || trajectory.samples.empty()) return false;
+std::string takeOverRefusal(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
+                            double flown_through, double at_rest, double slack, double vz_max) {
+  if (!(arrival_speed > flown_through) || trajectory.samples.empty()) return {};
   const double start = trajectory.samples.front().speed;
-  if (start < at_rest) return true;
-  if (start >= arrival_speed - slack) return false;
+  if (start < at_rest) return "it starts at rest: the vehicle would overshoot its start";
+  if (start >= arrival_speed - slack) return {};
   const double arc0 = trajectory.samples.front().arc_length;
+  char why[200];
   for (const auto& sample : trajectory.samples) {
     const double vehicle = std::sqrt(std::max(0.0, arrival_speed * arrival_speed - 2.0 * max_decel * (sample.arc_length - arc0)));
-    if (vehicle <= sample.speed + slack) return false;  // down to the trajectory's speed: its reference has caught up
-    if (sample.speed < at_rest || vehicle * std::abs(sample.curvature) > omega_max) return true;
+    if (vehicle <= sample.speed + slack) return {};  // down to the trajectory's speed: its reference has caught up
+    const double on = sample.arc_length - arc0;
+    if (sample.speed < at_rest) {
+      std::snprintf(why, sizeof why, "braking, the vehicle would meet a stop %.1f m on at %.1f m/s", on, vehicle);
+      return why;
+    }
+    if (vehicle * std::abs(sample.curvature) > omega_max) {
+      std::snprintf(why, sizeof why, "braking, the vehicle would reach a curve of %.3f 1/m %.1f m on at %.1f m/s (%.2f rad/s, more than %.2f)",
+                    std::abs(sample.curvature), on, vehicle, vehicle * std::abs(sample.curvature), omega_max);
+      return why;
+    }
     // The same climb at the vehicle's speed: vz grows with it, and a vehicle that cannot climb that fast flies under it.
-    if (vehicle * std::abs(sample.vz) > vz_max * sample.speed) return true;
+    if (vehicle * std::abs(sample.vz) > vz_max * sample.speed) {
+      std::snprintf(why, sizeof why, "braking, the vehicle would reach a slope of %.2f %.1f m on at %.1f m/s (vz %.2f m/s, more than %.2f)",
+                    std::abs(sample.vz) / sample.speed, on, vehicle, vehicle * std::abs(sample.vz) / sample.speed, vz_max);
+      return why;
+    }
   }
-  return false;
+  return {};
+}
+
+bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
+                    double flown_through, double at_rest, double slack, double vz_max) {
+  return !takeOverRefusal(trajectory, arrival_speed, max_decel, omega_max, flown_through, at_rest, slack, vz_max).empty();
 }
 
 }  // namespace ddsnav::tracker

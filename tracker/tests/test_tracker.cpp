@@ -82,6 +82,10 @@ TEST(TakeOver, AVehicleArrivingFasterCannotTakeOverBeforeAClimbTooSteepForItsSpe
   EXPECT_FALSE(cannotTakeOver(climbing(0.5, 0.0), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max));
   EXPECT_FALSE(cannotTakeOver(climbing(0.79, 2.5), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max));
   EXPECT_TRUE(cannotTakeOver(climbing(-0.79, 0.0), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max));
+  // The refusal names what the vehicle would meet, where.
+  const std::string why = takeOverRefusal(climbing(0.79, 0.0), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max);
+  EXPECT_NE(why.find("slope of 0.79 0.0 m on at 3.8 m/s"), std::string::npos) << why;
+  EXPECT_EQ(takeOverRefusal(climbing(0.5, 0.0), 3.8, decel, omega, kFlownThroughSpeed, kAtRestSpeed, kStartSpeedSlack, vz_max), "");
 }
 
 TEST(Tracker, StatusOnAStraightTrajectory) {

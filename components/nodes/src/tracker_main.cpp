@@ -572,14 +572,13 @@ class TrackerComponent : public runtime::Component {
     // run ahead of it round a curve it cannot turn at that speed (cannotTakeOver). Asked again (ahead, or from rest
     // once the block is close enough to stop for it).
     // One whose lead-in brakes to rest first is flown.
-    if (cannotTakeOver(trajectory, request_speed_)) {
+    if (const std::string refusal = takeOverRefusal(trajectory, request_speed_); !refusal.empty()) {
       if (trajectory.samples.front().speed < kAtRestStart) {
         spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
                      smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
       } else {
-        spdlog::warn("trajectory {} starts at {:.1f} m/s, but the vehicle reaches its start at {:.1f} m/s: not flown (braking, it would "
-                     "reach a curve near the start too fast to turn, or a stop{}{})",
-                     smoothed.request_id, trajectory.samples.front().speed, request_speed_,
+        spdlog::warn("trajectory {} starts at {:.1f} m/s, but the vehicle reaches its start at {:.1f} m/s: not flown ({}{}{})",
+                     smoothed.request_id, trajectory.samples.front().speed, request_speed_, refusal,
                      trajectory.report.lead_in_failure.empty() ? "" : "; ", trajectory.report.lead_in_failure);
       }
       // Twice in a row: nothing ahead leaves room to go on at speed (inside a bug trap every plan turns back), and
@@ -661,9 +660,10 @@ class TrackerComponent : public runtime::Component {
   // plan is braked for along the flown trajectory where that is allowed (mayBrakeFirst), else refused and asked again.
   // A first version refused every start more than tracker::kStartSpeedSlack slower: the terrain's climbs, flown safely
   // before, were refused and asked again in 4 of 6 runs (330 ms each, docs/benchmarks/mission.md 2026-12-06 15:3x).
-  bool cannotTakeOver(const tracker::Trajectory& trajectory, double arrival_speed) const {
-    return tracker::cannotTakeOver(trajectory, arrival_speed, params_.max_decel, limits_.omega_max, tracker::kFlownThroughSpeed,
-                                   tracker::kAtRestSpeed, tracker::kStartSpeedSlack, limits_.vz_max);
+  bool cannotTakeOver(const tracker::Trajectory& trajectory, double arrival_speed) const { return !takeOverRefusal(trajectory, arrival_speed).empty(); }
+  std::string takeOverRefusal(const tracker::Trajectory& trajectory, double arrival_speed) const {
+    return tracker::takeOverRefusal(trajectory, arrival_speed, params_.max_decel, limits_.omega_max, tracker::kFlownThroughSpeed,
+                                    tracker::kAtRestSpeed, tracker::kStartSpeedSlack, limits_.vz_max);
   }
   static constexpr std::int64_t kFailedAheadBeforeStop = 2;  // failed plans from a start ahead before stopping for one from rest
   static constexpr std::uint32_t kFirstRequestId = 1;  // tracker::Mission numbers its requests from 1

@@ -129,5 +129,9 @@ inline constexpr double kAtRestSpeed = 0.1, kFlownThroughSpeed = 0.5, kStartSpee
 bool cannotTakeOver(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
                     double flown_through = kFlownThroughSpeed, double at_rest = kAtRestSpeed, double slack = kStartSpeedSlack,
                     double vz_max = std::numeric_limits<double>::infinity());
+// cannotTakeOver's why: empty when the vehicle can take the trajectory over, else what it would meet and where.
+std::string takeOverRefusal(const Trajectory& trajectory, double arrival_speed, double max_decel, double omega_max,
+                            double flown_through = kFlownThroughSpeed, double at_rest = kAtRestSpeed, double slack = kStartSpeedSlack,
+                            double vz_max = std::numeric_limits<double>::infinity());
 
 }  // namespace ddsnav::tracker
