@@ -57,6 +57,7 @@ void noteRequest(std::vector<PlanRequestSeen>& requests, std::uint32_t request_i
     if (at->reason == kRequestNotHeard) at->reason = std::move(reason);
     return;
   }
+  if (requests.size() >= kMaxRequestsSeen) return;  // a flood of made-up ids is not kept
   requests.insert(at, PlanRequestSeen{request_id, sim_time_s, std::move(reason)});
 }
 

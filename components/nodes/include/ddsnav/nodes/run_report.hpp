@@ -50,7 +50,10 @@ struct PlanRequestSeen {
 // The reason given to a request the monitor never heard but saw answered (notePathAnswer).
 inline constexpr const char* kRequestNotHeard = "not heard (answered by a path; the monitor was still discovering the requester)";
 
-// A planning/request heard: added in request-id order. A copy of one already in the list (the tracker repeats its
+// The most requests a run keeps (a mission makes tens; each is a few dozen bytes).
+inline constexpr std::size_t kMaxRequestsSeen = 1 << 16;
+
+// A planning/request heard: added in request-id order (up to kMaxRequestsSeen). A copy of one already in the list (the tracker repeats its
 // first request until a planner answers) is the same plan; one known only from its answer gets its reason.
 void noteRequest(std::vector<PlanRequestSeen>& requests, std::uint32_t request_id, double sim_time_s, std::string reason);
 // A planning/path answering `request_id`: a request the monitor never heard (the first one can be published while
