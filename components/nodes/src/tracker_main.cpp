@@ -516,10 +516,13 @@ class TrackerComponent : public runtime::Component {
     if (!follower_ || smoothed.continues_serial != trajectory_serial_ || next_trajectory_ || mission_.awaitingPlan() || stopping_for_) return;
     last_piece_smoothing_s_ = static_cast<double>(clock().nowNs() - smoothed.started_ns) * 1e-9;
     const auto& current = follower_->trajectory();
-    if (smoothed.trajectory && cannotTakeOver(*smoothed.trajectory, current.at(smoothed.switch_at).speed)) {
-      smoothed.error = fmt::format("it could only start at {:.1f} m/s, where the vehicle flies on at {:.1f} m/s",
-                                   smoothed.trajectory->samples.front().speed, current.at(smoothed.switch_at).speed);
-      smoothed.trajectory.reset();
+    if (smoothed.trajectory) {
+      const double arrival = current.at(smoothed.switch_at).speed;
+      if (const std::string refusal = takeOverRefusal(*smoothed.trajectory, arrival); !refusal.empty()) {
+        smoothed.error = fmt::format("it could only start at {:.1f} m/s, where the vehicle flies on at {:.1f} m/s ({})",
+                                     smoothed.trajectory->samples.front().speed, arrival, refusal);
+        smoothed.trajectory.reset();
+      }
     }
     if (!smoothed.trajectory) {
       const double at = std::min(follower_->status().reference_time + replan_gate_.expectedPlanningTime(), current.duration());
@@ -656,8 +659,8 @@ class TrackerComponent : public runtime::Component {
   static constexpr double kAtRestStart = tracker::kAtRestSpeed, kFlownThrough = tracker::kFlownThroughSpeed;
   // Whether a trajectory cannot take over from a vehicle arriving at `arrival_speed` (tracker::cannotTakeOver: at rest,
   // or slower where the vehicle, braking at max_decel, would reach a curve too fast to turn, a climb too steep for its
-  // speed, or a stop). Such a
-  // plan is braked for along the flown trajectory where that is allowed (mayBrakeFirst), else refused and asked again.
+  // speed, or a stop; takeOverRefusal says which). Such a plan is braked for along the flown trajectory where that is
+  // allowed (mayBrakeFirst), else refused and asked again.
   // A first version refused every start more than tracker::kStartSpeedSlack slower: the terrain's climbs, flown safely
   // before, were refused and asked again in 4 of 6 runs (330 ms each, docs/benchmarks/mission.md 2026-12-06 15:3x).
   bool cannotTakeOver(const tracker::Trajectory& trajectory, double arrival_speed) const { return !takeOverRefusal(trajectory, arrival_speed).empty(); }
