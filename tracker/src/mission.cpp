@@ -78,6 +78,9 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
   }
   if (answer && answer->request_id == request_id_) {
     pending_since_ns_.reset();
+    if (optional_ && (!answer->solved || !answer->exact || !checkGoal(config_.goal, config_.goal_radius, answer->path_end).reached))
+      return dropOptional(now_ns, *state, "plan " + std::to_string(request_id_) + " (optional) found no route to the goal" +
+                                              (answer->failure.empty() ? std::string() : ": " + answer->failure));
     if (!answer->solved) {
       std::string warning = "plan " + std::to_string(request_id_) + " failed";
       if (!answer->failure.empty()) warning += ": " + answer->failure;
@@ -101,6 +104,8 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
 }
 
 MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok) {
+  if (optional_ && !ok) return dropOptional(now_ns, state, "");
+  optional_ = false;
   if (!ok) {
     // The first refusal in a row is asked again after refused_retry_delay_s (0 here, 0.2 s in the component): a path refused
     // for a collision on the tracker's world (a newer map than the planner's) is most often planned anew on that map,
@@ -123,6 +128,7 @@ MissionDecision Mission::afterAnswer(std::int64_t now_ns, const VehicleState& st
   // A request may be lost while the planner restarts: ask again after the answer timeout. Unanswered
   // requests count as attempts, so a missing planner ends the mission instead of being asked forever.
   if (pending_since_ns_ && static_cast<double>(now_ns - *pending_since_ns_) * 1e-9 > config_.answerTimeoutS()) {
+    if (optional_) return dropOptional(now_ns, state, "plan " + std::to_string(request_id_) + " (optional): no answer from the planner");
     std::string warning = "plan " + std::to_string(request_id_) + ": no answer from the planner";
     if (attempts_ >= config_.max_plan_attempts)
       return fail("no answer from the planner (planning/path) after " + std::to_string(attempts_) + " attempts",
@@ -172,7 +178,25 @@ MissionDecision Mission::replanAhead(std::int64_t now_ns, const VehicleState& pr
   return request(now_ns, predicted, why);
 }
 
+MissionDecision Mission::improveAhead(std::int64_t now_ns, const VehicleState& predicted, const std::string& why) {
+  // Only while a trajectory is flown and nothing else is awaited: an optional request must not displace a required one.
+  if (!driving_ || awaitingPlan() || finished_ || failure_) return just(MissionAction::Drive);
+  MissionDecision d = request(now_ns, predicted, why);
+  --attempts_;  // no attempt: its failure changes nothing
+  optional_ = true;
+  return d;
+}
+
+MissionDecision Mission::dropOptional(std::int64_t now_ns, const VehicleState& state, std::string note) {
+  optional_ = false;
+  pending_since_ns_.reset();
+  MissionDecision d = afterAnswer(now_ns, state);
+  if (d.warning.empty()) d.note = std::move(note);
+  return d;
+}
+
 MissionDecision Mission::request(std::int64_t now_ns, const VehicleState& from, std::string reason) {
+  optional_ = false;  // a required request supersedes an optional one (improveAhead sets it again after this)
   ++request_id_;
   ++attempts_;
   pending_since_ns_ = now_ns;

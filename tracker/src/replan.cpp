@@ -33,6 +33,43 @@ void ReplanPolicy::validate() const {
   require(std::isfinite(planning_time_s) && planning_time_s >= 0, "planning_time_s must be a finite number of seconds >= 0");
 }
 
+void ImprovementPolicy::validate() const {
+  auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("improvement policy: ") + what);
+  };
+  require(std::isfinite(every_s) && every_s >= 0, "every_s must be a finite number of seconds >= 0");
+  require(min_gain >= 0 && min_gain < 1, "min_gain must be in [0, 1)");
+  require(std::isfinite(min_saving_s) && min_saving_s >= 0, "min_saving_s must be a finite number of seconds >= 0");
+  require(max_backoff >= 1 && max_backoff <= 1024, "max_backoff must be in [1, 1024]");
+  require(wall_duty > 0 && wall_duty <= 1, "wall_duty must be in (0, 1]");
+}
+
+ImprovementGate::ImprovementGate(const ImprovementPolicy& policy) : policy_(policy) { policy_.validate(); }
+
+bool ImprovementGate::due(double now_s, double wall_s, double remaining_s, double least_s) const {
+  if (policy_.every_s <= 0 || !std::isfinite(remaining_s) || !std::isfinite(least_s)) return false;
+  if (now_s - last_ask_s_ < interval()) return false;
+  // The last ask kept the planner busy for its latency: the next waits until that is wall_duty of the time since.
+  if (wall_s - last_ask_wall_s_ < last_wall_latency_s_ / policy_.wall_duty) return false;
+  return (1.0 - policy_.min_gain) * remaining_s > least_s && remaining_s - least_s >= policy_.min_saving_s &&
+         policy_.min_gain * remaining_s >= policy_.min_saving_s;
+}
+
+void ImprovementGate::asked(double now_s, double wall_s) {
+  last_ask_s_ = now_s;
+  last_ask_wall_s_ = wall_s;
+}
+
+void ImprovementGate::answered(bool taken, double wall_latency_s) {
+  backoff_ = taken ? 1 : std::min(2 * backoff_, policy_.max_backoff);
+  if (std::isfinite(wall_latency_s) && wall_latency_s >= 0) last_wall_latency_s_ = wall_latency_s;
+}
+
+void ImprovementGate::newTrajectory(double now_s) {
+  backoff_ = 1;
+  last_ask_s_ = now_s;
+}
+
 ReplanGate::ReplanGate(const ReplanPolicy& policy) : policy_(policy) { policy_.validate(); }
 
 void ReplanGate::planReady(double seconds) {

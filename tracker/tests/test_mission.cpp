@@ -339,6 +339,71 @@ TEST(Mission, PeriodicReplanCheckAndReplan) {
   EXPECT_EQ(m.tracked(0, at(2, 1), midway(), 0.1).action, MissionAction::Drive);
 }
 
+// A shorter route asked while the vehicle flies on (improveAhead) is optional: its failure, in every form, changes
+// nothing — no attempt counted, no retry, the vehicle drives on — and a required replan supersedes it.
+TEST(Mission, AnOptionalPlanThatFailsChangesNothing) {
+  Mission m = started();
+  m.update(0, at(0), true, answer(1, true));
+  ASSERT_EQ(m.pathSmoothed(0, at(0), true).action, MissionAction::Drive);
+  // Unsolved.
+  auto d = m.improveAhead(kSecond, at(2), "shorter_route");
+  ASSERT_EQ(d.action, MissionAction::RequestPlan);
+  EXPECT_EQ(d.request_id, 2u);
+  EXPECT_EQ(m.attempts(), 0);
+  EXPECT_TRUE(m.improving());
+  EXPECT_TRUE(m.awaitingPlan());
+  EXPECT_FALSE(m.awaitingRequiredPlan());
+  d = m.update(kSecond, at(2), true, answer(2, false, "no path within the budget"));
+  EXPECT_EQ(d.action, MissionAction::Drive);
+  EXPECT_TRUE(d.warning.empty());
+  EXPECT_NE(d.note.find("no path within the budget"), std::string::npos) << d.note;
+  EXPECT_FALSE(m.awaitingPlan());
+  EXPECT_EQ(m.update(10 * kSecond, at(3), true, std::nullopt).action, MissionAction::Drive);  // no retry comes
+  // Solved, but not to the goal region.
+  ASSERT_EQ(m.improveAhead(11 * kSecond, at(3), "shorter_route").request_id, 3u);
+  EXPECT_EQ(m.update(11 * kSecond, at(3), true, answer(3, true, "", {5, 0, 0})).action, MissionAction::Drive);
+  EXPECT_FALSE(m.awaitingPlan());
+  // Solved, but its trajectory not taken (not shorter, or not smoothable).
+  ASSERT_EQ(m.improveAhead(12 * kSecond, at(3), "shorter_route").request_id, 4u);
+  ASSERT_EQ(m.update(12 * kSecond, at(3), true, answer(4, true)).action, MissionAction::SmoothPath);
+  EXPECT_EQ(m.pathSmoothed(12 * kSecond, at(3), false).action, MissionAction::Drive);
+  EXPECT_FALSE(m.awaitingPlan());
+  EXPECT_EQ(m.update(20 * kSecond, at(3), true, std::nullopt).action, MissionAction::Drive);
+  // Lost: dropped after the answer timeout (3 s), not asked again.
+  ASSERT_EQ(m.improveAhead(21 * kSecond, at(3), "shorter_route").request_id, 5u);
+  EXPECT_EQ(m.update(25 * kSecond, at(3), true, std::nullopt).action, MissionAction::Drive);
+  EXPECT_FALSE(m.awaitingPlan());
+  EXPECT_EQ(m.attempts(), 0);
+  // A required replan supersedes a pending optional one; the optional one's late answer is ignored.
+  ASSERT_EQ(m.improveAhead(26 * kSecond, at(3), "shorter_route").request_id, 6u);
+  const auto replan = m.replanAhead(26 * kSecond, at(4), "trajectory_blocked");
+  ASSERT_EQ(replan.request_id, 7u);
+  EXPECT_FALSE(m.improving());
+  EXPECT_TRUE(m.awaitingRequiredPlan());
+  EXPECT_EQ(m.attempts(), 1);
+  EXPECT_EQ(m.update(26 * kSecond, at(4), true, answer(6, true)).action, MissionAction::Drive);
+  // Its failure is an attempt as ever: retried after the delay.
+  EXPECT_EQ(m.update(26 * kSecond, at(4), true, answer(7, false)).action, MissionAction::Wait);
+  EXPECT_EQ(m.update(27 * kSecond + 1, at(4), true, std::nullopt).action, MissionAction::RequestPlan);
+}
+
+TEST(Mission, AnOptionalPlanTakenIsFlownLikeAnyOther) {
+  Mission m = started();
+  m.update(0, at(0), true, answer(1, true));
+  ASSERT_EQ(m.pathSmoothed(0, at(0), true).action, MissionAction::Drive);
+  // Not while stopped, nor while another request is awaited.
+  Mission idle = started();
+  EXPECT_EQ(idle.improveAhead(0, at(0), "shorter_route").action, MissionAction::Drive);
+  EXPECT_EQ(idle.requestId(), 1u);
+  ASSERT_EQ(m.improveAhead(kSecond, at(1), "shorter_route").action, MissionAction::RequestPlan);
+  EXPECT_EQ(m.improveAhead(kSecond, at(1), "shorter_route").action, MissionAction::Drive);  // one at a time
+  EXPECT_EQ(m.requestId(), 2u);
+  ASSERT_EQ(m.update(kSecond, at(1), true, answer(2, true)).action, MissionAction::SmoothPath);
+  EXPECT_EQ(m.pathSmoothed(kSecond, at(1), true).action, MissionAction::Drive);
+  EXPECT_FALSE(m.improving());
+  EXPECT_FALSE(m.awaitingPlan());
+}
+
 TEST(Mission, RejectsABadConfig) {
   auto c = config();
   c.max_plan_attempts = 0;

@@ -9,6 +9,7 @@
 
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 
 namespace ddsnav::tracker {
 namespace {
@@ -277,6 +278,60 @@ TEST(RestStartHeading, InThreeDimensionsAHeadingUpAFlankIsKeptWhereTheVehicleCan
   ASSERT_FALSE(world->isFree(buried));
   EXPECT_NE(restStartHeading(*world, buried, uphill, 1.2), uphill);
   EXPECT_DOUBLE_EQ(restStartHeading(*world, buried, uphill, 1.2, 1.3), uphill);
+}
+
+
+// Shorter routes are asked for at most every every_s of mission time, less often after each ask that brings none,
+// and never where no route could save min_gain of the time left (seconds throughout).
+TEST(ImprovementGate, AsksOnlyWhereARouteCouldBeShorterAndBacksOffWhenNoneIs) {
+  ImprovementPolicy policy;
+  policy.every_s = 4.0;
+  policy.min_gain = 0.1;
+  policy.max_backoff = 4;
+  policy.wall_duty = 0.25;
+  ImprovementGate gate(policy);
+  // 100 s left, 95 s at the least: no route can save 10 s.
+  EXPECT_FALSE(gate.due(0.0, 0.0, 100.0, 95.0));
+  EXPECT_TRUE(gate.due(0.0, 0.0, 100.0, 80.0));
+  EXPECT_TRUE(gate.worthTaking(100.0, 89.0));
+  EXPECT_FALSE(gate.worthTaking(100.0, 91.0));
+  // Near the goal a switch must still save a second (min_saving_s): 10 % of 8 s is not worth asking for, nor taking.
+  EXPECT_FALSE(gate.due(0.0, 0.0, 8.0, 1.0));
+  EXPECT_FALSE(gate.worthTaking(8.0, 7.1));
+  EXPECT_TRUE(gate.worthTaking(8.0, 6.9));
+  gate.asked(0.0, 0.0);
+  EXPECT_FALSE(gate.due(3.9, 3.9, 100.0, 50.0));
+  EXPECT_TRUE(gate.due(4.0, 4.0, 100.0, 50.0));
+  gate.answered(false, 0.3);  // nothing shorter: the interval doubles
+  EXPECT_DOUBLE_EQ(gate.interval(), 8.0);
+  EXPECT_FALSE(gate.due(7.9, 7.9, 100.0, 50.0));
+  EXPECT_TRUE(gate.due(8.0, 8.0, 100.0, 50.0));
+  gate.asked(8.0, 8.0);
+  gate.answered(false, 0.3);
+  gate.answered(false, 0.3);
+  EXPECT_DOUBLE_EQ(gate.interval(), 16.0);  // capped at every_s x max_backoff
+  gate.answered(true, 0.3);
+  EXPECT_DOUBLE_EQ(gate.interval(), 4.0);
+  // A new trajectory from a replan restarts the interval from its time.
+  gate.newTrajectory(20.0);
+  EXPECT_FALSE(gate.due(23.0, 23.0, 100.0, 50.0));
+  EXPECT_TRUE(gate.due(24.0, 24.0, 100.0, 50.0));
+}
+
+// On a sped-up clock the asks are bounded in wall time too: an ask that took 0.5 s of wall time is followed by
+// another after 2 s of wall time at the least (wall_duty 0.25), however much mission time passed.
+TEST(ImprovementGate, TheAsksWallTimeStaysUnderItsShare) {
+  ImprovementPolicy policy;
+  policy.every_s = 1.0;
+  ImprovementGate gate(policy);
+  gate.asked(0.0, 100.0);
+  gate.answered(true, 0.5);
+  EXPECT_FALSE(gate.due(10.0, 101.9, 100.0, 50.0));
+  EXPECT_TRUE(gate.due(10.0, 102.0, 100.0, 50.0));
+  policy.every_s = 0.0;  // off
+  EXPECT_FALSE(ImprovementGate(policy).due(1e6, 1e6, 100.0, 1.0));
+  policy.min_gain = 1.0;
+  EXPECT_THROW(ImprovementGate{policy}, std::invalid_argument);
 }
 
 }  // namespace

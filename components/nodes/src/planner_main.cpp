@@ -80,7 +80,8 @@ class PlannerComponent : public runtime::Component {
               "improve_for_s", 0.0,
               {.min = 0, .max = 60, .unit = "s",
                .doc = "after the first solution, keep improving the path this long (within the request's budget; a first solution "
-                      "in a bug trap is a 30-50 % detour: docs/planners.md); 0: the first solution"})),
+                      "in a bug trap is a 30-50 % detour: docs/planners.md); 0: the first solution. A request's own improve_for_s, "
+                      "when > 0, takes its place"})),
           // A world tried first for the first time had a tenth of the budget (0.5 s), and two failures in a row held a
           // bug-trap replan 0.62 s. At 0.15 s (the scan -> trajectory target) bugtrap_0.4 was within 1.5x in 2 of 7
           // runs, against 5 of 6 without the cap and 3 of 3 at 0.3 s (docs/world-model.md).
@@ -521,8 +522,11 @@ class PlannerComponent : public runtime::Component {
     problem.kinodynamic = kinodynamic_;
     problem.seed = request.seed();
     problem.time_limit_s = time_limit_s;
-    problem.anytime = params_.improve_for_s > 0.0;
-    problem.improve_for_s = params_.improve_for_s;
+    // A request may ask for improvement itself: the tracker does when no change waits on the answer (its first plan, a
+    // shorter route while it flies on), never for a blocked trajectory, whose answer's latency counts.
+    const double improve_for_s = request.improve_for_s() > 0.0 ? request.improve_for_s() : params_.improve_for_s;
+    problem.anytime = improve_for_s > 0.0;
+    problem.improve_for_s = improve_for_s;
     problem.stop = stop;
     planner::PlanResult sampled = algorithm.solve(problem);
     if (!along_route) return sampled;

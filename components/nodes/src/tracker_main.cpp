@@ -59,6 +59,8 @@ class TrackerComponent : public runtime::Component {
     bool stop_within_observed;
     double observed_hold_s;
     std::optional<double> observed_crawl_speed;  // default: a stop from it takes a quarter of the robot radius
+    std::optional<double> improve_for_s;         // default: 0.25 s in 3-D, 0 (off) in 2-D
+    tracker::ImprovementPolicy improvement;
     std::optional<double> repair_distance;       // default: the robot radius
     std::optional<double> catch_up_decel;   // default: the smoother's max_accel in 2-D, off in 3-D
     std::optional<double> short_braking_m;  // default: the robot's diameter
@@ -138,6 +140,21 @@ class TrackerComponent : public runtime::Component {
                                    .doc = "stop_within_observed slows the vehicle to no less than this (a passage is seen into only "
                                           "from its mouth); default: the speed a stop from which takes a quarter of the robot radius"});
       world.keep_observed_free = stop_within_observed;
+      // On in 3-D, where the planner's first solutions were the detours of the missions over 1.5x the oracle (random
+      // worlds 67 and 69: 1.72x and 1.70x, 2026-12-06) and no lattice route guides it; 2-D plans follow a lattice route.
+      improve_for_s = p.declareOptional<double>(
+          "improve_for_s", {.min = 0, .max = 60, .unit = "s",
+                            .doc = "wall time the planner may improve its first solution for the mission's first plan and for a shorter "
+                                   "route asked while the vehicle flies on (improve_every_s; docs/tracking.md, \"Shorter routes\"), never "
+                                   "for a blocked trajectory; default 0.25 s in 3-D, 0 (off) in 2-D"});
+      improvement.every_s = p.declare<double>(
+          "improve_every_s", improvement.every_s,
+          {.min = 0, .max = 1e5, .unit = "s",
+           .doc = "with improve_for_s: ask for a shorter route from a start ahead at most this often (mission time; doubled after each "
+                  "ask that brought none, up to 8 times), flown when it saves improve_min_gain of the time left; 0: never"});
+      improvement.min_gain = p.declare<double>(
+          "improve_min_gain", improvement.min_gain,
+          {.min = 0, .max = 0.99, .doc = "share of the time left to the goal a shorter route must save to be flown"});
       smoother.sample_dt = p.declare<double>("sample_dt", smoother.sample_dt, {.above = 0, .unit = "s", .doc = "trajectory sample spacing"});
       // Perceived obstacles grow as more of them is scanned: on gart_cluttered_2d ellipses grew by 0.05-0.32 m
       // next to trajectories kept 0.16-0.2 m away, the vehicle touched them and then stood inside the
@@ -187,6 +204,8 @@ class TrackerComponent : public runtime::Component {
         world_source_(ctx, params_.world, scenario_, params_.unknown_margin_m.value_or(nodes::defaultUnknownMargin(scenario_)),
                       /*preferred_on_demand=*/true),
         mission_(missionConfig()),
+        improve_for_s_(params_.improve_for_s.value_or(scenario_.dimensions == 3 ? 0.25 : 0.0)),
+        improvement_gate_(params_.improvement),
         replan_gate_(params_.replan),
         tracker_config_(trackerConfig()),
         // Twice the horizon: half a piece, when the next is smoothed, still reaches as far as the replan check looks. The
@@ -272,6 +291,7 @@ class TrackerComponent : public runtime::Component {
   // Carries out what the mission decided; returns whether the vehicle should be driven this period.
   bool act(const tracker::MissionDecision& d) {
     if (!d.warning.empty()) spdlog::warn("{}", d.warning);
+    if (!d.note.empty()) spdlog::info("{}", d.note);
     switch (d.action) {
       case tracker::MissionAction::RequestPlan: {
         // Plans that failed twice in a row (unsolved, or not smoothable) while the vehicle flies on: their start ahead
@@ -312,6 +332,8 @@ class TrackerComponent : public runtime::Component {
         request.time_budget_s(params_.time_budget_s);
         request.seed(static_cast<std::uint64_t>(params_.seed) + d.request_id - 1);
         request.reason(d.reason);
+        // The first plan (at rest, nothing changed waits for it) and a shorter route may take longer for a better path.
+        if (improve_for_s_ > 0.0 && (d.request_id == kFirstRequestId || mission_.improving())) request.improve_for_s(improve_for_s_);
         spdlog::info("requesting plan {} with {} ({})", d.request_id, params_.planner, d.reason);
         requested_at_ns_ = clock().nowNs();
         request_heading_ = from.heading;
@@ -439,7 +461,7 @@ class TrackerComponent : public runtime::Component {
     auto pieces = tracker::splitPath(tracker::continuationPath(trajectory, switch_at, rest_of_path_, 0.5), piece_length_m_);
     rest_of_path_.clear();  // the job has it now
     Smoothed job;
-    job.request_id = mission_.requestId();
+    job.request_id = flown_request_id_;
     job.rest = std::move(pieces.rest);
     job.next_piece = true;
     job.continues_serial = trajectory_serial_;
@@ -498,16 +520,78 @@ class TrackerComponent : public runtime::Component {
 
   // Asks a plan from `ahead`, a sample of the trajectory being flown, while the vehicle flies on to it; the new
   // trajectory is switched to there.
-  void replanAheadFrom(const tracker::TrajectorySample& ahead, const tracker::VehicleState& state, const std::string& reason) {
+  // `optional`: a shorter route (Mission::improveAhead), not a replan.
+  void replanAheadFrom(const tracker::TrajectorySample& ahead, const tracker::VehicleState& state, const std::string& reason,
+                       bool optional = false) {
     tracker::VehicleState from = state;
     from.position = ahead.position;
     from.heading = tracker::wrapAngle(ahead.heading);
     from.v = ahead.speed;
-    act(mission_.replanAhead(clock().nowNs(), from, reason));
+    const auto decision = optional ? mission_.improveAhead(clock().nowNs(), from, reason) : mission_.replanAhead(clock().nowNs(), from, reason);
+    if (decision.action != tracker::MissionAction::RequestPlan) return;
+    act(decision);
     switch_at_ = ahead.time;
     request_speed_ = ahead.speed;
     request_vz_ = ahead.vz;
   }
+
+  // Shorter routes (docs/tracking.md): while the trajectory flown is not blocked, now and then an optional plan from
+  // where the vehicle will be when it is ready — the usual planning time ahead, plus the time the planner improves its
+  // first solution for — taken only when it saves improve_min_gain of what is left (shorterRouteTaken).
+  void askForAShorterRoute(const tracker::VehicleState& state) {
+    if (improve_for_s_ <= 0.0 || !follower_ || !mission_.driving() || mission_.awaitingPlan() || smoothing_.valid() || next_trajectory_ ||
+        stopping_for_ || braking_)
+      return;
+    const auto& trajectory = follower_->trajectory();
+    const double lead = replan_gate_.expectedPlanningTime() + improve_for_s_ * mission_.config().clock_speed;
+    const double at = follower_->status().reference_time + lead;
+    if (at + lead >= trajectory.duration() && rest_of_path_.empty()) return;  // nearly there
+    const double from = std::min(at, trajectory.duration());
+    const auto ahead = trajectory.at(from);
+    const double remaining_s = timeLeft(trajectory, from, rest_length_m_);
+    const double straight = std::max(0.0, (scenario_.goal - ahead.position).norm() - scenario_.goal_radius);
+    if (!improvement_gate_.due(nowS(), wallS(), remaining_s, straight / limits_.v_max)) return;
+    improvement_gate_.asked(nowS(), wallS());
+    improvement_open_ = true;
+    improvement_asked_wall_s_ = wallS();
+    replanAheadFrom(ahead, state,
+                    fmt::format("shorter_route: {:.1f} s left from ({:.1f}, {:.1f}, {:.1f}), {:.1f} m straight to the goal region",
+                                remaining_s, ahead.position.x(), ahead.position.y(), ahead.position.z(), straight),
+                    /*optional=*/true);
+  }
+
+  // Seconds left to the goal from `from` on `trajectory`, with `rest_m` of path after it at top speed (a piece at a time).
+  double timeLeft(const tracker::Trajectory& trajectory, double from, double rest_m) const {
+    return std::max(0.0, trajectory.duration() - from) + rest_m / limits_.v_max;
+  }
+
+  // Whether the smoothed answer to a shorter-route request is flown: sooner at the goal by improve_min_gain than what is
+  // left of the trajectory flown (and the path after it) from the same start, and able to take over there.
+  bool shorterRouteTaken(const tracker::Trajectory& trajectory, const Smoothed& smoothed) {
+    bool taken = false;
+    if (follower_ && switch_at_) {
+      const auto& current = follower_->trajectory();
+      const double left_s = timeLeft(current, std::min(*switch_at_, current.duration()), rest_length_m_);
+      const double offered_s = timeLeft(trajectory, 0.0, planner::pathLength(smoothed.rest));
+      const std::string refusal = takeOverRefusal(trajectory, request_speed_);
+      taken = improvement_gate_.worthTaking(left_s, offered_s) && refusal.empty();
+      spdlog::info("plan {} (shorter route): {:.1f} s ({:.1f} m) against {:.1f} s left of the trajectory flown: {}", smoothed.request_id,
+                   offered_s, trajectory.report.length, left_s,
+                   taken ? "flown" : !refusal.empty() ? "not flown, it cannot take over (" + refusal + ")" : "not flown, not soon enough");
+    }
+    if (taken) improvement_gate_.answered(true, wallS() - improvement_asked_wall_s_);
+    return taken;
+  }
+
+  // A shorter-route ask that ended without being flown (not shorter, failed, lost or superseded): the gate backs off.
+  void settleImprovement() {
+    if (!improvement_open_ || mission_.improving()) return;
+    improvement_open_ = false;
+    improvement_gate_.answered(false, wallS() - improvement_asked_wall_s_);
+  }
+
+  double nowS() const { return static_cast<double>(clock().nowNs()) * 1e-9; }
+  static double wallS() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
   // A long path's next piece waits for its switch point like a replan ahead's trajectory. One that is stale (the
   // trajectory it continues was replaced, or is being replanned) is dropped; one that could not be smoothed (the
@@ -539,6 +623,7 @@ class TrackerComponent : public runtime::Component {
     if (due_in_s > 0) {
       trajectories_.publish(nodes::toMsg(trajectory, smoothed.request_id, clock().nowNs() + static_cast<std::int64_t>(due_in_s * 1e9)));
       next_trajectory_ = std::move(trajectory);
+      next_request_id_ = smoothed.request_id;
       next_rest_ = std::move(smoothed.rest);
       next_is_piece_ = true;
       switch_at_ = smoothed.switch_at;
@@ -570,6 +655,7 @@ class TrackerComponent : public runtime::Component {
   bool adoptSmoothed(Smoothed smoothed, const tracker::VehicleState& state) {
     if (!smoothed.trajectory) return false;
     auto& trajectory = *smoothed.trajectory;
+    if (mission_.improving() && !shorterRouteTaken(trajectory, smoothed)) return false;
     // A plan from a predicted start the vehicle reaches at speed must be flown through; one that starts at
     // rest (no lead-in along the heading was free) would make it overshoot its start, one that starts much slower
     // run ahead of it round a curve it cannot turn at that speed (cannotTakeOver). Asked again (ahead, or from rest
@@ -599,9 +685,14 @@ class TrackerComponent : public runtime::Component {
     spdlog::info("trajectory {}: {:.1f} m, {:.1f} s, max curvature {:.3f} 1/m, min clearance {:.2f} m, starts at {:.1f} m/s{}, ready {:.3f} s after its request",
                  smoothed.request_id, trajectory.report.length, trajectory.report.duration, trajectory.report.max_curvature,
                  trajectory.report.min_clearance, trajectory.samples.front().speed, trajectoryNotes(trajectory.report), latency);
-    // The mission's first request may wait for the planner's world (3.3 s of simulated time on gart_terrain_3d):
-    // not a planning time to predict replans by.
-    if (smoothed.request_id != kFirstRequestId) replan_gate_.planReady(latency);
+    // The mission's first request may wait for the planner's world (3.3 s of simulated time on gart_terrain_3d), and a
+    // shorter route takes its time to improve: neither is a planning time to predict replans by.
+    if (mission_.improving()) {
+      improvement_open_ = false;
+    } else {
+      if (smoothed.request_id != kFirstRequestId) replan_gate_.planReady(latency);
+      improvement_gate_.newTrajectory(nowS());
+    }
     if (stopping_for_ && braking_rest_) {
       // Asked from where the braking ends: published now, stamped with when the braking reaches its end, and flown
       // once the vehicle is at rest (control).
@@ -609,6 +700,7 @@ class TrackerComponent : public runtime::Component {
       trajectories_.publish(nodes::toMsg(trajectory, smoothed.request_id, clock().nowNs() + static_cast<std::int64_t>(due_in_s * 1e9)));
       spdlog::info("trajectory {}: flown once the vehicle is at rest (in about {:.1f} s)", smoothed.request_id, due_in_s);
       next_trajectory_ = std::move(trajectory);
+      next_request_id_ = smoothed.request_id;
       next_rest_ = std::move(smoothed.rest);
       next_is_piece_ = false;
       next_since_ns_ = clock().nowNs();
@@ -622,6 +714,7 @@ class TrackerComponent : public runtime::Component {
       const double due_in_s = *switch_at_ - follower_->status().reference_time;
       trajectories_.publish(nodes::toMsg(trajectory, smoothed.request_id, clock().nowNs() + static_cast<std::int64_t>(due_in_s * 1e9)));
       next_trajectory_ = std::move(trajectory);
+      next_request_id_ = smoothed.request_id;
       next_rest_ = std::move(smoothed.rest);
       next_is_piece_ = false;
       next_since_ns_ = clock().nowNs();
@@ -856,6 +949,7 @@ class TrackerComponent : public runtime::Component {
     const bool moving_start = !turns_in_place && (request_speed_ > 0 || trajectory.samples.front().speed > 0);
     rest_of_path_ = std::move(rest);
     rest_length_m_ = planner::pathLength(rest_of_path_);
+    flown_request_id_ = request_id;
     follower_.emplace(std::move(trajectory), limits_, tracker_config_);
     ++trajectory_serial_;  // a check still running on the previous one is stale
     replan_gate_.reset();
@@ -904,6 +998,7 @@ class TrackerComponent : public runtime::Component {
     const std::optional<tracker::VehicleState> state = vehicle_;
     measureClockSpeed();
     repeatUntilAPlannerAnswers();
+    settleImprovement();
     if (stopping_for_ && state) {
       if (braking_) commands_.publish(nodes::toMsg(braking_->update(*state, dt), clock().nowNs()));
       else stop();
@@ -924,7 +1019,7 @@ class TrackerComponent : public runtime::Component {
         braking_rest_.reset();
         stopping_for_.reset();
         if (next_trajectory_) {
-          switchTrajectory(std::move(*next_trajectory_), std::move(next_rest_), next_is_piece_, mission_.requestId(), *state, /*announced=*/true);
+          switchTrajectory(std::move(*next_trajectory_), std::move(next_rest_), next_is_piece_, next_request_id_, *state, /*announced=*/true);
           next_trajectory_.reset();
         }
         return;
@@ -1032,7 +1127,7 @@ class TrackerComponent : public runtime::Component {
     const std::optional<tracker::VehicleState> state = current;
     if (next_trajectory_ && (follower_->status().reference_time >= *switch_at_ ||
                              static_cast<double>(clock().nowNs() - next_since_ns_) * 1e-9 > next_wait_limit_s_)) {
-      switchTrajectory(std::move(*next_trajectory_), std::move(next_rest_), next_is_piece_, mission_.requestId(), *state, /*announced=*/true);
+      switchTrajectory(std::move(*next_trajectory_), std::move(next_rest_), next_is_piece_, next_request_id_, *state, /*announced=*/true);
       next_trajectory_.reset();
       switch_at_.reset();
     }
@@ -1048,14 +1143,14 @@ class TrackerComponent : public runtime::Component {
       last_progress_log_ns_ = clock().nowNs();
       spdlog::info("driving trajectory {}: reference at {:.1f} of {:.1f} s, progress {:.0f} %, along-track {:.2f} m, cross-track {:.2f} m, "
                    "vehicle at {:.2f} m/s (vz {:.2f}), command {:.2f} m/s (vz {:.2f})",
-                   mission_.requestId(), status.reference_time, follower_->trajectory().duration(), 100 * status.progress,
+                   flown_request_id_, status.reference_time, follower_->trajectory().duration(), 100 * status.progress,
                    status.along_track_error, status.cross_track_error, state->v, state->vz, command.v, command.vz);
     }
     commands_.publish(nodes::toMsg(command, clock().nowNs()));
     const auto next = mission_.tracked(clock().nowNs(), *state, status, dt);
     msg::TrackingStatus out;
     out.stamp_ns(clock().nowNs());
-    out.request_id(mission_.requestId());
+    out.request_id(flown_request_id_);
     out.cross_track_error(status.cross_track_error);
     out.along_track_error(status.along_track_error);
     out.mean_cross_track_error(status.mean_cross_track_error);
@@ -1129,8 +1224,12 @@ class TrackerComponent : public runtime::Component {
         stopping_for_ = verdict.reason;
         stopping_since_ns_ = clock().nowNs();
         requestWhileBraking(current);
-      } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingPlan() && !smoothing_.valid()) {
+      } else if (verdict.action == tracker::ReplanAction::ReplanAhead && !mission_.awaitingRequiredPlan() &&
+                 (!smoothing_.valid() || mission_.improving())) {
+        // A shorter route still asked or smoothed is superseded: its answer is dropped as stale (takeSmoothed).
         replanAheadFrom(verdict.start, *state, verdict.reason);
+      } else if (verdict.action == tracker::ReplanAction::Continue) {
+        askForAShorterRoute(*state);
       }
     }
   }
@@ -1148,6 +1247,12 @@ class TrackerComponent : public runtime::Component {
   bus::Publisher<msg::TrackingStatus> statuses_;
   nodes::WorldSource world_source_;
   tracker::Mission mission_;
+  const double improve_for_s_;  // the parameter, or its default for the scenario
+  tracker::ImprovementGate improvement_gate_;
+  std::uint32_t flown_request_id_ = 0;  // the request whose trajectory is flown (the mission's may be a newer one)
+  std::uint32_t next_request_id_ = 0;   // the request next_trajectory_ comes from
+  bool improvement_open_ = false;         // a shorter route asked and not settled (settleImprovement)
+  double improvement_asked_wall_s_ = 0.0;
   tracker::ReplanGate replan_gate_;
   const tracker::TrackerConfig tracker_config_;
   std::int64_t requested_at_ns_ = 0;  // the current request's time, for the gate's planning-time estimate

@@ -159,6 +159,8 @@ std::string checkPlanRequest(const msg::PlanRequest& request, const planner::Sce
     return fmt::format("goal_radius = {:.9g} m, expected (0, {:.6g}] (the diagonal of the planning bounds)", request.goal_radius(), diagonal);
   if (!(request.time_budget_s() > 0) || !std::isfinite(request.time_budget_s()))
     return fmt::format("time_budget_s = {} s, expected a positive finite number of seconds", request.time_budget_s());
+  if (!(request.improve_for_s() >= 0) || !std::isfinite(request.improve_for_s()))
+    return fmt::format("improve_for_s = {} s, expected a finite number of seconds >= 0", request.improve_for_s());
   return {};
 }
 

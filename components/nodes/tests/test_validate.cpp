@@ -286,6 +286,13 @@ TEST(PlanRequestCheck, RefusesCoordinatesOutsideTheBoundsAndBadNumbers) {
   r.time_budget_s(kInf);
   EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "time_budget_s = inf s, expected a positive finite number of seconds");
   r = goodRequest();
+  r.improve_for_s(-0.1);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "improve_for_s = -0.1 s, expected a finite number of seconds >= 0");
+  r.improve_for_s(std::nan(""));
+  EXPECT_NE(nodes::checkPlanRequest(r, world, "map").find("improve_for_s = nan s"), std::string::npos);
+  r.improve_for_s(0.25);
+  EXPECT_EQ(nodes::checkPlanRequest(r, world, "map"), "");
+  r = goodRequest();
   r.header().frame_id("odom");
   EXPECT_NE(nodes::checkPlanRequest(r, world, "map").find("frame 'odom'"), std::string::npos);
   // A corner of the bounds is inside them; in 3-D, z is a coordinate like the others.

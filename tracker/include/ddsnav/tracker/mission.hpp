@@ -71,6 +71,7 @@ struct MissionDecision {
   VehicleState from;             // RequestPlan: the start state of the request
   std::string reason;            // RequestPlan: why ("start", "retrying", ...); Failed: the cause
   std::string warning;           // to be logged as a warning before acting, when not empty
+  std::string note;              // to be logged as information (an optional plan not used), when not empty
 };
 
 class Mission {
@@ -104,6 +105,11 @@ class Mission {
   // (ReplanGate): the vehicle keeps driving the current trajectory (Drive) until the answer is smoothed
   // (SmoothPath, then pathSmoothed() switches to it). A lost or failed answer is retried as usual.
   MissionDecision replanAhead(std::int64_t now_ns, const VehicleState& predicted, const std::string& why);
+  // An optional plan from `predicted` while the vehicle flies on (a shorter route, ImprovementGate): it counts as no
+  // attempt, and its failure (unsolved, not to the goal, not smoothed, or lost) changes nothing — no retry, the vehicle
+  // flies on. A required request (any other) supersedes it; while it is pending awaitingPlan() is true and
+  // awaitingRequiredPlan() is not.
+  MissionDecision improveAhead(std::int64_t now_ns, const VehicleState& predicted, const std::string& why);
   // Stop driving, keep waiting for the current request (the block came too close while it was planned).
   void hold() { driving_ = false; }
   // The clock's measured speed (MissionConfig::clock_speed); ignored unless a finite number >= 1e-3.
@@ -112,6 +118,10 @@ class Mission {
   }
   // A request is unanswered or a retry is due: no new replan is asked for meanwhile.
   bool awaitingPlan() const { return pending_since_ns_.has_value() || retry_at_ns_.has_value(); }
+  // As awaitingPlan(), but an optional request (improveAhead) does not count: a replan may supersede it.
+  bool awaitingRequiredPlan() const { return awaitingPlan() && !optional_; }
+  // The current request is an optional one (improveAhead) not yet answered or smoothed.
+  bool improving() const { return optional_; }
 
   // checkGoal for the mission's goal region.
   GoalCheck goalCheck(const VehicleState& state) const;
@@ -128,6 +138,8 @@ class Mission {
   MissionDecision retryLater(std::int64_t now_ns, const std::string& cause, std::string warning,
                              std::optional<double> delay_s = std::nullopt);
   MissionDecision afterAnswer(std::int64_t now_ns, const VehicleState& state);
+  // The optional request's answer is not used: nothing changes, the vehicle flies on.
+  MissionDecision dropOptional(std::int64_t now_ns, const VehicleState& state, std::string note);
 
   MissionConfig config_;
   std::uint32_t request_id_ = 0;
@@ -140,6 +152,7 @@ class Mission {
   std::optional<std::string> failure_;
   double since_replan_check_ = 0.0;  // s of driving since the last replan check
   std::int64_t short_ends_ = 0;      // trajectories that ended with the vehicle outside the goal region
+  bool optional_ = false;            // the current request is optional (improveAhead) and not settled yet
 };
 
 }  // namespace ddsnav::tracker

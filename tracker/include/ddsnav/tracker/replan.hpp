@@ -71,6 +71,51 @@ class ReplanGate {
   std::deque<double> latencies_;
 };
 
+// When to ask for a shorter route while the vehicle flies a trajectory that is not blocked (docs/tracking.md, "Shorter
+// routes"). A replan for a block answers with the planner's first solution, since its latency counts; in 3-D the
+// first solution of a world seen from one place is a detour of 30-70 % at times (random 3-D worlds, seeds 67 and 69:
+// 1.72x and 1.70x the oracle, 2026-12-06), and the map grows as the vehicle flies. An optional request from a start
+// ahead on the trajectory, with time to improve the first solution, is taken only when its trajectory gets to the goal
+// sooner by min_gain than what is left of the one flown: a first solution is often as long as a better one but curvier,
+// and its trajectory slower (random 3-D world 87: the last trajectory alone took 28.8 s, the oracle's whole one 26.4 s).
+struct ImprovementPolicy {
+  double every_s = 4.0;          // s of mission time between two asks at least; 0: never
+  double min_gain = 0.1;         // share of the remaining time a new route must save to be taken
+  double min_saving_s = 1.0;     // and at least this many seconds: near the goal a switch is not worth its risk
+  int max_backoff = 8;           // each ask that brings nothing doubles the interval, up to every_s x this
+  double wall_duty = 0.25;       // the asks' wall time (request to answer) stays under this share of the wall time
+
+  void validate() const;  // std::invalid_argument naming the field
+};
+
+class ImprovementGate {
+ public:
+  explicit ImprovementGate(const ImprovementPolicy& policy = {});
+
+  // Whether to ask now. `now_s`: mission time; `wall_s`: wall time (steady clock) in seconds; `remaining_s`: the time
+  // left to fly from the predicted start to the goal (trajectory and the path after it); `least_s`: a lower bound of
+  // any route's (the straight distance to the goal region at top speed). No ask where no route could save min_gain.
+  bool due(double now_s, double wall_s, double remaining_s, double least_s) const;
+  // An ask was sent at these times.
+  void asked(double now_s, double wall_s);
+  // Its outcome: `taken` (a shorter route is flown) resets the interval, otherwise it doubles up to the cap.
+  // `wall_latency_s`: wall seconds from the ask to its answer (smoothed or dropped).
+  void answered(bool taken, double wall_latency_s);
+  // A new trajectory from a required plan (a replan's first solution): asking again is due one interval after it.
+  void newTrajectory(double now_s);
+  // Whether a route taking `offered_s` is worth taking over `remaining_s` left of the current one.
+  bool worthTaking(double remaining_s, double offered_s) const {
+    return offered_s < (1.0 - policy_.min_gain) * remaining_s && remaining_s - offered_s >= policy_.min_saving_s;
+  }
+  double interval() const { return policy_.every_s * backoff_; }
+  const ImprovementPolicy& policy() const { return policy_; }
+
+ private:
+  ImprovementPolicy policy_;
+  int backoff_ = 1;
+  double last_ask_s_ = -1e300, last_ask_wall_s_ = -1e300, last_wall_latency_s_ = 0.0;
+};
+
 // The heading a vehicle at rest asks its plan from. It can turn in place before it drives, but a planner's
 // kinodynamic tree grows from the start only within its turn limit of the start heading (GART's UAV: 36
 // degrees an edge, edges up to 5 m): facing a wall — stopped at a dead end, or in a corner it ran wide of —
