@@ -280,7 +280,6 @@ TEST(RestStartHeading, InThreeDimensionsAHeadingUpAFlankIsKeptWhereTheVehicleCan
   EXPECT_DOUBLE_EQ(restStartHeading(*world, buried, uphill, 1.2, 1.3), uphill);
 }
 
-
 // Shorter routes are asked for at most every every_s of mission time, less often after each ask that brings none,
 // and never where no route could save min_gain of the time left (seconds throughout).
 TEST(ImprovementGate, AsksOnlyWhereARouteCouldBeShorterAndBacksOffWhenNoneIs) {
