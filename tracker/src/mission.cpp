@@ -78,7 +78,10 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
   }
   if (answer && answer->request_id == request_id_) {
     pending_since_ns_.reset();
-    if (optional_ && (!answer->solved || !answer->exact || !checkGoal(config_.goal, config_.goal_radius, answer->path_end).reached))
+    // A "solved" path that stops short of the goal region is no way to the goal: the planner's exact flag
+    // and the path's own end must both say it gets there.
+    const GoalCheck end = checkGoal(config_.goal, config_.goal_radius, answer->path_end);
+    if (optional_ && !(answer->solved && answer->exact && end.reached))
       return dropOptional(now_ns, *state, "plan " + std::to_string(request_id_) + " (optional) found no route to the goal" +
                                               (answer->failure.empty() ? std::string() : ": " + answer->failure));
     if (!answer->solved) {
@@ -86,9 +89,6 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
       if (!answer->failure.empty()) warning += ": " + answer->failure;
       return retryLater(now_ns, "no plan after " + std::to_string(attempts_) + " attempts", std::move(warning));
     }
-    // A "solved" path that stops short of the goal region is no way to the goal: the planner's exact flag
-    // and the path's own end must both say it gets there.
-    const GoalCheck end = checkGoal(config_.goal, config_.goal_radius, answer->path_end);
     if (!answer->exact || !end.reached) {
       std::string warning = "plan " + std::to_string(request_id_) + " is solved but does not reach the goal region: ";
       if (!answer->path_end) warning += "it has no states";
@@ -181,10 +181,7 @@ MissionDecision Mission::replanAhead(std::int64_t now_ns, const VehicleState& pr
 MissionDecision Mission::improveAhead(std::int64_t now_ns, const VehicleState& predicted, const std::string& why) {
   // Only while a trajectory is flown and nothing else is awaited: an optional request must not displace a required one.
   if (!driving_ || awaitingPlan() || finished_ || failure_) return just(MissionAction::Drive);
-  MissionDecision d = request(now_ns, predicted, why);
-  --attempts_;  // no attempt: its failure changes nothing
-  optional_ = true;
-  return d;
+  return request(now_ns, predicted, why, /*optional=*/true);
 }
 
 MissionDecision Mission::dropOptional(std::int64_t now_ns, const VehicleState& state, std::string note) {
@@ -195,10 +192,10 @@ MissionDecision Mission::dropOptional(std::int64_t now_ns, const VehicleState& s
   return d;
 }
 
-MissionDecision Mission::request(std::int64_t now_ns, const VehicleState& from, std::string reason) {
-  optional_ = false;  // a required request supersedes an optional one (improveAhead sets it again after this)
+MissionDecision Mission::request(std::int64_t now_ns, const VehicleState& from, std::string reason, bool optional) {
+  optional_ = optional;  // a required request supersedes an optional one
   ++request_id_;
-  ++attempts_;
+  if (!optional) ++attempts_;  // an optional one is no attempt: its failure changes nothing
   pending_since_ns_ = now_ns;
   retry_at_ns_.reset();  // this request supersedes a retry still waiting (a replan asked meanwhile)
   MissionDecision d = just(MissionAction::RequestPlan);

@@ -60,9 +60,9 @@ void ImprovementGate::asked(double now_s, double wall_s) {
   last_ask_wall_s_ = wall_s;
 }
 
-void ImprovementGate::answered(bool taken, double wall_latency_s) {
+void ImprovementGate::answered(bool taken, double wall_s) {
   backoff_ = taken ? 1 : std::min(2 * backoff_, policy_.max_backoff);
-  if (std::isfinite(wall_latency_s) && wall_latency_s >= 0) last_wall_latency_s_ = wall_latency_s;
+  if (const double latency = wall_s - last_ask_wall_s_; std::isfinite(latency) && latency >= 0) last_wall_latency_s_ = latency;
 }
 
 void ImprovementGate::newTrajectory(double now_s) {

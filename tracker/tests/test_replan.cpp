@@ -306,8 +306,8 @@ TEST(ImprovementGate, AsksOnlyWhereARouteCouldBeShorterAndBacksOffWhenNoneIs) {
   EXPECT_FALSE(gate.due(7.9, 7.9, 100.0, 50.0));
   EXPECT_TRUE(gate.due(8.0, 8.0, 100.0, 50.0));
   gate.asked(8.0, 8.0);
-  gate.answered(false, 0.3);
-  gate.answered(false, 0.3);
+  gate.answered(false, 8.3);
+  gate.answered(false, 8.3);
   EXPECT_DOUBLE_EQ(gate.interval(), 16.0);  // capped at every_s x max_backoff
   gate.answered(true, 0.3);
   EXPECT_DOUBLE_EQ(gate.interval(), 4.0);
@@ -324,7 +324,7 @@ TEST(ImprovementGate, TheAsksWallTimeStaysUnderItsShare) {
   policy.every_s = 1.0;
   ImprovementGate gate(policy);
   gate.asked(0.0, 100.0);
-  gate.answered(true, 0.5);
+  gate.answered(true, 100.5);
   EXPECT_FALSE(gate.due(10.0, 101.9, 100.0, 50.0));
   EXPECT_TRUE(gate.due(10.0, 102.0, 100.0, 50.0));
   policy.every_s = 0.0;  // off

@@ -62,8 +62,7 @@ void noteRequest(std::vector<PlanRequestSeen>& requests, std::uint32_t request_i
 }
 
 void notePathAnswer(std::vector<PlanRequestSeen>& requests, std::uint32_t request_id, double sim_time_s) {
-  const bool heard = std::any_of(requests.begin(), requests.end(), [&](const PlanRequestSeen& r) { return r.request_id == request_id; });
-  if (!heard) noteRequest(requests, request_id, sim_time_s, kRequestNotHeard);
+  noteRequest(requests, request_id, sim_time_s, kRequestNotHeard);  // a request heard keeps its reason
 }
 
 std::string reasonKind(const std::string& reason) {

@@ -553,7 +553,6 @@ class TrackerComponent : public runtime::Component {
     if (!improvement_gate_.due(nowS(), wallS(), remaining_s, straight / limits_.v_max)) return;
     improvement_gate_.asked(nowS(), wallS());
     improvement_open_ = true;
-    improvement_asked_wall_s_ = wallS();
     replanAheadFrom(ahead, state,
                     fmt::format("shorter_route: {:.1f} s left from ({:.1f}, {:.1f}, {:.1f}), {:.1f} m straight to the goal region",
                                 remaining_s, ahead.position.x(), ahead.position.y(), ahead.position.z(), straight),
@@ -579,7 +578,7 @@ class TrackerComponent : public runtime::Component {
                    offered_s, trajectory.report.length, left_s,
                    taken ? "flown" : !refusal.empty() ? "not flown, it cannot take over (" + refusal + ")" : "not flown, not soon enough");
     }
-    if (taken) improvement_gate_.answered(true, wallS() - improvement_asked_wall_s_);
+    if (taken) improvement_gate_.answered(true, wallS());
     return taken;
   }
 
@@ -587,7 +586,7 @@ class TrackerComponent : public runtime::Component {
   void settleImprovement() {
     if (!improvement_open_ || mission_.improving()) return;
     improvement_open_ = false;
-    improvement_gate_.answered(false, wallS() - improvement_asked_wall_s_);
+    improvement_gate_.answered(false, wallS());
   }
 
   double nowS() const { return static_cast<double>(clock().nowNs()) * 1e-9; }
@@ -1252,7 +1251,6 @@ class TrackerComponent : public runtime::Component {
   std::uint32_t flown_request_id_ = 0;  // the request whose trajectory is flown (the mission's may be a newer one)
   std::uint32_t next_request_id_ = 0;   // the request next_trajectory_ comes from
   bool improvement_open_ = false;         // a shorter route asked and not settled (settleImprovement)
-  double improvement_asked_wall_s_ = 0.0;
   tracker::ReplanGate replan_gate_;
   const tracker::TrackerConfig tracker_config_;
   std::int64_t requested_at_ns_ = 0;  // the current request's time, for the gate's planning-time estimate

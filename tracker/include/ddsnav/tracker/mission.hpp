@@ -133,7 +133,7 @@ class Mission {
   bool finished() const { return finished_; }
 
  private:
-  MissionDecision request(std::int64_t now_ns, const VehicleState& from, std::string reason);
+  MissionDecision request(std::int64_t now_ns, const VehicleState& from, std::string reason, bool optional = false);
   MissionDecision fail(std::string cause, std::string warning);
   MissionDecision retryLater(std::int64_t now_ns, const std::string& cause, std::string warning,
                              std::optional<double> delay_s = std::nullopt);

@@ -98,9 +98,9 @@ class ImprovementGate {
   bool due(double now_s, double wall_s, double remaining_s, double least_s) const;
   // An ask was sent at these times.
   void asked(double now_s, double wall_s);
-  // Its outcome: `taken` (a shorter route is flown) resets the interval, otherwise it doubles up to the cap.
-  // `wall_latency_s`: wall seconds from the ask to its answer (smoothed or dropped).
-  void answered(bool taken, double wall_latency_s);
+  // Its outcome, settled at wall time `wall_s` (smoothed or dropped): `taken` (a shorter route is flown) resets the
+  // interval, otherwise it doubles up to the cap.
+  void answered(bool taken, double wall_s);
   // A new trajectory from a required plan (a replan's first solution): asking again is due one interval after it.
   void newTrajectory(double now_s);
   // Whether a route taking `offered_s` is worth taking over `remaining_s` left of the current one.
