@@ -203,6 +203,9 @@ class OctoMapWorld final : public CollisionWorld {
         unknown_blocked_(options.unknown_is_occupied),
         solid_below_surface_(options.solid_below_surface && dimensions == 3),
         surface_margin_(options.surface_margin_m),
+        wider_margin_(options.solid_below_surface && dimensions == 3 && options.wider_surface_margin_m > options.surface_margin_m
+                          ? options.wider_surface_margin_m
+                          : 0.0),
         unknown_margin_(dimensions == 2 ? options.unknown_margin_m : 0.0),
         keep_observed_free_(options.keep_observed_free),
         outside_margin_(options.outside_bounds_margin_m),
@@ -216,24 +219,33 @@ class OctoMapWorld final : public CollisionWorld {
   Vec3 boundsMax() const override { return bmax_; }
   double robotRadius() const override { return radius_; }
 
-  bool isFree(const Vec3& p) const override {
+  bool isFree(const Vec3& p) const override { return isFreeWith(p, column_top_); }
+  double clearance(const Vec3& p) const override { return clearanceWith(p, column_top_); }
+
+  // The same with the tops widened by the wider margin (makeWiderMarginView); only when hasWiderMargin().
+  bool hasWiderMargin() const { return !column_top_wider_.empty(); }
+  bool isFreeWithWiderMargin(const Vec3& p) const { return isFreeWith(p, column_top_wider_); }
+  double clearanceWithWiderMargin(const Vec3& p) const { return clearanceWith(p, column_top_wider_); }
+
+  double resolution() const { return resolution_; }
+
+ private:
+  bool isFreeWith(const Vec3& p, const std::vector<std::int32_t>& tops) const {
     countCheck();
     if (!insideBounds(p)) return false;
     const Cell c = cellOf(p);
-    if (blocked(c) || depthBelowSurface(c, p) > 0.0) return false;
+    if (blocked(c) || depthBelowSurface(c, p, tops) > 0.0) return false;
     return radius_ <= 0.0 || !blockedWithin(p, radius_);
   }
-
-  double clearance(const Vec3& p) const override {
+  double clearanceWith(const Vec3& p, const std::vector<std::int32_t>& tops) const {
     if (!p.allFinite()) return -radius_;
-    const double depth = depthBelowSurface(cellOf(p), p);
+    const double depth = depthBelowSurface(cellOf(p), p, tops);
     if (depth > 0.0) return -depth - radius_;
     const double d = nearestOccupied(p);
     return d == kInf ? kInf : d - radius_;
   }
 
-  double resolution() const { return resolution_; }
-
+ public:
   // See clipToObservedSpace (collision_world.hpp): false (the ellipse stays as it is) unless it is clipped, when the
   // cells it keeps are appended to `cells`.
   bool clipEllipse(const EllipsoidObstacle& e, std::vector<Vec3>& cells) const {
@@ -795,8 +807,9 @@ class OctoMapWorld final : public CollisionWorld {
   static constexpr unsigned kSubtreeDepth = 13;
   void loadColumnTops() {
     if (occupied_bricks_.empty()) return;
-    // The grid reaches surface_margin_m beyond the occupied box on every side: the dilated tops spill there.
-    const std::int64_t margin_cells = static_cast<std::int64_t>(std::ceil(surface_margin_ * factor_ - 1e-9));
+    // The grid reaches the margin (the wider one, when there is one) beyond the occupied box on every side: the
+    // dilated tops spill there.
+    const std::int64_t margin_cells = static_cast<std::int64_t>(std::ceil(std::max(surface_margin_, wider_margin_) * factor_ - 1e-9));
     column_lo_ = {occ_lo_.x - margin_cells, occ_lo_.y - margin_cells, 0};
     column_hi_ = {occ_hi_.x + margin_cells, occ_hi_.y + margin_cells, 0};
     column_shift_ = 0;
@@ -822,24 +835,29 @@ class OctoMapWorld final : public CollisionWorld {
     widenColumnTops();
   }
   // Every column takes the highest own top (column_own_top_) within surface_margin_m (a square window: a separable
-  // max filter) into column_top_; without a margin the two are the same.
+  // max filter) into column_top_, and within the wider margin, when there is one, into column_top_wider_; without a
+  // margin column_top_ is column_own_top_.
   void widenColumnTops() {
-    column_top_ = column_own_top_;
-    const std::int64_t margin_cells = static_cast<std::int64_t>(std::ceil(surface_margin_ * factor_ - 1e-9));
-    const std::int64_t column_ny = static_cast<std::int64_t>(column_top_.size()) / column_nx_;
+    widenedTops(surface_margin_, column_top_);
+    if (wider_margin_ > 0.0) widenedTops(wider_margin_, column_top_wider_);
+  }
+  void widenedTops(double margin_m, std::vector<std::int32_t>& tops) const {
+    tops = column_own_top_;
+    const std::int64_t margin_cells = static_cast<std::int64_t>(std::ceil(margin_m * factor_ - 1e-9));
+    const std::int64_t column_ny = static_cast<std::int64_t>(tops.size()) / column_nx_;
     const int radius = static_cast<int>(std::min<std::int64_t>(margin_cells >> column_shift_, 1 << 20));
     if (radius > 0) {
       std::vector<std::int32_t> line, out;
       for (std::int64_t y = 0; y < column_ny; ++y) {  // rows
-        line.assign(column_top_.begin() + y * column_nx_, column_top_.begin() + (y + 1) * column_nx_);
+        line.assign(tops.begin() + y * column_nx_, tops.begin() + (y + 1) * column_nx_);
         slidingMax(line, radius, out);
-        std::copy(out.begin(), out.end(), column_top_.begin() + y * column_nx_);
+        std::copy(out.begin(), out.end(), tops.begin() + y * column_nx_);
       }
       line.resize(static_cast<std::size_t>(column_ny));
       for (std::int64_t x = 0; x < column_nx_; ++x) {  // columns
-        for (std::int64_t y = 0; y < column_ny; ++y) line[y] = column_top_[y * column_nx_ + x];
+        for (std::int64_t y = 0; y < column_ny; ++y) line[y] = tops[y * column_nx_ + x];
         slidingMax(line, radius, out);
-        for (std::int64_t y = 0; y < column_ny; ++y) column_top_[y * column_nx_ + x] = out[y];
+        for (std::int64_t y = 0; y < column_ny; ++y) tops[y * column_nx_ + x] = out[y];
       }
     }
   }
@@ -865,10 +883,10 @@ class OctoMapWorld final : public CollisionWorld {
   }
   // How far p lies below the top face of the highest occupied voxel of its column; 0 when above it, when the
   // column has none, or without solid_below_surface.
-  double depthBelowSurface(const Cell& c, const Vec3& p) const {
-    if (column_top_.empty() || c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return 0.0;
+  double depthBelowSurface(const Cell& c, const Vec3& p, const std::vector<std::int32_t>& tops) const {
+    if (tops.empty() || c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return 0.0;
     const std::size_t i = columnIndex(c.x, c.y);
-    const std::int32_t top = column_top_[i];
+    const std::int32_t top = tops[i];
     if (top == kNoColumnTop || c.z > top) return 0.0;
     // Space observed free stays free, when the robot's radius below it was observed free too: above the column's own
     // surface, under a neighbour's within the margin (unsampled skin right under a path is what the margin is for),
@@ -1049,8 +1067,10 @@ class OctoMapWorld final : public CollisionWorld {
   void loadFreeUnderColumnTops(const std::vector<std::uint8_t>& bytes, const std::vector<BinaryOcTreeReader::Subtree>& subtrees,
                                const std::vector<BinaryOcTreeReader::CoarseFreeLeaf>& coarse_free, const Cell& free_lo,
                                const Cell& free_hi) {
-    if (column_top_.empty()) return;
-    const std::int64_t ny = static_cast<std::int64_t>(column_top_.size()) / column_nx_;
+    // The widest tops: the wider margin's view yields to the space observed free under them too.
+    const std::vector<std::int32_t>& tops = column_top_wider_.empty() ? column_top_ : column_top_wider_;
+    if (tops.empty()) return;
+    const std::int64_t ny = static_cast<std::int64_t>(tops.size()) / column_nx_;
     // Per block of 8 x 8 column cells, the highest top (small enough to stay in cache: most leaves, the air above
     // the surface, are rejected there, before the column arrays are read).
     constexpr int kBlock = 3;  // log2 of the block's width in column cells
@@ -1060,14 +1080,14 @@ class OctoMapWorld final : public CollisionWorld {
       for (std::int64_t x = 0; x < column_nx_; ++x) {
         const std::size_t i = static_cast<std::size_t>(y * column_nx_ + x);
         const std::size_t b = static_cast<std::size_t>((y >> kBlock) * bnx + (x >> kBlock));
-        block_top[b] = std::max(block_top[b], column_top_[i]);
+        block_top[b] = std::max(block_top[b], tops[i]);
       }
     const std::int32_t highest = *std::max_element(block_top.begin(), block_top.end());
     if (highest == kNoColumnTop) return;
     // The z span [z0, z1] of column cell i under its top met by a leaf spanning [lo_z, hi_z]; empty when z0 > z1.
     const auto zone = [&](std::size_t i, std::int64_t lo_z, std::int64_t hi_z, std::int64_t& z0, std::int64_t& z1) {
       z0 = lo_z;
-      z1 = std::min<std::int64_t>(hi_z, column_top_[i]);  // kNoColumnTop: below every leaf
+      z1 = std::min<std::int64_t>(hi_z, tops[i]);  // kNoColumnTop: below every leaf
     };
     const std::size_t brick_budget = max_bricks_ - max_bricks_ / 10;
     bool stopped = false;
@@ -1139,7 +1159,7 @@ class OctoMapWorld final : public CollisionWorld {
       const std::int64_t gx0 = (x0 - column_lo_.x) >> column_shift_, gx1 = (x1 - column_lo_.x) >> column_shift_;
       const std::int64_t gy0 = (y0 - column_lo_.y) >> column_shift_, gy1 = (y1 - column_lo_.y) >> column_shift_;
       for (std::int64_t gy = gy0; gy <= gy1; ++gy) {
-        const std::int32_t* row = column_top_.data() + gy * column_nx_;
+        const std::int32_t* row = tops.data() + gy * column_nx_;
         if (std::any_of(row + gx0, row + gx1 + 1, [z](std::int32_t top) { return top >= z; })) return true;
       }
       return false;
@@ -1291,12 +1311,14 @@ class OctoMapWorld final : public CollisionWorld {
   bool unknown_blocked_;
   bool solid_below_surface_;
   double surface_margin_;  // m; solid_below_surface: a column is as high as the highest one this close
+  double wider_margin_;    // m; > surface_margin_ or 0: column_top_wider_ (makeWiderMarginView)
   double unknown_margin_;  // m; 2-D: never-observed cells this close to an occupied one are blocked
   bool keep_observed_free_;
   static constexpr std::int32_t kNoColumnTop = std::numeric_limits<std::int32_t>::min();
   // The gap between two rings of a lidar's rays where they cross a window, at most (2 degrees at 29 m).
   static constexpr double kRingGap_m = 1.0;
   std::vector<std::int32_t> column_top_;  // solid_below_surface: highest occupied cell z per column cell
+  std::vector<std::int32_t> column_top_wider_;  // the same, widened by wider_margin_ (empty without one)
   std::vector<std::int32_t> column_own_top_;  // the same before the surface margin widened it, undersides dropped
   std::int64_t column_nx_ = 0;
   Cell column_lo_{}, column_hi_{};  // the column grid's cells: the occupied box widened by surface_margin_m
@@ -1332,6 +1354,8 @@ std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bou
     throw std::invalid_argument("makeOctoMapWorld: outside_bounds_margin_m must be finite and >= 0");
   if (!(options.surface_margin_m >= 0.0 && options.surface_margin_m <= 1000.0))
     throw std::invalid_argument("makeOctoMapWorld: surface_margin_m must be in [0, 1000] m");
+  if (!(options.wider_surface_margin_m >= 0.0 && options.wider_surface_margin_m <= 1000.0))
+    throw std::invalid_argument("makeOctoMapWorld: wider_surface_margin_m must be in [0, 1000] m");
   if (!(options.unknown_margin_m >= 0.0 && options.unknown_margin_m <= 100.0))
     throw std::invalid_argument("makeOctoMapWorld: unknown_margin_m must be in [0, 100] m");
   if (options.max_bricks < 1) throw std::invalid_argument("makeOctoMapWorld: max_bricks must be at least 1");
@@ -1347,6 +1371,39 @@ OccludedContinuation occludedSurfaceContinuation(const CollisionWorld& world, co
 
 void prepareSurfaceContinuation(const CollisionWorld& world) {
   if (const auto* map = dynamic_cast<const OctoMapWorld*>(&world)) map->prepareContinuation();
+}
+
+namespace {
+
+// makeWiderMarginView's world: the map's answers, with its wider tops for isFree and clearance.
+class WiderMarginView final : public CollisionWorld {
+ public:
+  WiderMarginView(std::shared_ptr<const CollisionWorld> owner, const OctoMapWorld& map) : owner_(std::move(owner)), map_(map) {
+    setCheckResolution(map_.checkResolution());
+  }
+  int dimensions() const override { return map_.dimensions(); }
+  Vec3 boundsMin() const override { return map_.boundsMin(); }
+  Vec3 boundsMax() const override { return map_.boundsMax(); }
+  double robotRadius() const override { return map_.robotRadius(); }
+  bool isFree(const Vec3& p) const override {
+    countCheck();
+    return map_.isFreeWithWiderMargin(p);
+  }
+  double clearance(const Vec3& p) const override { return map_.clearanceWithWiderMargin(p); }
+  std::vector<NearbyObstacle> obstaclesNear(const Vec3& p, double range) const override { return map_.obstaclesNear(p, range); }
+  std::vector<NearbyObstacle> nearestPerBrick(const Vec3& p, double range) const override { return map_.nearestPerBrick(p, range); }
+
+ private:
+  std::shared_ptr<const CollisionWorld> owner_;  // keeps map_ alive
+  const OctoMapWorld& map_;
+};
+
+}  // namespace
+
+std::shared_ptr<const CollisionWorld> makeWiderMarginView(std::shared_ptr<const CollisionWorld> map) {
+  const auto* octomap = dynamic_cast<const OctoMapWorld*>(map.get());
+  if (octomap == nullptr || !octomap->hasWiderMargin()) return nullptr;
+  return std::make_shared<WiderMarginView>(std::move(map), *octomap);
 }
 
 std::optional<bool> robotInObservedFreeSpace(const CollisionWorld& world, const Vec3& p) {

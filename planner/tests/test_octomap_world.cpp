@@ -416,7 +416,11 @@ TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForc
 // free when its voxel and the robot radius under it (a voxel at least) were observed free or lie between cells
 // observed free in their column (the gap between a lidar's rings), and blocked otherwise. A hit with space observed
 // free under it (within 1 m) is an underside, no top: its column's top is the next hit under it that is a top.
-TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) {
+//
+// `wider_cells` > 8: the world is built with a wider surface margin too (wider_surface_margin_m, that many columns),
+// which loads the free cells under those wider tops; `through_wider_view`: it is asked through makeWiderMarginView,
+// whose rule counts the wider margin's tops.
+void checkColumnRuleAgainstABruteForceScan(long wider_cells, bool through_wider_view) {
   octomap::OcTree tree(0.1);
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-3.0f, 3.0f), uz(0.0f, 4.0f);
@@ -443,14 +447,21 @@ TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) {
   // free voxels 4 cells apart (unknown between).
   for (int h = 0; h < 30; ++h)
     markFree(hits[h] + octomap::point3d(-0.3f, -0.3f, -1.2f), hits[h] + octomap::point3d(0.3f, 0.3f, -0.15f), h < 15 ? 0.1f : 0.4f);
-  const auto world = marginWorld(tree);
+  const long loaded_cells = std::max(8L, wider_cells), rule_cells = through_wider_view ? wider_cells : 8;
+  OctoMapWorldOptions options;
+  options.solid_below_surface = true;
+  options.surface_margin_m = 0.75;  // 8 columns of 0.1 m, rounded up
+  if (wider_cells > 8) options.wider_surface_margin_m = (static_cast<double>(wider_cells) - 0.5) * 0.1;
+  const std::shared_ptr<const CollisionWorld> map = makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options);
+  const std::shared_ptr<const CollisionWorld> world = through_wider_view ? makeWiderMarginView(map) : map;
+  ASSERT_NE(world, nullptr);
   auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
   constexpr long kNone = std::numeric_limits<long>::min();
-  // The world knows the free cells under each column's widened top (its highest hit within the margin, 8 cells).
+  // The world knows the free cells under each column's widened top (its highest hit within the widest margin).
   const auto widened_top = [&](long x, long y) {
     long top = kNone;
     for (const auto& h : hits)
-      if (std::labs(cell(h.x()) - x) <= 8 && std::labs(cell(h.y()) - y) <= 8) top = std::max(top, cell(h.z()));
+      if (std::labs(cell(h.x()) - x) <= loaded_cells && std::labs(cell(h.y()) - y) <= loaded_cells) top = std::max(top, cell(h.z()));
     return top;
   };
   const auto state = [&](long x, long y, long z) {  // 'o' occupied, 'f' free (as the world knows it), '?' never observed
@@ -496,7 +507,7 @@ TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) {
     const long cx = cell(p.x()), cy = cell(p.y()), cz = cell(p.z());
     bool below = false;  // under an own top within the margin
     for (const auto& [key, top] : own_top)
-      if (top != kNone && cz <= top && std::labs(key.first - cx) <= 8 && std::labs(key.second - cy) <= 8) below = true;
+      if (top != kNone && cz <= top && std::labs(key.first - cx) <= rule_cells && std::labs(key.second - cy) <= rule_cells) below = true;
     // Its voxel and the one under it (the robot radius, at least a voxel) observed free, or never observed with
     // cells observed free first within 1 m above and below it in its column.
     const auto free_or_between_rings = [&](long z) {
@@ -514,6 +525,45 @@ TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) {
   EXPECT_GT(yielded, 200);    // every case was exercised
   EXPECT_GT(between_rings, 50);
   EXPECT_GT(blocked, 1000);
+}
+
+TEST(OctoMapWorld, ColumnRuleYieldsToSpaceObservedFreeAsABruteForceScanSays) { checkColumnRuleAgainstABruteForceScan(8, false); }
+
+// The wider margin's view (a 3-D planner's preferred world) follows the same rule with its wider tops, and the map
+// built with it follows it with its own margin, knowing the free cells under the wider tops too.
+TEST(OctoMapWorld, TheWiderMarginsViewFollowsTheColumnRuleWithItsWiderTops) {
+  checkColumnRuleAgainstABruteForceScan(18, true);
+  checkColumnRuleAgainstABruteForceScan(18, false);
+}
+
+// No view of a world without a wider margin, nor of another kind of world; a view is no copy: it outlives its handle.
+TEST(OctoMapWorld, AWiderMarginViewNeedsAWorldBuiltWithTheWiderMargin) {
+  octomap::OcTree tree(0.1);
+  tree.updateNode(octomap::point3d(0.05f, 0.05f, 2.05f), true);  // one hit 2 m up
+  OctoMapWorldOptions options;
+  options.solid_below_surface = true;
+  options.surface_margin_m = 0.5;
+  EXPECT_EQ(makeWiderMarginView(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options)), nullptr);
+  options.wider_surface_margin_m = 0.3;  // not wider: none
+  EXPECT_EQ(makeWiderMarginView(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options)), nullptr);
+  options.wider_surface_margin_m = 2.0;
+  EXPECT_EQ(makeWiderMarginView(makeOctoMapWorld(2, Vec3(-6, -6, 0), Vec3(6, 6, 0), 0.0, toBytes(tree), options)), nullptr);
+  EXPECT_EQ(makeWiderMarginView(nullptr), nullptr);
+  std::shared_ptr<const CollisionWorld> map = makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options);
+  const auto view = makeWiderMarginView(map);
+  ASSERT_NE(view, nullptr);
+  map.reset();
+  // 1.5 m beside the hit, below its top: blocked in the view (2 m), free on the map (0.5 m); above it free in both.
+  EXPECT_FALSE(view->isFree(Vec3(1.55, 0.05, 1.0)));
+  EXPECT_LT(view->clearance(Vec3(1.55, 0.05, 1.0)), -1.0);
+  EXPECT_TRUE(view->isFree(Vec3(1.55, 0.05, 2.5)));
+  EXPECT_FALSE(view->isFree(Vec3(0.05, 0.05, 2.05)));  // the hit itself
+  EXPECT_TRUE(view->isFree(Vec3(2.55, 0.05, 1.0)));    // beyond the wider margin
+  OctoMapWorldOptions bad = options;
+  bad.wider_surface_margin_m = -1.0;
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), bad), std::invalid_argument);
+  bad.wider_surface_margin_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), bad), std::invalid_argument);
 }
 
 TEST(OctoMapWorld, SolidBelowSurfaceIsThreeDimensionalOnly) {

@@ -47,6 +47,7 @@ class PlannerComponent : public runtime::Component {
     double max_time_budget_s;
     std::optional<double> unknown_margin_m;       // default: nodes::defaultUnknownMargin
     std::optional<double> hidden_continuation_m;  // default: nodes::defaultHiddenContinuation
+    double preferred_surface_margin_m;
     double improve_for_s;
     double preferred_worlds_s;
     std::optional<double> route_lattice_s;  // default: 0.03 s in 2-D, 0 (off) in 3-D
@@ -76,6 +77,15 @@ class PlannerComponent : public runtime::Component {
                .doc = "2-D map and fused worlds: plan first with seen surfaces continued this far into space hidden from the vehicle "
                       "(where something in front hides them), then without (docs/world-model.md); 0: off; default min(15 m, 30 x the "
                       "robot radius)"})),
+          // Since 2026-12-07: the first plans through a 3-D terrain's unseen space skirted each newly seen flank and were
+          // blocked by its unseen continuation (r3d_69 at speed 4: 14-19 blocked replans, not reached in 2 of 3 runs).
+          // docs/world-model.md, "Seen flanks that go on out of sight (3-D)".
+          preferred_surface_margin_m(p.declare<double>(
+              "preferred_surface_margin_m", 3.0,
+              {.min = 0, .max = 100, .unit = "m",
+               .doc = "3-D map and fused worlds with solid_below_surface, optimistic: plan first with observed terrain widened this far "
+                      "(surface_margin_m's rule, yielding to space observed free) instead of surface_margin_m, then, with no path "
+                      "within preferred_worlds_s, on the plain map (docs/world-model.md); not above surface_margin_m: off"})),
           improve_for_s(p.declare<double>(
               "improve_for_s", 0.0,
               {.min = 0, .max = 60, .unit = "s",
@@ -88,10 +98,10 @@ class PlannerComponent : public runtime::Component {
           preferred_worlds_s(p.declare<double>(
               "preferred_worlds_s", 0.3,
               {.min = 0, .max = 60, .unit = "s",
-               .doc = "the most the worlds tried before the plain map (unknown_margin_m, hidden_continuation_m) may search together "
+               .doc = "the most the worlds tried before the plain map (unknown_margin_m, hidden_continuation_m; preferred_surface_margin_m in 3-D) may search together "
                       "before the plain map is planned on; 0: only the plain map"})),
           // On by default in 2-D since the bug traps' replans spent 0.2 s failing on preferred worlds that were closed;
-          // off in 3-D, where there are none and city_3d's missions took longer with the guide (docs/planners.md,
+          // off in 3-D, where the one preferred world is seldom closed and city_3d's missions took longer with the guide (docs/planners.md,
           // "Lattice routes").
           route_lattice_s(p.declareOptional<double>(
               "route_lattice_s",
@@ -137,7 +147,7 @@ class PlannerComponent : public runtime::Component {
         unknown_margin_m_(params_.unknown_margin_m.value_or(nodes::defaultUnknownMargin(scenario_))),
         hidden_continuation_m_(params_.hidden_continuation_m.value_or(nodes::defaultHiddenContinuation(scenario_))),
         route_lattice_s_(params_.route_lattice_s.value_or(scenario_.dimensions == 2 ? 0.03 : 0.0)),
-        world_source_(ctx, params_.world, scenario_, unknown_margin_m_),
+        world_source_(ctx, params_.world, scenario_, unknown_margin_m_, /*preferred_on_demand=*/false, params_.preferred_surface_margin_m),
         paths_(publisher(runtime::topics::path)) {
     if (kinodynamic_ && !scenario_.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
     for (const auto& [name, assignments] : planner_options_) {
@@ -245,14 +255,19 @@ class PlannerComponent : public runtime::Component {
     }
     try {
       // The worlds in order of preference, the first that yields a path wins (docs/world-model.md, "Unknown space"):
-      // with unseen space next to seen surfaces blocked (2-D, unknown_margin_m) and seen surfaces continued into
-      // hidden space (hidden_continuation_m); with the continuation only; the plain map. All but the last get a share
+      // in 2-D with unseen space next to seen surfaces blocked (unknown_margin_m) and seen surfaces continued into
+      // hidden space (hidden_continuation_m), with the continuation only, the plain map; in 3-D with observed terrain
+      // widened by preferred_surface_margin_m, the plain map. All but the last get a share
       // of the budget (2-D solves that succeed take milliseconds to a few hundred); a world in which the start is not
       // free is skipped (solveInTurn).
       std::vector<Tier*> tiers;
       if (world_source_.hasPreferredWorld()) {
-        tiers.push_back(&margin_tier_);
-        if (hidden_continuation_m_ > 0.0) tiers.push_back(&continuation_tier_);
+        if (scenario_.dimensions == 3) {
+          tiers.push_back(&wider_margin_tier_);
+        } else {
+          tiers.push_back(&margin_tier_);
+          if (hidden_continuation_m_ > 0.0) tiers.push_back(&continuation_tier_);
+        }
       }
       // Declared before the answer: when a preferred world answers, the plain map's search beside it is stopped, and
       // joined only after the answer is out (it runs at a lower priority and may take a while to see the stop).
@@ -273,7 +288,7 @@ class PlannerComponent : public runtime::Component {
   // A world tried before the plain map, with its share of the budget (nodes::WorldTier).
   struct Tier : nodes::WorldTier {
     Tier(bool preferred, bool continued, const char* what) : preferred(preferred), continued(continued), what(what) {}
-    bool preferred;    // on the map with the unknown margin
+    bool preferred;    // on the preferred map: 2-D with the unknown margin, 3-D with the wider surface margin
     bool continued;    // with seen surfaces continued into hidden space
     const char* what;  // for the log
   };
@@ -447,7 +462,11 @@ class PlannerComponent : public runtime::Component {
     // Where the map widens terrain, the state must also lead out of it by a free straight segment as long as the reach:
     // the widening leaves free pockets of a few centimetres beside a buried start, with no free edge out of them.
     const double reach = scenario_.robot_radius + world_source_.surfaceMargin();
-    if (reach > 0.0 && !world->isFree(problem.start.position)) {
+    // Not on the 3-D preferred world: a start its wider margin blocks (a vehicle within 3 m of a higher flank, over ground
+    // never observed) is the plain map's to move, by the plain margin's reach; moved here, up to 1.3 m, the path's start
+    // lay beside the terrain and the smoother refused it ("no local detour", r3d_69, gart_terrain_3d, 2026-12-07).
+    const bool may_move_start = !(tier && scenario_.dimensions == 3);
+    if (may_move_start && reach > 0.0 && !world->isFree(problem.start.position)) {
       const double wanted_clearance = std::min(0.5 * scenario_.robot_radius, 0.3);
       const double escape_length = world_source_.surfaceMargin() > 0.0 ? reach : 0.0;
       if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0, wanted_clearance, escape_length)) {
@@ -558,6 +577,7 @@ class PlannerComponent : public runtime::Component {
   // The worlds tried before the plain map (the worker's).
   Tier margin_tier_{true, true, "keeping clear of unseen space next to seen surfaces"};
   Tier continuation_tier_{false, true, "with seen surfaces continued out of sight"};
+  Tier wider_margin_tier_{true, false, "keeping clear of unseen space under seen terrain nearby (preferred_surface_margin_m)"};
   std::optional<runtime::Timer> deferred_timer_;  // polls while a request waits
   runtime::Worker worker_{"planner"};  // after what its jobs use: stopped and joined before they go
   bus::Subscription requests_;

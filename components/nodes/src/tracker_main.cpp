@@ -1001,10 +1001,12 @@ class TrackerComponent : public runtime::Component {
     if (stopping_for_ && state) {
       if (braking_) commands_.publish(nodes::toMsg(braking_->update(*state, dt), clock().nowNs()));
       else stop();
-      // The plan asked from the rest point meanwhile: its answer is smoothed and held (adoptSmoothed) while braking.
+      // The plan asked from the rest point meanwhile: its answer is smoothed and held (adoptSmoothed) while braking, and
+      // a refused or failed one is asked again when its retry is due, not once the vehicle is at rest (r3d_69 at speed 4,
+      // 2026-12-07: a path refused by the smoother 0.1 s after its request was asked again 1.45 s later, at rest).
       if (braking_rest_) {
         if (auto decision = takeSmoothed(missionState(*state))) act(*decision);
-        else if (new_path_ && !smoothing_.valid()) act(missionUpdate(missionState(*state)));
+        else if (!smoothing_.valid() && (new_path_ || mission_.retryDue(clock().nowNs()))) act(missionUpdate(missionState(*state)));
       }
       const double stopping_s = static_cast<double>(clock().nowNs() - stopping_since_ns_) * 1e-9;
       if (std::abs(state->v) > kAtRest && stopping_s < 10.0) return;

@@ -105,7 +105,7 @@ std::optional<std::int64_t> firstMapWaitStart(std::optional<std::int64_t> starte
 }
 
 WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario,
-                         double preferred_unknown_margin_m, bool preferred_on_demand)
+                         double preferred_unknown_margin_m, bool preferred_on_demand, double preferred_surface_margin_m)
     : kind_(world.kind),
       scenario_(scenario),
       unknown_(world.unknown),
@@ -122,6 +122,9 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
   if (preferred_unknown_margin_m > 0.0 && scenario.dimensions == 2 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) &&
       unknown_ == planner::UnknownSpace::Optimistic)
     preferred_unknown_margin_m_ = preferred_unknown_margin_m;
+  if (preferred_surface_margin_m > surface_margin_m_ && solid_below_surface_ && scenario.dimensions == 3 &&
+      (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) && unknown_ == planner::UnknownSpace::Optimistic)
+    preferred_surface_margin_m_ = preferred_surface_margin_m;
   if (world.sensor_view && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)) {
     sim::RangeSensorConfig sensor = sim::RangeSensorConfig::lidar3d();
     try {
@@ -191,6 +194,7 @@ planner::OctoMapWorldOptions WorldSource::mapOptions(bool preferred) const {
   options.unknown_is_occupied = unknown_ == planner::UnknownSpace::Conservative;
   options.solid_below_surface = solid_below_surface_;
   options.surface_margin_m = surface_margin_m_;
+  options.wider_surface_margin_m = preferred_surface_margin_m_;  // seen by the preferred world only (buildMap)
   options.keep_observed_free = keep_observed_free_;
   if (preferred) options.unknown_margin_m = preferred_unknown_margin_m_;
   return options;
@@ -208,6 +212,11 @@ bool WorldSource::buildMap(const msg::OccupancyMap& m, std::uint64_t number) {
     } else {
       map_world_ = std::move(checked.world);
       plain_map_number_ = number;
+      // In 3-D the preferred world is this map seen with its wider surface margin, built with it.
+      if (preferred_surface_margin_m_ > 0.0) {
+        preferred_map_world_ = planner::makeWiderMarginView(map_world_);
+        preferred_map_number_ = number;
+      }
       // On demand, the cache follows in preferredOnDemand.
       if (preferred_unknown_margin_m_ > 0.0 && preferred_on_demand_) preferred_source_ = std::make_shared<const msg::OccupancyMap>(m);
     }

@@ -149,6 +149,11 @@ struct OctoMapWorldOptions {
   // walls narrower than twice the margin stays open where the lidar saw through it (the free voxels under the
   // margin are loaded in a second pass over the octree). 0: each column only by its own voxels.
   double surface_margin_m = 0.0;
+  // With solid_below_surface, when wider than surface_margin_m: a second widening, of the same tops and yielding to
+  // space observed free the same way, which only the view makeWiderMarginView plans with (a planner's preferred world;
+  // docs/world-model.md, "Seen flanks that go on out of sight (3-D)"). Built in the same pass: the column grid and the
+  // free voxels loaded reach this far. 0: none.
+  double wider_surface_margin_m = 0.0;
   // 2-D only: a never-observed cell within this distance of an observed occupied cell is blocked. A scanner sees a
   // surface's near side only; the part it has not seen yet continues from the part it has (a circle's far side
   // bulges out beyond its seen arc, a wall goes on past its seen end), and a path hugging the seen part into that
@@ -165,6 +170,11 @@ struct OctoMapWorldOptions {
 std::unique_ptr<CollisionWorld> makeOctoMapWorld(int dimensions, const Vec3& bounds_min, const Vec3& bounds_max,
                                                  double robot_radius, const std::vector<std::uint8_t>& octree_binary,
                                                  const OctoMapWorldOptions& options);
+
+// The map world `map` (makeOctoMapWorld, 3-D, built with wider_surface_margin_m) with its columns widened by that
+// wider margin instead of surface_margin_m: isFree and clearance use the wider tops; the rest is the map's. Shares the
+// map (no copy, no build). Null when `map` is not such a world.
+std::shared_ptr<const CollisionWorld> makeWiderMarginView(std::shared_ptr<const CollisionWorld> map);
 
 // Where seen surfaces probably go on, out of sight (docs/world-model.md, "Seen surfaces that go on out of sight"). A
 // 2-D scanner sees the near face of a wall up to where something in front hides it; optimistic planning then

@@ -118,6 +118,9 @@ class Mission {
   }
   // A request is unanswered or a retry is due: no new replan is asked for meanwhile.
   bool awaitingPlan() const { return pending_since_ns_.has_value() || retry_at_ns_.has_value(); }
+  // A failed attempt's retry is due (update() asks it): a caller that calls update() only on news, such as a
+  // vehicle braking to the rest point its replan starts from, calls it for this too.
+  bool retryDue(std::int64_t now_ns) const { return retry_at_ns_ && now_ns >= *retry_at_ns_; }
   // As awaitingPlan(), but an optional request (improveAhead) does not count: a replan may supersede it.
   bool awaitingRequiredPlan() const { return awaitingPlan() && !optional_; }
   // The current request is an optional one (improveAhead) not yet answered or smoothed.

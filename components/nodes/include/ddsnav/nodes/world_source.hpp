@@ -74,8 +74,11 @@ class WorldSource {
   // (the planner, which plans on it every time), or with `preferred_on_demand` at the first such snapshot of
   // each map (the tracker, which wants it only to smooth a new path: the margin makes a build ~10x dearer, 42
   // ms for the AUV's coast, and maps come several times a second).
+  // `preferred_surface_margin_m` (the planner's `preferred_surface_margin_m`; 3-D map and fused worlds with
+  // solid_below_surface, optimistic): each map is built with that OctoMapWorldOptions::wider_surface_margin_m too, and
+  // its preferred world is the map seen with it (planner::makeWiderMarginView): no second build.
   WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario,
-              double preferred_unknown_margin_m = 0.0, bool preferred_on_demand = false);
+              double preferred_unknown_margin_m = 0.0, bool preferred_on_demand = false, double preferred_surface_margin_m = 0.0);
   WorldKind kind() const { return kind_; }
 
   // False until the world's input has arrived (always true for the scenario world; for the fused one see
@@ -90,7 +93,8 @@ class WorldSource {
   // catch, so nothing that reaches here can end the process.
   // `goal` (3-D sensor view only): the ball of goal_radius + the robot radius around it is never blocked as
   // unseen (planner::SensorView::exempt_center).
-  // `preferred`: on the map built with the preferred unknown margin, when there is one (hasPreferredWorld).
+  // `preferred`: on the map built with the preferred unknown margin, or seen with the wider surface margin, when there
+  // is one (hasPreferredWorld).
   // `hidden_continuation_m` > 0 (2-D, with a preferred world, which knows the map's unobserved cells): seen surfaces
   // also go on that far into space hidden from robot_position (planner::occludedSurfaceContinuation), except
   // within two robot radii of it and in the goal region.
@@ -102,7 +106,7 @@ class WorldSource {
   // snapshot that asks for it soon (the tracker's, for the path a request it just sent will bring) finds it
   // built. Nothing otherwise.
   void prefetchPreferred();
-  // Whether maps are also built with the preferred unknown margin (and one has been).
+  // Whether maps are also built with the preferred unknown margin or seen with the wider surface margin (and one has been).
   bool hasPreferredWorld() const;
   // How far its maps widen observed terrain (OctoMapWorldOptions::surface_margin_m): surface_margin_m for a
   // 3-D map or fused world with solid_below_surface, else 0. A start the map puts in collision is searched for
@@ -162,6 +166,7 @@ class WorldSource {
   // on map_worker_, so neither the executor nor a snapshot waits for it; snapshots share it.
   std::shared_ptr<const planner::CollisionWorld> map_world_;
   double preferred_unknown_margin_m_ = 0.0;  // > 0 only for 2-D map and fused worlds
+  double preferred_surface_margin_m_ = 0.0;  // > surface_margin_m_ only for 3-D map and fused worlds, else 0
   // The same map with that margin; on demand, built (and replaced) by snapshot() when preferred_source_ is
   // newer than what it was built from.
   mutable std::shared_ptr<const planner::CollisionWorld> preferred_map_world_;
