@@ -254,6 +254,19 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
   time("plain (occupied voxels only)", 3, {});
   time("solid below the surface, no margin", 3, solid_below);
   time("3-D defaults (solid below, 1 m margin yielding to free space)", 3, defaults_3d);
+  // The planner's build: the same with its preferred world's 3 m margin too (preferred_surface_margin_m); the digest is
+  // the plain world's answers, and the view's follow.
+  ddsnav::planner::OctoMapWorldOptions planners_3d = defaults_3d;
+  planners_3d.wider_surface_margin_m = 3.0;
+  time("the planner's 3-D build (the 1 m margin and the preferred world's 3 m)", 3, planners_3d);
+  const std::shared_ptr<const ddsnav::planner::CollisionWorld> built =
+      ddsnav::planner::makeOctoMapWorld(3, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, planners_3d);
+  if (const auto view = ddsnav::planner::makeWiderMarginView(built)) {
+    const auto queried = Clock::now();
+    const std::uint64_t answers = digest(*view);
+    std::printf("|   its preferred world (makeWiderMarginView: no build) | – | %016llx | %.0f |\n", static_cast<unsigned long long>(answers),
+                1e9 * secondsSince(queried) / (64.0 * 64.0 * 64.0));
+  }
   return 0;
 }
 

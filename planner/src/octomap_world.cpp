@@ -691,6 +691,7 @@ class OctoMapWorld final : public CollisionWorld {
     }
     if (solid_below_surface_) {
       loadColumnTops();
+      if (wider_margin_ > 0.0) plain_tops_loaded_ = column_top_;  // what a build without the wider margin loads under (freeUnder)
       if (!free_leaves) loadFreeUnderColumnTops(bytes, subtrees, coarse_free, free_lo, free_hi);
       if (dropUndersideTops()) widenColumnTops();
     }
@@ -892,7 +893,7 @@ class OctoMapWorld final : public CollisionWorld {
     // surface, under a neighbour's within the margin (unsampled skin right under a path is what the margin is for),
     // and under the column's own surface, where a ray crossed it — a window, the space under an overhang. A hill's
     // inside is never crossed: rays end on its skin.
-    if (freeBelow(c)) return 0.0;
+    if (freeBelow(c, tops)) return 0.0;
     return std::max(0.0, (static_cast<double>(top) + 1.0) * resolution_ - p.z());
   }
   // A column's top hit from below is no top: a window's head, an overhang's or a bridge's underside, with space
@@ -908,7 +909,7 @@ class OctoMapWorld final : public CollisionWorld {
       if (top == kNoColumnTop) continue;
       const std::int64_t x = column_lo_.x + static_cast<std::int64_t>(i) % column_nx_, y = column_lo_.y + static_cast<std::int64_t>(i) / column_nx_;
       std::int64_t z = top;
-      while (z != kNoColumnTop && freeFirstWithinRingGap({x, y, z}, -1)) {
+      while (z != kNoColumnTop && freeFirstWithinRingGap({x, y, z}, -1, column_top_)) {
         std::int64_t below = z - 1;
         while (below >= occ_lo_.z && !observedOccupied({x, y, below})) --below;
         z = below >= occ_lo_.z ? below : kNoColumnTop;
@@ -923,27 +924,37 @@ class OctoMapWorld final : public CollisionWorld {
   // c and the cells under it down to the robot radius (one at least) were observed free — or, never observed, lie
   // between cells observed free in their column (a lidar's rings cross a wall's window as horizontal lines of free
   // voxels, 2 degrees apart: 0.9 m at 25 m).
-  bool freeBelow(const Cell& c) const {
+  bool freeBelow(const Cell& c, const std::vector<std::int32_t>& tops) const {
     const std::int64_t depth = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(radius_ * factor_ - 1e-9)));
     for (std::int64_t k = 0; k <= depth; ++k)
-      if (const Cell below{c.x, c.y, c.z - k}; !observedFree(below) && !betweenRings(below)) return false;
+      if (const Cell below{c.x, c.y, c.z - k}; !freeUnder(below, tops) && !betweenRings(below, tops)) return false;
     return true;
   }
   // A never-observed cell whose column holds, within kRingGap_m above and below it, cells observed free before any
   // observed occupied one: the gap between two rings' rays. A hill's inside has the skin above it and nothing
   // observed below; a slab's, its hit faces.
-  bool betweenRings(const Cell& c) const {
-    return !observedOccupied(c) && freeFirstWithinRingGap(c, 1) && freeFirstWithinRingGap(c, -1);
+  bool betweenRings(const Cell& c, const std::vector<std::int32_t>& tops) const {
+    return !observedOccupied(c) && freeFirstWithinRingGap(c, 1, tops) && freeFirstWithinRingGap(c, -1, tops);
   }
   // Walking c's column up (step 1) or down (-1), the first observed cell within kRingGap_m is observed free.
-  bool freeFirstWithinRingGap(const Cell& c, std::int64_t step) const {
+  bool freeFirstWithinRingGap(const Cell& c, std::int64_t step, const std::vector<std::int32_t>& tops) const {
     const std::int64_t reach = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(kRingGap_m * factor_)));
     for (std::int64_t k = 1; k <= reach; ++k) {
       const Cell n{c.x, c.y, c.z + step * k};
-      if (observedFree(n)) return true;
+      if (freeUnder(n, tops)) return true;
       if (observedOccupied(n)) return false;
     }
     return false;
+  }
+  // c was observed free and lies under its column's top in `tops`: where a world built with these tops alone loaded
+  // its free voxels (loadFreeUnderColumnTops). The map built with the wider margin too loads them under the wider
+  // tops; asked with the plain tops it must answer as the map built without it, which the tracker checks on.
+  bool freeUnder(const Cell& c, const std::vector<std::int32_t>& tops) const {
+    if (!observedFree(c)) return false;
+    if (&tops == &column_top_wider_ || column_top_wider_.empty()) return true;
+    if (c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return false;
+    const std::int32_t top = plain_tops_loaded_[columnIndex(c.x, c.y)];
+    return top != kNoColumnTop && c.z <= top;
   }
   // The free leaves were loaded: a cell in no brick, or with its known bit clear, was never observed.
   bool knowsObservedFree() const { return unknown_blocked_ || unknown_margin_ > 0.0 || keep_observed_free_; }
@@ -1319,6 +1330,7 @@ class OctoMapWorld final : public CollisionWorld {
   static constexpr double kRingGap_m = 1.0;
   std::vector<std::int32_t> column_top_;  // solid_below_surface: highest occupied cell z per column cell
   std::vector<std::int32_t> column_top_wider_;  // the same, widened by wider_margin_ (empty without one)
+  std::vector<std::int32_t> plain_tops_loaded_;  // with a wider margin: column_top_ as the free voxels were loaded
   std::vector<std::int32_t> column_own_top_;  // the same before the surface margin widened it, undersides dropped
   std::int64_t column_nx_ = 0;
   Cell column_lo_{}, column_hi_{};  // the column grid's cells: the occupied box widened by surface_margin_m

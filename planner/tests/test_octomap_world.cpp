@@ -419,7 +419,8 @@ TEST(OctoMapWorld, SurfaceMarginBlocksBelowTheHighestSurfaceWithinItAsABruteForc
 //
 // `wider_cells` > 8: the world is built with a wider surface margin too (wider_surface_margin_m, that many columns),
 // which loads the free cells under those wider tops; `through_wider_view`: it is asked through makeWiderMarginView,
-// whose rule counts the wider margin's tops.
+// whose rule counts the wider margin's tops and knows those cells. Asked directly it answers as the world built
+// without the wider margin (the tracker's), cell for cell.
 void checkColumnRuleAgainstABruteForceScan(long wider_cells, bool through_wider_view) {
   octomap::OcTree tree(0.1);
   std::mt19937 rng(9);
@@ -447,7 +448,7 @@ void checkColumnRuleAgainstABruteForceScan(long wider_cells, bool through_wider_
   // free voxels 4 cells apart (unknown between).
   for (int h = 0; h < 30; ++h)
     markFree(hits[h] + octomap::point3d(-0.3f, -0.3f, -1.2f), hits[h] + octomap::point3d(0.3f, 0.3f, -0.15f), h < 15 ? 0.1f : 0.4f);
-  const long loaded_cells = std::max(8L, wider_cells), rule_cells = through_wider_view ? wider_cells : 8;
+  const long loaded_cells = through_wider_view ? wider_cells : 8, rule_cells = loaded_cells;
   OctoMapWorldOptions options;
   options.solid_below_surface = true;
   options.surface_margin_m = 0.75;  // 8 columns of 0.1 m, rounded up
@@ -455,6 +456,9 @@ void checkColumnRuleAgainstABruteForceScan(long wider_cells, bool through_wider_
   const std::shared_ptr<const CollisionWorld> map = makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), options);
   const std::shared_ptr<const CollisionWorld> world = through_wider_view ? makeWiderMarginView(map) : map;
   ASSERT_NE(world, nullptr);
+  OctoMapWorldOptions without = options;
+  without.wider_surface_margin_m = 0.0;
+  const auto plain = makeOctoMapWorld(3, Vec3(-6, -6, -6), Vec3(6, 6, 6), 0.0, toBytes(tree), without);
   auto cell = [](double v) { return static_cast<long>(std::floor(v / 0.1)); };
   constexpr long kNone = std::numeric_limits<long>::min();
   // The world knows the free cells under each column's widened top (its highest hit within the widest margin).
@@ -520,6 +524,7 @@ void checkColumnRuleAgainstABruteForceScan(long wider_cells, bool through_wider_
     yielded += below && !expect_blocked;
     blocked += expect_blocked;
     ASSERT_EQ(world->isFree(p), !expect_blocked) << p.transpose() << " below " << below << " free " << observed_free;
+    if (!through_wider_view) ASSERT_EQ(map->isFree(p), plain->isFree(p)) << p.transpose();
   }
   EXPECT_GE(undersides, 20);  // most of the 30 hits with space observed free under them
   EXPECT_GT(yielded, 200);    // every case was exercised

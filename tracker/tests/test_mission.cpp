@@ -187,11 +187,14 @@ TEST(Mission, TheFirstRefusedPathInARowIsAskedAgainAtOnce) {
   Mission m = started();
   ASSERT_EQ(m.update(0, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
   ASSERT_EQ(m.pathSmoothed(0, at(0), false).action, MissionAction::Wait);
+  EXPECT_TRUE(m.retryDue(1));  // what a tracker braking to its rest point asks before it calls update()
   const auto again = m.update(1, at(0), true, std::nullopt);
   ASSERT_EQ(again.action, MissionAction::RequestPlan);
   EXPECT_EQ(again.reason, "retrying");
   ASSERT_EQ(m.update(2, at(0), true, answer(2, true)).action, MissionAction::SmoothPath);
   ASSERT_EQ(m.pathSmoothed(2, at(0), false).action, MissionAction::Wait);
+  EXPECT_FALSE(m.retryDue(kSecond / 2));
+  EXPECT_TRUE(m.retryDue(kSecond + 2));
   EXPECT_EQ(m.update(kSecond / 2, at(0), true, std::nullopt).action, MissionAction::Wait);
   ASSERT_EQ(m.update(kSecond + 2, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
   ASSERT_EQ(m.update(kSecond + 3, at(0), true, answer(3, true)).action, MissionAction::SmoothPath);
