@@ -53,10 +53,16 @@ def world_3d(seed):
     start = (0.08 * width, 0.1 * depth, rng.uniform(4, 10))
     goal = (0.92 * width, 0.9 * depth, rng.uniform(6, 14))
     obstacles = []
+    hills = []
     for _ in range(rng.randint(3, 8)):
         x, y = rng.uniform(0.2 * width, 0.8 * width), rng.uniform(0.2 * depth, 0.8 * depth)
-        obstacles.append(f"{{type: hill, center: [{x:.1f}, {y:.1f}], height: {rng.uniform(5, 0.7 * height):.1f}, "
-                         f"sigma: {rng.uniform(4, 12):.1f}}}")
+        hill = (round(x, 1), round(y, 1), round(rng.uniform(5, 0.7 * height), 1), round(rng.uniform(4, 12), 1))
+        hills.append(hill)
+        obstacles.append(f"{{type: hill, center: [{hill[0]:.1f}, {hill[1]:.1f}], height: {hill[2]:.1f}, sigma: {hill[3]:.1f}}}")
+    # A start or goal drawn inside a hill (seed 116: the start 0.5 m into one) is lifted out of it, a metre clear;
+    # one that is free keeps its height (the same file as before for every seed that was valid).
+    start = (*start[:2], clear_of_hills(start, radius, hills, height))
+    goal = (*goal[:2], clear_of_hills(goal, radius, hills, height))
     for _ in range(rng.randint(2, 8)):
         x, y, z = rng.uniform(0, width), rng.uniform(0, depth), rng.uniform(3, 0.6 * height)
         if math.dist((x, y, z), start) < 10 or math.dist((x, y, z), goal) < 10:
@@ -73,6 +79,23 @@ def world_3d(seed):
     v_max, omega_max, vz_max = rng.choice([3, 5]), rng.choice([0.4, 0.7]), rng.choice([1, 2])
     return scenario_text(f"r3d_{seed}", seed, (width, depth, height), radius, start, goal, 2,
                          f"v_max: {v_max:.1f}, omega_max: {omega_max:.2f}, vz_max: {vz_max:.1f}", obstacles)
+
+
+def terrain_height(x, y, hills):
+    return max([h * math.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * sigma * sigma)) for cx, cy, h, sigma in hills] + [0.0])
+
+
+def clear_of_hills(point, radius, hills, height):
+    """The z of `point` if the robot's ball there is clear of every hill (checked on a grid over the ball), else the
+    highest terrain under the ball plus the radius and a metre, below the ceiling."""
+    x, y, z = point
+    steps = [radius * k / 4 for k in range(-4, 5)]
+    under = [(x + dx, y + dy, math.sqrt(max(0.0, radius * radius - dx * dx - dy * dy))) for dx in steps for dy in steps
+             if dx * dx + dy * dy <= radius * radius]
+    if all(z - half_chord > terrain_height(px, py, hills) for px, py, half_chord in under):
+        return z
+    highest = max(terrain_height(px, py, hills) for px, py, _ in under)
+    return min(highest + radius + 1.0, height - radius - 0.5)
 
 
 def scenario_text(name, seed, bounds_max, radius, start, goal, goal_radius, vehicle_limits, obstacles):

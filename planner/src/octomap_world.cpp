@@ -219,27 +219,37 @@ class OctoMapWorld final : public CollisionWorld {
   Vec3 boundsMax() const override { return bmax_; }
   double robotRadius() const override { return radius_; }
 
-  bool isFree(const Vec3& p) const override { return isFreeWith(p, column_top_); }
-  double clearance(const Vec3& p) const override { return clearanceWith(p, column_top_); }
+  bool isFree(const Vec3& p) const override { return isFreeWith(p, plainRule()); }
+  double clearance(const Vec3& p) const override { return clearanceWith(p, plainRule()); }
 
   // The same with the tops widened by the wider margin (makeWiderMarginView); only when hasWiderMargin().
   bool hasWiderMargin() const { return !column_top_wider_.empty(); }
-  bool isFreeWithWiderMargin(const Vec3& p) const { return isFreeWith(p, column_top_wider_); }
-  double clearanceWithWiderMargin(const Vec3& p) const { return clearanceWith(p, column_top_wider_); }
+  bool isFreeWithWiderMargin(const Vec3& p) const { return isFreeWith(p, widerRule()); }
+  double clearanceWithWiderMargin(const Vec3& p) const { return clearanceWith(p, widerRule()); }
 
   double resolution() const { return resolution_; }
 
  private:
-  bool isFreeWith(const Vec3& p, const std::vector<std::int32_t>& tops) const {
+  // The column rule's inputs (solid_below_surface): the widened tops, and under which tops the free voxels it may yield
+  // to lie — null: every one loaded. The plain rule of a map built with a wider margin too counts only those a build
+  // without it loads (plain_tops_loaded_), so that it answers as that build, the tracker's, does.
+  struct ColumnRule {
+    const std::vector<std::int32_t>& tops;
+    const std::vector<std::int32_t>* free_known_under;
+  };
+  ColumnRule plainRule() const { return {column_top_, column_top_wider_.empty() ? nullptr : &plain_tops_loaded_}; }
+  ColumnRule widerRule() const { return {column_top_wider_, nullptr}; }
+
+  bool isFreeWith(const Vec3& p, const ColumnRule& rule) const {
     countCheck();
     if (!insideBounds(p)) return false;
     const Cell c = cellOf(p);
-    if (blocked(c) || depthBelowSurface(c, p, tops) > 0.0) return false;
+    if (blocked(c) || depthBelowSurface(c, p, rule) > 0.0) return false;
     return radius_ <= 0.0 || !blockedWithin(p, radius_);
   }
-  double clearanceWith(const Vec3& p, const std::vector<std::int32_t>& tops) const {
+  double clearanceWith(const Vec3& p, const ColumnRule& rule) const {
     if (!p.allFinite()) return -radius_;
-    const double depth = depthBelowSurface(cellOf(p), p, tops);
+    const double depth = depthBelowSurface(cellOf(p), p, rule);
     if (depth > 0.0) return -depth - radius_;
     const double d = nearestOccupied(p);
     return d == kInf ? kInf : d - radius_;
@@ -884,7 +894,8 @@ class OctoMapWorld final : public CollisionWorld {
   }
   // How far p lies below the top face of the highest occupied voxel of its column; 0 when above it, when the
   // column has none, or without solid_below_surface.
-  double depthBelowSurface(const Cell& c, const Vec3& p, const std::vector<std::int32_t>& tops) const {
+  double depthBelowSurface(const Cell& c, const Vec3& p, const ColumnRule& rule) const {
+    const std::vector<std::int32_t>& tops = rule.tops;
     if (tops.empty() || c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return 0.0;
     const std::size_t i = columnIndex(c.x, c.y);
     const std::int32_t top = tops[i];
@@ -893,7 +904,7 @@ class OctoMapWorld final : public CollisionWorld {
     // surface, under a neighbour's within the margin (unsampled skin right under a path is what the margin is for),
     // and under the column's own surface, where a ray crossed it — a window, the space under an overhang. A hill's
     // inside is never crossed: rays end on its skin.
-    if (freeBelow(c, tops)) return 0.0;
+    if (freeBelow(c, rule)) return 0.0;
     return std::max(0.0, (static_cast<double>(top) + 1.0) * resolution_ - p.z());
   }
   // A column's top hit from below is no top: a window's head, an overhang's or a bridge's underside, with space
@@ -909,7 +920,7 @@ class OctoMapWorld final : public CollisionWorld {
       if (top == kNoColumnTop) continue;
       const std::int64_t x = column_lo_.x + static_cast<std::int64_t>(i) % column_nx_, y = column_lo_.y + static_cast<std::int64_t>(i) / column_nx_;
       std::int64_t z = top;
-      while (z != kNoColumnTop && freeFirstWithinRingGap({x, y, z}, -1, column_top_)) {
+      while (z != kNoColumnTop && freeFirstWithinRingGap({x, y, z}, -1, plainRule())) {
         std::int64_t below = z - 1;
         while (below >= occ_lo_.z && !observedOccupied({x, y, below})) --below;
         z = below >= occ_lo_.z ? below : kNoColumnTop;
@@ -924,36 +935,34 @@ class OctoMapWorld final : public CollisionWorld {
   // c and the cells under it down to the robot radius (one at least) were observed free — or, never observed, lie
   // between cells observed free in their column (a lidar's rings cross a wall's window as horizontal lines of free
   // voxels, 2 degrees apart: 0.9 m at 25 m).
-  bool freeBelow(const Cell& c, const std::vector<std::int32_t>& tops) const {
+  bool freeBelow(const Cell& c, const ColumnRule& rule) const {
     const std::int64_t depth = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(radius_ * factor_ - 1e-9)));
     for (std::int64_t k = 0; k <= depth; ++k)
-      if (const Cell below{c.x, c.y, c.z - k}; !freeUnder(below, tops) && !betweenRings(below, tops)) return false;
+      if (const Cell below{c.x, c.y, c.z - k}; !freeUnder(below, rule) && !betweenRings(below, rule)) return false;
     return true;
   }
   // A never-observed cell whose column holds, within kRingGap_m above and below it, cells observed free before any
   // observed occupied one: the gap between two rings' rays. A hill's inside has the skin above it and nothing
   // observed below; a slab's, its hit faces.
-  bool betweenRings(const Cell& c, const std::vector<std::int32_t>& tops) const {
-    return !observedOccupied(c) && freeFirstWithinRingGap(c, 1, tops) && freeFirstWithinRingGap(c, -1, tops);
+  bool betweenRings(const Cell& c, const ColumnRule& rule) const {
+    return !observedOccupied(c) && freeFirstWithinRingGap(c, 1, rule) && freeFirstWithinRingGap(c, -1, rule);
   }
   // Walking c's column up (step 1) or down (-1), the first observed cell within kRingGap_m is observed free.
-  bool freeFirstWithinRingGap(const Cell& c, std::int64_t step, const std::vector<std::int32_t>& tops) const {
+  bool freeFirstWithinRingGap(const Cell& c, std::int64_t step, const ColumnRule& rule) const {
     const std::int64_t reach = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(kRingGap_m * factor_)));
     for (std::int64_t k = 1; k <= reach; ++k) {
       const Cell n{c.x, c.y, c.z + step * k};
-      if (freeUnder(n, tops)) return true;
+      if (freeUnder(n, rule)) return true;
       if (observedOccupied(n)) return false;
     }
     return false;
   }
-  // c was observed free and lies under its column's top in `tops`: where a world built with these tops alone loaded
-  // its free voxels (loadFreeUnderColumnTops). The map built with the wider margin too loads them under the wider
-  // tops; asked with the plain tops it must answer as the map built without it, which the tracker checks on.
-  bool freeUnder(const Cell& c, const std::vector<std::int32_t>& tops) const {
+  // c was observed free, and is one of the free voxels the rule may yield to (ColumnRule::free_known_under).
+  bool freeUnder(const Cell& c, const ColumnRule& rule) const {
     if (!observedFree(c)) return false;
-    if (&tops == &column_top_wider_ || column_top_wider_.empty()) return true;
+    if (rule.free_known_under == nullptr) return true;
     if (c.x < column_lo_.x || c.x > column_hi_.x || c.y < column_lo_.y || c.y > column_hi_.y) return false;
-    const std::int32_t top = plain_tops_loaded_[columnIndex(c.x, c.y)];
+    const std::int32_t top = (*rule.free_known_under)[columnIndex(c.x, c.y)];
     return top != kNoColumnTop && c.z <= top;
   }
   // The free leaves were loaded: a cell in no brick, or with its known bit clear, was never observed.
