@@ -463,8 +463,9 @@ class PlannerComponent : public runtime::Component {
     // the widening leaves free pockets of a few centimetres beside a buried start, with no free edge out of them.
     const double reach = scenario_.robot_radius + world_source_.surfaceMargin();
     // Not on the 3-D preferred world: a start its wider margin blocks (a vehicle within 3 m of a higher flank, over ground
-    // never observed) is the plain map's to move, by the plain margin's reach; moved here, up to 1.3 m, the path's start
-    // lay beside the terrain and the smoother refused it ("no local detour", r3d_69, gart_terrain_3d, 2026-12-07).
+    // never observed) is the plain map's to move, by the plain margin's reach. Moved here (0.6 and 0.97 m), the paths of
+    // two r3d_69 replans from a rest point beside a flank were refused by the smoother at their start ("no local
+    // detour", 2026-12-07), and the retries held that replan 0.94 s.
     const bool may_move_start = !(tier && scenario_.dimensions == 3);
     if (may_move_start && reach > 0.0 && !world->isFree(problem.start.position)) {
       const double wanted_clearance = std::min(0.5 * scenario_.robot_radius, 0.3);
