@@ -426,20 +426,28 @@ class TrackerComponent : public runtime::Component {
   }
 
   // Whether a plan that could only start at rest may be answered by braking to rest first (flown_braking_decel): when
-  // its path turns back (more than a right angle from the heading, within its first robot diameter or metre), when
-  // that stop is short (short_braking_m), or when the plan before it was refused for starting at rest. A first corner
-  // too tight for the speed is asked again first: the vehicle a little farther on, or the next plan, mostly gets
-  // round it at speed, where a stop cost a bugtrap_0.4 mission 20 s (1.55x, 2026-12-06).
+  // its path turns back (a point of it beyond its first robot diameter or metre, and within twice the turn radius — the
+  // longest straight lead-in the smoother tries — lies more than a right angle from the heading), when that stop is
+  // short (short_braking_m), or when the plan before it was refused for starting at rest. A first corner too tight for
+  // the speed is asked again first: the vehicle a little farther on, or the next plan, mostly gets round it at speed,
+  // where a stop cost a bugtrap_0.4 mission 20 s (1.55x, 2026-12-06). A path that comes back behind its start within the
+  // lead-in's reach cannot be flown at speed from any start near there, and braking is used only when the plan cannot
+  // take over anyway. Until 2026-12-07 only the first metre counted: r3d_69 at speed 2 had a path that turned back
+  // within 14.3 m (the smoother's words) refused, asked again and braked for only then, 0.69 s from the request to a
+  // trajectory (not recorded: whether that path came back behind its start is not known).
   bool mayBrakeFirst(const std::vector<planner::State>& states) const {
     if (rest_start_refusals_ >= 1) return true;
     const double stop = request_speed_ * request_speed_ / (2 * flown_braking_decel_);
     if (stop <= smoother_config_.short_braking_m) return true;
     if (states.empty()) return false;
     const double reach = std::max(1.0, 2.0 * scenario_.robot_radius);
+    const double lead_in_reach = std::max(reach, 2.0 * limits_.v_max / limits_.omega_max);
+    const Eigen::Vector2d heading(std::cos(request_heading_), std::sin(request_heading_));
     for (const auto& s : states) {
       const Eigen::Vector2d away = (s.position - states.front().position).head<2>();
       if (away.norm() < reach) continue;
-      return away.dot(Eigen::Vector2d(std::cos(request_heading_), std::sin(request_heading_))) < 0.0;
+      if (away.norm() > lead_in_reach) break;
+      if (away.dot(heading) < 0.0) return true;
     }
     return false;
   }
