@@ -78,7 +78,7 @@ class PlannerComponent : public runtime::Component {
                       "(where something in front hides them), then without (docs/world-model.md); 0: off; default min(15 m, 30 x the "
                       "robot radius)"})),
           // Since 2026-12-07: the first plans through a 3-D terrain's unseen space skirted each newly seen flank and were
-          // blocked by its unseen continuation (r3d_69 at speed 4: 14-19 blocked replans, not reached in 2 of 3 runs).
+          // blocked by its unseen continuation (r3d_69 at speed 4: 9-19 blocked replans, not reached in 3 of 4 runs).
           // docs/world-model.md, "Seen flanks that go on out of sight (3-D)".
           preferred_surface_margin_m(p.declare<double>(
               "preferred_surface_margin_m", 3.0,
