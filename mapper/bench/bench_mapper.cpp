@@ -237,6 +237,7 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
         }
       }
     }
+    return world;
   };
   // A 2-D mission's map is one voxel layer: its worlds are the plain map and the planner's preferred world with the
   // unknown margin (1 m, the default for a 0.5 m robot; docs/world-model.md).
@@ -258,9 +259,7 @@ int timeWorldBuilds(const std::string& path, const std::vector<double>& route, c
   // the plain world's answers, and the view's follow.
   ddsnav::planner::OctoMapWorldOptions planners_3d = defaults_3d;
   planners_3d.wider_surface_margin_m = 3.0;
-  time("the planner's 3-D build (the 1 m margin and the preferred world's 3 m)", 3, planners_3d);
-  const std::shared_ptr<const ddsnav::planner::CollisionWorld> built =
-      ddsnav::planner::makeOctoMapWorld(3, Vec3(x0, y0, z0), Vec3(x1, y1, z1), 0.5, bytes, planners_3d);
+  const auto built = time("the planner's 3-D build (the 1 m margin and the preferred world's 3 m)", 3, planners_3d);
   if (const auto view = ddsnav::planner::makeWiderMarginView(built)) {
     const auto queried = Clock::now();
     const std::uint64_t answers = digest(*view);
