@@ -407,6 +407,9 @@ std::map<int, Vec3> collidingSpans(const BSpline& spline, const std::vector<Curv
   return spans;
 }
 
+// Whether the polyline is blocked within 0.25 m (along it) of its point nearest to `p`, checked finely.
+bool polylineBlockedNear(const std::vector<Vec3>& points, const Vec3& p, const CollisionWorld& world);
+
 // Every state on a-b is free, checked at least as finely as the curve samples are (the world's own edge
 // check may be coarser: that is how a graze got through in the first place).
 bool finelyFree(const CollisionWorld& world, const Vec3& a, const Vec3& b) {
@@ -418,9 +421,28 @@ bool finelyFree(const CollisionWorld& world, const Vec3& a, const Vec3& b) {
   return true;
 }
 
+bool polylineBlockedNear(const std::vector<Vec3>& points, const Vec3& p, const CollisionWorld& world) {
+  double best = std::numeric_limits<double>::infinity();
+  Vec3 from = p, to = p, foot = p;
+  for (std::size_t i = 0; i + 1 < points.size(); ++i) {
+    const Vec3 a = points[i], ab = points[i + 1] - a;
+    const double length = ab.norm();
+    if (length < 1e-12) continue;
+    const double f = std::clamp((p - a).dot(ab) / (length * length), 0.0, 1.0);
+    const double d = (p - (a + f * ab)).norm();
+    if (d >= best) continue;
+    best = d;
+    foot = a + f * ab;
+    const double reach = 0.25 / length;
+    from = a + std::max(0.0, f - reach) * ab;
+    to = a + std::min(1.0, f + reach) * ab;
+  }
+  return !world.isFree(foot) || !finelyFree(world, from, to);
+}
+
 // The polyline itself touches an obstacle near `hit` (its edges were checked at the world's resolution; a
-// finer look can find a graze between two checked states). Insert a new corner next to it, pushed away
-// from the nearest obstacle, so both new edges are free. Returns false when no push up to 0.3 m works.
+// finer look can find a graze between two checked states). Insert a new corner next to it, pushed off the edge as
+// little as makes both new edges free. Returns false when no push up to 0.3 m works.
 bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, double radius) {
   const int dims = world.dimensions();
   std::size_t edge = 0;
@@ -434,21 +456,42 @@ bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, 
   }
   const Vec3 a = c.points[edge], b = c.points[edge + 1];
   if ((foot - a).norm() < 1e-6 || (foot - b).norm() < 1e-6) foot = 0.5 * (a + b) + 0.5 * (foot - 0.5 * (a + b)) * 0.98;
-  Vec3 away = Vec3::Zero();
+  // Directions to push in: away from the nearest obstacle, then across the edge both ways (and in 3-D up and down
+  // across it). The nearest obstacle alone is not enough: where the map widens terrain by its surface margin, the
+  // blocked space is a box of columns, and a shortcut that grazes one of its corners is kept off it by a step
+  // sideways, not by one away from the voxel it was widened from (r3d_128 of make_random_scenarios.py: an 18 m edge
+  // through the corner of such a box, the plan refused).
+  const Vec3 t = (b - a).normalized();
+  Vec3 side(-t.y(), t.x(), 0.0);
+  if (side.norm() < 1e-6) side = Vec3::UnitX();  // a vertical edge
+  side.normalize();
+  if (world.clearance(foot - 0.01 * side) > world.clearance(foot + 0.01 * side)) side = -side;
+  std::vector<Vec3> directions;
   const auto near = world.obstaclesNear(foot, world.robotRadius() + 1.0);
-  if (!near.empty()) away = foot - near.front().nearest_point;
-  if (dims == 2) away.z() = 0.0;
-  if (away.norm() < 1e-9) {
-    // Inside or on the surface: go sideways, towards the side with more clearance.
-    const Vec3 t = (b - a).normalized();
-    Vec3 side(-t.y(), t.x(), 0.0);
-    if (world.clearance(foot - 0.01 * side) > world.clearance(foot + 0.01 * side)) side = -side;
-    away = side;
+  if (!near.empty()) {
+    Vec3 away = foot - near.front().nearest_point;
+    if (dims == 2) away.z() = 0.0;
+    if (away.norm() > 1e-9) directions.push_back(away.normalized());
   }
-  away.normalize();
-  for (double push = 0.005; push <= 0.3; push *= 1.6) {
-    const Vec3 q = foot + push * away;
-    if (!world.isFree(q) || !finelyFree(world, a, q) || !finelyFree(world, q, b)) continue;
+  directions.push_back(side);
+  directions.push_back(-side);
+  if (dims == 3) {
+    const Vec3 up = t.cross(side).normalized();
+    directions.push_back(up.z() >= 0 ? up : Vec3(-up));
+    directions.push_back(up.z() >= 0 ? Vec3(-up) : up);
+  }
+  // The smallest push first, whichever way.
+  std::optional<Vec3> pushed;
+  for (double push = 0.005; push <= 0.3 && !pushed; push *= 1.6)
+    for (const Vec3& direction : directions) {
+      const Vec3 q = foot + push * direction;
+      if (world.isFree(q) && finelyFree(world, a, q) && finelyFree(world, q, b)) {
+        pushed = q;
+        break;
+      }
+    }
+  if (pushed) {
+    const Vec3 q = *pushed;
     c.points.insert(c.points.begin() + static_cast<std::ptrdiff_t>(edge) + 1, q);
     c.size.insert(c.size.begin() + static_cast<std::ptrdiff_t>(edge) + 1, 0.0);
     // The new corner and its neighbours get their normal rounding back (capped by the new, shorter edges).
@@ -1103,6 +1146,13 @@ Trajectory smoothPath(const std::vector<planner::State>& path, const CollisionWo
     std::set<int> to_tighten;
     std::vector<Vec3> to_push;
     for (const auto& [first, hit] : bad) {
+      // Where the polyline itself is blocked next to the colliding point (a graze its edge check stepped over),
+      // tightening does not help: the curve is pulled onto a blocked polyline, and rounds of it left sharp corners the
+      // vehicle had to slow down for (r3d_128: 17 rounds, then a refusal). The polyline is pushed at once.
+      if (polylineBlockedNear(corners.points, hit, world)) {
+        to_push.push_back(hit);
+        continue;
+      }
       bool shaped_by_corner = false;
       for (int j = first; j <= first + BSpline::kDegree; ++j) {
         const int k = cornerOfControlPoint(j, corner_count);

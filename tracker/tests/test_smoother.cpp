@@ -329,6 +329,43 @@ TEST(Smoother, GrazingPlannerEdgeGetsADetour) {
   EXPECT_GE(t.report.min_clearance, 0.0);
 }
 
+namespace {
+// The sampled edge check, and a nearest obstacle that is straight below the query point (the ground a map widened a
+// column from, not the column's corner the query point grazes).
+class GroundBelowWorld : public SampledEdgeWorld {
+ public:
+  using SampledEdgeWorld::SampledEdgeWorld;
+  std::vector<ddsnav::planner::NearbyObstacle> obstaclesNear(const Vec3& p, double) const override {
+    return {{0, Vec3(p.x(), p.y(), 0.0), p.z()}};
+  }
+};
+}  // namespace
+
+TEST(Smoother, AnEdgeGrazingABoxCornerIsPushedOffSidewaysWithoutSharpCorners) {
+  // A tall box; the path's first edge passes its vertical edge at (10, 6) 0.29 m off (robot radius 0.3): a 15 cm
+  // chord the 2 m edge check steps over. Pushing away from the "nearest obstacle" (the ground below) goes up, along
+  // the box: the edge must be pushed off sideways, and the corner after it keep its rounding.
+  const std::string text =
+      "name: corner\ndimensions: 3\nbounds: {min: [0, 0, 0], max: [30, 30, 20]}\nrobot_radius: 0.3\nstart: [1, 1, 5]\n"
+      "goal: [20, 20, 5]\ngoal_radius: 1\nvehicle: {model: unicycle, v_max: 1.0, omega_max: 1.0, vz_max: 0.5, dt: 1.0}\n"
+      "obstacles:\n  - {type: box, min: [10, 6, 0], max: [12, 8, 20]}\n";
+  const auto sc = ddsnav::planner::parseScenario(text, "corner");
+  GroundBelowWorld world(ddsnav::planner::makeScenarioWorld(sc));
+  world.setCheckResolution(2.0);
+  const Vec3 along = Vec3(1, -1, 0).normalized();
+  const Vec3 graze = Vec3(10, 6, 5) + 0.29 * Vec3(-1, -1, 0).normalized();
+  const Vec3 a = graze - 6.1 * along, b = graze + 5.9 * along, c = b + Vec3(6, 0, 0);
+  ASSERT_TRUE(world.isSegmentFree(a, b));
+  ASSERT_FALSE(world.isFree(graze));
+  SmootherConfig cfg;
+  cfg.clearance_target = 0.0;  // keep the planner's geometry: this test is about the fallback
+  cfg.shortcut = false;
+  const auto t = smoothPath(pathOf({a, b, c}), world, *sc.vehicle, cfg);
+  for (const auto& s : t.samples) ASSERT_TRUE(world.isFree(s.position)) << s.position.transpose();
+  EXPECT_GT(t.report.shortcut_waypoints, 3u);  // a detour corner was added
+  EXPECT_LT(t.report.max_curvature, 2.0);      // no corner tightened to a point
+}
+
 // expectDrivable for a trajectory that starts moving: every sample free and within the limits, the first one
 // at `speed` along `heading`, without a turn in place.
 static void expectMovingStart(const Trajectory& t, const ddsnav::planner::CollisionWorld& world,

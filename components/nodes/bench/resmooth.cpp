@@ -1,0 +1,209 @@
+// ddsnav resmooth: one plan of a recorded mission smoothed again, offline, on the world the tracker had.
+//
+//   ddsnav resmooth --recording run.mcap --scenario S.yaml --request 8
+//
+// From the recording: the planner's answer to request N (planning/path), the request (start, heading), the newest
+// map/octomap, perception/obstacles and vehicle/state received before that answer. The world is the tracker's as the
+// demo launch file configures it (fused, optimistic, solid below the surface with a 1 m margin, the 3-D sensor view
+// from the path's start) and, first, its preferred world (the 3 m wider margin) as the tracker tries it. Prints what
+// the smoother did on each, and for a refusal near a point what blocks that point: the map, an ellipse or the space
+// the lidar's fan does not see. Not reproduced: the lead-in along the flown trajectory and the braking stretch (the
+// start's speed is the vehicle's at the time unless --speed is given).
+#include "ddsnav/nodes/convert.hpp"
+#include "ddsnav/nodes/validate.hpp"
+#include "ddsnav/nodes/world_source.hpp"
+
+#include <ddsnav/msg/messages.hpp>
+#include <ddsnav/planner/collision_world.hpp>
+#include <ddsnav/record/mcap.hpp>
+#include <ddsnav/sim/sensor_choice.hpp>
+#include <ddsnav/tracker/smoother.hpp>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <cstdio>
+#include <optional>
+#include <regex>
+#include <string>
+
+using namespace ddsnav;
+
+namespace {
+
+template <class T>
+std::optional<T> decode(const record::MessageView& view) {
+  T sample;
+  if (!msg::type_support<T>().deserialize(view.data.data(), view.data.size(), &sample)) return std::nullopt;
+  return sample;
+}
+
+struct Recorded {
+  std::optional<msg::PlanRequest> request;
+  std::optional<msg::Path> path;
+  std::optional<msg::OccupancyMap> map;
+  std::optional<msg::ObstacleArray> obstacles;
+  std::optional<msg::VehicleState> vehicle;
+};
+
+// The inputs the tracker had when the answer to `request_id` arrived (messages come in receive order).
+Recorded findInputs(const std::string& file, std::uint32_t request_id) {
+  Recorded r;
+  record::McapReader reader(file);
+  reader.forEachMessage(
+      [&](const record::MessageView& v) {
+        const std::string& topic = v.channel->topic;
+        if (topic == "map/octomap") {
+          if (auto m = decode<msg::OccupancyMap>(v)) r.map = std::move(*m);
+        } else if (topic == "perception/obstacles") {
+          if (auto m = decode<msg::ObstacleArray>(v)) r.obstacles = std::move(*m);
+        } else if (topic == "vehicle/state") {
+          if (auto m = decode<msg::VehicleState>(v)) r.vehicle = std::move(*m);
+        } else if (topic == "planning/request") {
+          if (auto m = decode<msg::PlanRequest>(v); m && m->request_id() == request_id) r.request = std::move(*m);
+        } else if (topic == "planning/path") {
+          if (auto m = decode<msg::Path>(v); m && m->request_id() == request_id) {
+            r.path = std::move(*m);
+            return false;
+          }
+        }
+        return true;
+      },
+      [](const record::DamagedChunk&) {});
+  return r;
+}
+
+std::string point(const planner::Vec3& p) {
+  char text[64];
+  std::snprintf(text, sizeof text, "(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());
+  return text;
+}
+
+// What blocks `p`: each source on its own.
+void explain(const planner::Vec3& p, const planner::CollisionWorld& map, const planner::CollisionWorld& ellipses,
+             const std::optional<planner::SensorView>& view) {
+  std::printf("  at %s: map %s (clearance %.2f m), ellipses %s, %s\n", point(p).c_str(), map.isFree(p) ? "free" : "BLOCKED", map.clearance(p),
+              ellipses.isFree(p) ? "free" : "BLOCKED", view && view->unseen(p) ? "UNSEEN above/below the lidar's fan" : "seen by the fan");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ddsnav resmooth: smooth one recorded plan again on the tracker's world, and say what blocks it"};
+  std::string recording, scenario_file;
+  std::uint32_t request_id = 0;
+  std::optional<double> speed;
+  double preferred_margin = 3.0;
+  bool no_view = false, print_path = false;
+  app.add_option("--recording", recording, "the mission's MCAP recording (bench-mission --keep-recordings)")->required();
+  app.add_option("--scenario", scenario_file, "its scenario file")->required();
+  app.add_option("--request", request_id, "the request id whose answer is smoothed")->required();
+  app.add_option("--speed", speed, "the start's speed, m/s (default: the vehicle's then)")->check(CLI::Range(0.0, 1000.0));
+  app.add_option("--preferred-surface-margin", preferred_margin, "the preferred world's wider margin, m (0: none)")->check(CLI::Range(0.0, 100.0));
+  app.add_flag("--no-view", no_view, "leave out the sensor view (3-D)");
+  app.add_flag("--print-path", print_path, "print the path's states and which of them the world blocks");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const planner::Scenario scenario = planner::loadScenario(scenario_file);
+    if (!scenario.vehicle) throw std::invalid_argument("the scenario has no vehicle block");
+    const Recorded in = findInputs(recording, request_id);
+    if (!in.path) throw std::invalid_argument("no planning/path answers request " + std::to_string(request_id));
+    if (!in.request) throw std::invalid_argument("planning/request " + std::to_string(request_id) + " is not recorded");
+    const auto states = nodes::statesOf(*in.path);
+    if (states.empty()) throw std::invalid_argument("the answer has no states");
+    std::printf("request %u (%s): %zu states from %s\n", request_id, in.request->reason().c_str(), states.size(),
+                point(states.front().position).c_str());
+
+    const nodes::WorldParameters defaults;
+    planner::OctoMapWorldOptions options;
+    options.solid_below_surface = defaults.solid_below_surface;
+    options.surface_margin_m = defaults.surface_margin_m;
+    if (scenario.dimensions == 3 && preferred_margin > options.surface_margin_m) options.wider_surface_margin_m = preferred_margin;
+    std::shared_ptr<const planner::CollisionWorld> map_world;
+    if (in.map) {
+      auto built = nodes::buildOccupancyMap(*in.map, "map", scenario, options);
+      if (!built.error.empty()) throw std::invalid_argument("the recorded map: " + built.error);
+      map_world = std::move(built.world);
+    } else {
+      std::printf("no map before the answer: the world is the ellipses alone\n");
+    }
+    auto ellipses = in.obstacles ? nodes::toEllipsoidObstacles(*in.obstacles) : std::vector<planner::EllipsoidObstacle>{};
+    nodes::clearFootprint(ellipses, states.front().position, scenario.robot_radius, scenario.dimensions);
+    auto ellipse_world = [&] {
+      return planner::makeEllipsoidWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius, ellipses);
+    };
+    std::optional<planner::SensorView> view;
+    if (scenario.dimensions == 3 && !no_view && map_world) {
+      const auto sensor = sim::chooseSensor(scenario).config;
+      planner::SensorView v;
+      v.vertical_min_deg = sensor.vertical_min_deg;
+      v.vertical_max_deg = sensor.vertical_max_deg;
+      v.range = sensor.max_range;
+      v.slack = std::max(1.0, 2.0 * scenario.robot_radius);
+      v.below = defaults.sensor_view_below;
+      v.origin = states.front().position;
+      v.exempt_center = scenario.goal;
+      v.exempt_radius = scenario.goal_radius + scenario.robot_radius;
+      view = v;
+    }
+    auto worldOn = [&](std::shared_ptr<const planner::CollisionWorld> map) -> std::unique_ptr<planner::CollisionWorld> {
+      if (!map) return ellipse_world();
+      auto fused = planner::makeFusedWorld(std::move(map), ellipse_world());
+      return view ? planner::makeSensorViewWorld(std::move(fused), *view) : std::move(fused);
+    };
+
+    tracker::SmootherConfig config;
+    config.repair_distance = scenario.robot_radius;
+    config.short_braking_m = 2.0 * scenario.robot_radius;
+    config.initial_heading = in.request->start().heading();
+    config.initial_speed = speed.value_or(in.vehicle ? std::hypot(in.vehicle->velocity().x(), in.vehicle->velocity().y()) : 0.0);
+    config.initial_vz = in.vehicle && scenario.dimensions == 3 ? in.vehicle->velocity().z() : 0.0;
+    std::printf("start speed %.2f m/s (vz %.2f), heading %.1f deg\n", config.initial_speed, config.initial_vz,
+                *config.initial_heading * 180.0 / M_PI);
+
+    auto attempt = [&](const char* name, const planner::CollisionWorld& world) {
+      if (print_path) {
+        std::printf("%s: the path\n", name);
+        for (std::size_t i = 0; i < states.size(); ++i) {
+          const auto& p = states[i].position;
+          const bool edge_free = i == 0 || world.isSegmentFree(states[i - 1].position, p);
+          std::printf("  %3zu %s clearance %.2f%s%s\n", i, point(p).c_str(), world.clearance(p), world.isFree(p) ? "" : " BLOCKED",
+                      edge_free ? "" : " (edge to it blocked)");
+        }
+      }
+      try {
+        const auto t = tracker::smoothPath(states, world, *scenario.vehicle, config);
+        std::printf("%s: smoothed: %.1f m, %.1f s, min clearance %.2f m, %d rounds of corner tightening, %.1f s slow, max curvature %.2f 1/m%s%s\n", name, t.report.length, t.report.duration,
+                    t.report.min_clearance, t.report.fallback_iterations, t.report.slow_s, t.report.max_curvature, t.report.lead_in_failure.empty() ? "" : "; lead-in: ", t.report.lead_in_failure.c_str());
+        return true;
+      } catch (const std::exception& e) {
+        std::printf("%s: refused: %s\n", name, e.what());
+        static const std::regex near(R"(near \(([-0-9.e]+), ([-0-9.e]+)(?:, ([-0-9.e]+))?\))");
+        std::cmatch m;
+        if (map_world && std::regex_search(e.what(), m, near)) {
+          const planner::Vec3 p(std::stod(m[1]), std::stod(m[2]), m[3].matched ? std::stod(m[3]) : 0.0);
+          const auto e_world = ellipse_world();
+          explain(p, *map_world, *e_world, view);
+          double nearest = std::numeric_limits<double>::infinity();
+          std::size_t at = 0;
+          for (std::size_t i = 0; i < states.size(); ++i)
+            if (const double d = (states[i].position - p).norm(); d < nearest) nearest = d, at = i;
+          std::printf("  nearest path state %zu of %zu, %.2f m away; %.1f m from the start\n", at, states.size(), nearest,
+                      (p - states.front().position).norm());
+        }
+        return false;
+      }
+    };
+    if (map_world && options.wider_surface_margin_m > 0) {
+      const auto preferred = worldOn(planner::makeWiderMarginView(map_world));
+      attempt("preferred world (wider margin)", *preferred);
+    }
+    const auto plain = worldOn(map_world);
+    return attempt("plain world", *plain) ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ddsnav resmooth: %s\n", e.what());
+    return 2;
+  }
+}
