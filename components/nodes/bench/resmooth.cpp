@@ -80,11 +80,17 @@ std::string point(const planner::Vec3& p) {
   return text;
 }
 
-// What blocks `p`: each source on its own.
-void explain(const planner::Vec3& p, const planner::CollisionWorld& map, const planner::CollisionWorld& ellipses,
+// What blocks `p`: each source on its own (`map`: none before the first map).
+void explain(const planner::Vec3& p, const planner::CollisionWorld* map, const planner::CollisionWorld& ellipses,
              const std::optional<planner::SensorView>& view) {
-  std::printf("  at %s: map %s (clearance %.2f m), ellipses %s, %s\n", point(p).c_str(), map.isFree(p) ? "free" : "BLOCKED", map.clearance(p),
-              ellipses.isFree(p) ? "free" : "BLOCKED", view && view->unseen(p) ? "UNSEEN above/below the lidar's fan" : "seen by the fan");
+  std::string map_says = "no map";
+  if (map) {
+    char text[64];
+    std::snprintf(text, sizeof text, "map %s (clearance %.2f m)", map->isFree(p) ? "free" : "BLOCKED", map->clearance(p));
+    map_says = text;
+  }
+  std::printf("  at %s: %s, ellipses %s, %s\n", point(p).c_str(), map_says.c_str(), ellipses.isFree(p) ? "free" : "BLOCKED",
+              !view ? "no sensor view" : view->unseen(p) ? "UNSEEN above/below the lidar's fan" : "seen by the fan");
 }
 
 }  // namespace
@@ -182,10 +188,10 @@ int main(int argc, char** argv) {
         std::printf("%s: refused: %s\n", name, e.what());
         static const std::regex near(R"(near \(([-0-9.e]+), ([-0-9.e]+)(?:, ([-0-9.e]+))?\))");
         std::cmatch m;
-        if (map_world && std::regex_search(e.what(), m, near)) {
+        if (std::regex_search(e.what(), m, near)) {
           const planner::Vec3 p(std::stod(m[1]), std::stod(m[2]), m[3].matched ? std::stod(m[3]) : 0.0);
           const auto e_world = ellipse_world();
-          explain(p, *map_world, *e_world, view);
+          explain(p, map_world.get(), *e_world, view);
           double nearest = std::numeric_limits<double>::infinity();
           std::size_t at = 0;
           for (std::size_t i = 0; i < states.size(); ++i)
