@@ -369,6 +369,15 @@ int main(int argc, char** argv) {
                         {"replan_obstacles_to_request", statsJson(latencies.replan_obstacles_to_request)},
                         {"replan_request_to_path", statsJson(latencies.replan_request_to_path)},
                         {"replan_path_to_trajectory", statsJson(latencies.replan_path_to_trajectory)}};
+      nlohmann::json each = nlohmann::json::array();
+      auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+      for (const auto& r : latencies.replans)
+        each.push_back({{"request_id", r.request_id},
+                        {"obstacles_to_trajectory_ms", number(r.obstacles_to_trajectory_ms)},
+                        {"obstacles_to_request_ms", number(r.obstacles_to_request_ms)},
+                        {"map_to_request_ms", number(r.map_to_request_ms)},
+                        {"answered_by_own_trajectory", r.answered_by_own_trajectory}});
+      row["latency"]["replans"] = std::move(each);
       spdlog::info("{}: {} replans for a blocked trajectory ({} answered by a later plan's trajectory): obstacles -> trajectory median "
                    "{:.0f} ms, p99 {:.0f} ms; of it, where the replan's own trajectory answered, "
                    "obstacles -> request {:.0f} / {:.0f}, request -> path {:.0f} / {:.0f}, path -> trajectory {:.0f} / {:.0f}",

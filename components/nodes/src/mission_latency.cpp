@@ -52,9 +52,11 @@ MissionLatencies missionLatencies(const MissionRecording& r) {
   out.cloud_to_map = keyed(r.clouds, r.maps);
   out.request_to_path = keyed(r.requests, r.paths);
 
-  std::vector<std::uint64_t> obstacle_times;
+  std::vector<std::uint64_t> obstacle_times, map_times;
   for (const auto& e : r.obstacles) obstacle_times.push_back(e.log_ns);
+  for (const auto& e : r.maps) map_times.push_back(e.log_ns);
   std::sort(obstacle_times.begin(), obstacle_times.end());
+  std::sort(map_times.begin(), map_times.end());
   const auto trajectory = firstByKey(r.trajectories);
   const auto request = firstByKey(r.requests);
   const auto path = firstByKey(r.paths);
@@ -77,6 +79,14 @@ MissionLatencies missionLatencies(const MissionRecording& r) {
     const std::uint64_t perceived = *std::prev(newest);
     if (*answered_at < perceived) continue;
     replans.push_back(ms(perceived, *answered_at));
+    ReplanLatency detail;
+    detail.request_id = it->first;
+    detail.obstacles_to_trajectory_ms = replans.back();
+    detail.obstacles_to_request_ms = ms(perceived, it->second);
+    if (const auto map = std::upper_bound(map_times.begin(), map_times.end(), it->second); map != map_times.begin())
+      detail.map_to_request_ms = ms(*std::prev(map), it->second);
+    detail.answered_by_own_trajectory = own;
+    out.replans.push_back(detail);
     if (!own) {
       ++out.replans_answered_later;
       continue;

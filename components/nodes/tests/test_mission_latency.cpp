@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 using namespace ddsnav;
 
 namespace {
@@ -47,6 +49,26 @@ TEST(MissionLatency, EffectsAreTiedToTheirCausesByKey) {
   EXPECT_DOUBLE_EQ(l.replan_obstacles_to_request.median_ms, 5.0);
   EXPECT_DOUBLE_EQ(l.replan_request_to_path.median_ms, 20.0);
   EXPECT_DOUBLE_EQ(l.replan_path_to_trajectory.median_ms, 30.0);
+  // ... and on its own, with no map before it (the only one came at 1020 ms).
+  ASSERT_EQ(l.replans.size(), 1u);
+  EXPECT_EQ(l.replans[0].request_id, 2);
+  EXPECT_DOUBLE_EQ(l.replans[0].obstacles_to_trajectory_ms, 55.0);
+  EXPECT_DOUBLE_EQ(l.replans[0].obstacles_to_request_ms, 5.0);
+  EXPECT_TRUE(std::isnan(l.replans[0].map_to_request_ms));
+  EXPECT_TRUE(l.replans[0].answered_by_own_trajectory);
+}
+
+TEST(MissionLatency, EachReplanSaysHowLongAfterTheNewestMapItWasAsked) {
+  nodes::MissionRecording r;
+  r.obstacles = {{10 * kMs, 1}, {110 * kMs, 2}};
+  r.maps = {{150 * kMs, 1}, {400 * kMs, 2}};
+  r.requests = {{5 * kMs, 1}, {230 * kMs, 2}};  // the replan 80 ms after a map, 120 ms after the newest obstacles
+  r.trajectories = {{20 * kMs, 1}, {260 * kMs, 2}};
+  const auto l = nodes::missionLatencies(r);
+  ASSERT_EQ(l.replans.size(), 1u);
+  EXPECT_DOUBLE_EQ(l.replans[0].obstacles_to_request_ms, 120.0);
+  EXPECT_DOUBLE_EQ(l.replans[0].map_to_request_ms, 80.0);
+  EXPECT_DOUBLE_EQ(l.replans[0].obstacles_to_trajectory_ms, 150.0);
 }
 
 TEST(MissionLatency, OnlyReplansForABlockedTrajectoryAnswerAChange) {

@@ -44,6 +44,17 @@ struct LatencyStats {
   double max_ms = std::numeric_limits<double>::quiet_NaN();
 };
 
+// One replan for a blocked trajectory, for telling what its latency is made of.
+struct ReplanLatency {
+  std::int64_t request_id = 0;
+  double obstacles_to_trajectory_ms = std::numeric_limits<double>::quiet_NaN();
+  double obstacles_to_request_ms = std::numeric_limits<double>::quiet_NaN();
+  // From the newest map received before the request (NaN: none): a replan that a map triggered follows it closely,
+  // while the obstacle array it is counted from may be older (in 3-D, terrain is the map's).
+  double map_to_request_ms = std::numeric_limits<double>::quiet_NaN();
+  bool answered_by_own_trajectory = true;  // false: a later request's trajectory answered it
+};
+
 struct MissionLatencies {
   LatencyStats cloud_to_obstacles, cloud_to_map, request_to_path;
   // For each replan for a blocked trajectory: from the newest obstacles received before its request to the first
@@ -53,6 +64,7 @@ struct MissionLatencies {
   std::size_t replans_answered_later = 0;  // of them, answered by a later request's trajectory
   // The parts of obstacles_to_trajectory, over the replans their own trajectory answered.
   LatencyStats replan_obstacles_to_request, replan_request_to_path, replan_path_to_trajectory;
+  std::vector<ReplanLatency> replans;  // each of obstacles_to_trajectory's, in request order
 };
 
 LatencyStats latencyStats(std::vector<double> ms);
