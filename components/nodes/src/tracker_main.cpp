@@ -754,6 +754,9 @@ class TrackerComponent : public runtime::Component {
   }
 
   static constexpr double kAtRest = 0.05;  // m/s: the vehicle has stopped
+  // A plan asked from where a braking was predicted to end is flown from rest when the vehicle stopped within this
+  // share of replan_deviation of its start; farther off, it is asked again from where the vehicle is.
+  static constexpr double kRestStartTolerance = 0.5;
   // A trajectory starting slower than kAtRestStart starts at rest; a vehicle reaching its start faster than kFlownThrough
   // would overshoot it (adoptSmoothed refuses such a plan).
   static constexpr double kAtRestStart = tracker::kAtRestSpeed, kFlownThrough = tracker::kFlownThroughSpeed;
@@ -1026,8 +1029,23 @@ class TrackerComponent : public runtime::Component {
       if (braking_rest_) {
         // At rest: the plan's trajectory when it is ready, else its answer (or a retry, or the failure) comes as usual.
         braking_rest_.reset();
+        const std::string stopped_for = *stopping_for_;
         stopping_for_.reset();
         if (next_trajectory_) {
+          // Asked from where the braking was predicted to end. A vehicle that came to rest farther from there (a hard
+          // stop at the vehicle's limit, a late switch to the braking) would be pulled to that start across space no
+          // check has seen, and its cross-track error asked for a stop and a new plan at once (u_large_3d, 2026-12-07:
+          // 1.05 and 1.12 m, two deviation replans in a row). It is asked again from where the vehicle is.
+          const double missed = (state->position - next_trajectory_->samples.front().position).norm();
+          if (missed > kRestStartTolerance * tracker_config_.replan_deviation) {
+            spdlog::warn("trajectory {}: the vehicle came to rest {:.2f} m from its start (the predicted end of the braking): not flown",
+                         next_request_id_, missed);
+            next_trajectory_.reset();
+            next_rest_.clear();
+            act(mission_.replan(clock().nowNs(), *state, fmt::format("rest_point_missed: at rest {:.2f} m from the start of the plan asked "
+                                                                          "while braking ({})", missed, stopped_for)));
+            return;
+          }
           switchTrajectory(std::move(*next_trajectory_), std::move(next_rest_), next_is_piece_, next_request_id_, *state, /*announced=*/true);
           next_trajectory_.reset();
         }
