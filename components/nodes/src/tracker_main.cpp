@@ -426,9 +426,9 @@ class TrackerComponent : public runtime::Component {
   }
 
   // Whether a plan that could only start at rest may be answered by braking to rest first (flown_braking_decel): when
-  // its path turns back (a point of it beyond its first robot diameter or metre, and within twice the turn radius — the
-  // longest straight lead-in the smoother tries — lies more than a right angle from the heading), when that stop is
-  // short (short_braking_m), or when the plan before it was refused for starting at rest. A first corner too tight for
+  // its path turns back (a point of it, on a state or an edge, beyond its first robot diameter or metre, and within
+  // twice the turn radius — the longest straight lead-in the smoother tries — lies more than a right angle from the
+  // heading), when that stop is short (short_braking_m), or when the plan before it was refused for starting at rest. A first corner too tight for
   // the speed is asked again first: the vehicle a little farther on, or the next plan, mostly gets round it at speed,
   // where a stop cost a bugtrap_0.4 mission 20 s (1.55x, 2026-12-06). A path that comes back behind its start within the
   // lead-in's reach cannot be flown at speed from any start near there, and braking is used only when the plan cannot
@@ -443,11 +443,18 @@ class TrackerComponent : public runtime::Component {
     const double reach = std::max(1.0, 2.0 * scenario_.robot_radius);
     const double lead_in_reach = std::max(reach, 2.0 * limits_.v_max / limits_.omega_max);
     const Eigen::Vector2d heading(std::cos(request_heading_), std::sin(request_heading_));
-    for (const auto& s : states) {
-      const Eigen::Vector2d away = (s.position - states.front().position).head<2>();
-      if (away.norm() < reach) continue;
-      if (away.norm() > lead_in_reach) break;
-      if (away.dot(heading) < 0.0) return true;
+    // Along the edges, not only at the states: a first edge longer than the lead-in's reach that goes back (bugtrap_1.0,
+    // 2026-12-07: 31 m straight back from a replan ahead) has no state within it.
+    const Eigen::Vector2d start = states.front().position.head<2>();
+    for (std::size_t i = 1; i < states.size(); ++i) {
+      const Eigen::Vector2d a = states[i - 1].position.head<2>(), b = states[i].position.head<2>();
+      const int steps = std::clamp(static_cast<int>(std::ceil((b - a).norm() / 0.5)), 1, 1000);
+      for (int k = 1; k <= steps; ++k) {
+        const Eigen::Vector2d away = a + (b - a) * (static_cast<double>(k) / steps) - start;
+        if (away.norm() < reach) continue;
+        if (away.norm() > lead_in_reach) return false;
+        if (away.dot(heading) < 0.0) return true;
+      }
     }
     return false;
   }
