@@ -407,9 +407,6 @@ std::map<int, Vec3> collidingSpans(const BSpline& spline, const std::vector<Curv
   return spans;
 }
 
-// Whether the polyline is blocked within 0.25 m (along it) of its point nearest to `p`, checked finely.
-bool polylineBlockedNear(const std::vector<Vec3>& points, const Vec3& p, const CollisionWorld& world);
-
 // Every state on a-b is free, checked at least as finely as the curve samples are (the world's own edge
 // check may be coarser: that is how a graze got through in the first place).
 bool finelyFree(const CollisionWorld& world, const Vec3& a, const Vec3& b) {
@@ -421,6 +418,7 @@ bool finelyFree(const CollisionWorld& world, const Vec3& a, const Vec3& b) {
   return true;
 }
 
+// Whether the polyline is blocked at its point nearest to `p` or within 0.25 m along it from there, checked finely.
 bool polylineBlockedNear(const std::vector<Vec3>& points, const Vec3& p, const CollisionWorld& world) {
   double best = std::numeric_limits<double>::infinity();
   Vec3 from = p, to = p, foot = p;

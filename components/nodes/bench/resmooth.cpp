@@ -8,7 +8,8 @@
 // from the path's start) and, first, its preferred world (the 3 m wider margin) as the tracker tries it. Prints what
 // the smoother did on each, and for a refusal near a point what blocks that point: the map, an ellipse or the space
 // the lidar's fan does not see. Not reproduced: the lead-in along the flown trajectory and the braking stretch (the
-// start's speed is the vehicle's at the time unless --speed is given).
+// start's speed is the vehicle's at the time unless --speed is given); in 2-D the preferred world (unknown_margin_m)
+// and the clipping of ellipses to the map: 2-D plans are smoothed on the plain fused world only.
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include "ddsnav/nodes/world_source.hpp"
@@ -24,6 +25,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <optional>
 #include <regex>
 #include <string>
@@ -117,6 +119,12 @@ int main(int argc, char** argv) {
     const Recorded in = findInputs(recording, request_id);
     if (!in.path) throw std::invalid_argument("no planning/path answers request " + std::to_string(request_id));
     if (!in.request) throw std::invalid_argument("planning/request " + std::to_string(request_id) + " is not recorded");
+    // Recorded numbers are checked as the tracker checks them on arrival.
+    if (const auto error = nodes::checkPath(*in.path); !error.empty()) throw std::invalid_argument("the recorded path: " + error);
+    if (!std::isfinite(in.request->start().heading())) throw std::invalid_argument("the recorded request's start heading is not finite");
+    if (in.vehicle)
+      if (const auto error = nodes::checkVehicleState(*in.vehicle, ""); !error.empty())
+        throw std::invalid_argument("the recorded vehicle/state: " + error);
     const auto states = nodes::statesOf(*in.path);
     if (states.empty()) throw std::invalid_argument("the answer has no states");
     std::printf("request %u (%s): %zu states from %s\n", request_id, in.request->reason().c_str(), states.size(),
@@ -167,7 +175,7 @@ int main(int argc, char** argv) {
     config.initial_speed = speed.value_or(in.vehicle ? std::hypot(in.vehicle->velocity().x(), in.vehicle->velocity().y()) : 0.0);
     config.initial_vz = in.vehicle && scenario.dimensions == 3 ? in.vehicle->velocity().z() : 0.0;
     std::printf("start speed %.2f m/s (vz %.2f), heading %.1f deg\n", config.initial_speed, config.initial_vz,
-                *config.initial_heading * 180.0 / M_PI);
+                *config.initial_heading * 180.0 / std::numbers::pi);
 
     auto attempt = [&](const char* name, const planner::CollisionWorld& world) {
       if (print_path) {

@@ -428,13 +428,13 @@ class TrackerComponent : public runtime::Component {
   // Whether a plan that could only start at rest may be answered by braking to rest first (flown_braking_decel): when
   // its path turns back (a point of it, on a state or an edge, beyond its first robot diameter or metre, and within
   // twice the turn radius — the longest straight lead-in the smoother tries — lies more than a right angle from the
-  // heading), when that stop is short (short_braking_m), or when the plan before it was refused for starting at rest. A first corner too tight for
-  // the speed is asked again first: the vehicle a little farther on, or the next plan, mostly gets round it at speed,
-  // where a stop cost a bugtrap_0.4 mission 20 s (1.55x, 2026-12-06). A path that comes back behind its start within the
-  // lead-in's reach cannot be flown at speed from any start near there, and braking is used only when the plan cannot
-  // take over anyway. Until 2026-12-07 only the first metre counted: r3d_69 at speed 2 had a path that turned back
-  // within 14.3 m (the smoother's words) refused, asked again and braked for only then, 0.69 s from the request to a
-  // trajectory (not recorded: whether that path came back behind its start is not known).
+  // heading), when that stop is short (short_braking_m), or when the plan before it was refused for starting at rest.
+  // A first corner too tight for the speed is asked again first: the vehicle a little farther on, or the next plan,
+  // mostly gets round it at speed, where a stop cost a bugtrap_0.4 mission 20 s (1.55x, 2026-12-06). A path that comes
+  // back behind its start within the lead-in's reach cannot be flown at speed from any start near there, and braking is
+  // used only when the plan cannot take over anyway. Until 2026-12-07 only the first metre counted: r3d_69 at speed 2
+  // had a path that turned back within 14.3 m (the smoother's words) refused, asked again and braked for only then,
+  // 0.69 s from the request to a trajectory (not recorded: whether that path came back behind its start is not known).
   bool mayBrakeFirst(const std::vector<planner::State>& states) const {
     if (rest_start_refusals_ >= 1) return true;
     const double stop = request_speed_ * request_speed_ / (2 * flown_braking_decel_);
@@ -1041,8 +1041,9 @@ class TrackerComponent : public runtime::Component {
         if (next_trajectory_) {
           // Asked from where the braking was predicted to end. A vehicle that came to rest farther from there (a hard
           // stop at the vehicle's limit, a late switch to the braking) would be pulled to that start across space no
-          // check has seen, and its cross-track error asked for a stop and a new plan at once (u_large_3d, 2026-12-07:
-          // 1.05 and 1.12 m, two deviation replans in a row). It is asked again from where the vehicle is.
+          // check has seen, its cross-track error then asking for a stop and a new plan (as read from the log of an
+          // unrecorded u_large_3d run, 2026-12-07: 1.05 and 1.12 m, two deviation replans in a row). It is asked again
+          // from where the vehicle is.
           const double missed = (state->position - next_trajectory_->samples.front().position).norm();
           if (missed > kRestStartTolerance * tracker_config_.replan_deviation) {
             spdlog::warn("trajectory {}: the vehicle came to rest {:.2f} m from its start (the predicted end of the braking): not flown",
