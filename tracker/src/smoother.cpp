@@ -418,24 +418,32 @@ bool finelyFree(const CollisionWorld& world, const Vec3& a, const Vec3& b) {
   return true;
 }
 
-// Whether the polyline is blocked at its point nearest to `p` or within 0.25 m along it from there, checked finely.
-bool polylineBlockedNear(const std::vector<Vec3>& points, const Vec3& p, const CollisionWorld& world) {
+// The point of the polyline nearest to `p`: on edge `edge`, at `f` (0..1) along it.
+struct PolylineFoot {
+  std::size_t edge = 0;
+  double f = 0.0;
+  Vec3 foot;
+};
+PolylineFoot nearestOnPolyline(const std::vector<Vec3>& points, const Vec3& p) {
+  PolylineFoot out{0, 0.0, p};
   double best = std::numeric_limits<double>::infinity();
-  Vec3 from = p, to = p, foot = p;
   for (std::size_t i = 0; i + 1 < points.size(); ++i) {
     const Vec3 a = points[i], ab = points[i + 1] - a;
-    const double length = ab.norm();
-    if (length < 1e-12) continue;
-    const double f = std::clamp((p - a).dot(ab) / (length * length), 0.0, 1.0);
+    const double f = std::clamp((p - a).dot(ab) / std::max(ab.squaredNorm(), 1e-18), 0.0, 1.0);
     const double d = (p - (a + f * ab)).norm();
-    if (d >= best) continue;
-    best = d;
-    foot = a + f * ab;
-    const double reach = 0.25 / length;
-    from = a + std::max(0.0, f - reach) * ab;
-    to = a + std::min(1.0, f + reach) * ab;
+    if (d < best) best = d, out = {i, f, a + f * ab};
   }
-  return !world.isFree(foot) || !finelyFree(world, from, to);
+  return out;
+}
+
+// Whether the polyline is blocked at its point nearest to `p` or within 0.25 m along it from there, checked finely.
+bool polylineBlockedNear(const std::vector<Vec3>& points, const Vec3& p, const CollisionWorld& world) {
+  if (points.size() < 2) return false;
+  const PolylineFoot near = nearestOnPolyline(points, p);
+  const Vec3 a = points[near.edge], ab = points[near.edge + 1] - a;
+  const double reach = 0.25 / std::max(ab.norm(), 1e-12);
+  return !world.isFree(near.foot) ||
+         !finelyFree(world, a + std::max(0.0, near.f - reach) * ab, a + std::min(1.0, near.f + reach) * ab);
 }
 
 // The polyline itself touches an obstacle near `hit` (its edges were checked at the world's resolution; a
@@ -443,15 +451,9 @@ bool polylineBlockedNear(const std::vector<Vec3>& points, const Vec3& p, const C
 // little as makes both new edges free. Returns false when no push up to 0.3 m works.
 bool pushPolylineAway(Corners& c, const Vec3& hit, const CollisionWorld& world, double radius) {
   const int dims = world.dimensions();
-  std::size_t edge = 0;
-  double best = std::numeric_limits<double>::infinity();
-  Vec3 foot = hit;
-  for (std::size_t i = 0; i + 1 < c.points.size(); ++i) {
-    const Vec3 a = c.points[i], ab = c.points[i + 1] - a;
-    const double f = std::clamp((hit - a).dot(ab) / std::max(ab.squaredNorm(), 1e-18), 0.0, 1.0);
-    const double d = (hit - (a + f * ab)).norm();
-    if (d < best) best = d, edge = i, foot = a + f * ab;
-  }
+  const PolylineFoot nearest = nearestOnPolyline(c.points, hit);
+  const std::size_t edge = nearest.edge;
+  Vec3 foot = nearest.foot;
   const Vec3 a = c.points[edge], b = c.points[edge + 1];
   if ((foot - a).norm() < 1e-6 || (foot - b).norm() < 1e-6) foot = 0.5 * (a + b) + 0.5 * (foot - 0.5 * (a + b)) * 0.98;
   // Directions to push in: away from the nearest obstacle, then across the edge both ways (and in 3-D up and down

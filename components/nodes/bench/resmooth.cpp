@@ -17,7 +17,6 @@
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/collision_world.hpp>
 #include <ddsnav/record/mcap.hpp>
-#include <ddsnav/sim/sensor_choice.hpp>
 #include <ddsnav/tracker/smoother.hpp>
 
 #include <CLI/CLI.hpp>
@@ -150,13 +149,7 @@ int main(int argc, char** argv) {
     };
     std::optional<planner::SensorView> view;
     if (scenario.dimensions == 3 && !no_view && map_world) {
-      const auto sensor = sim::chooseSensor(scenario).config;
-      planner::SensorView v;
-      v.vertical_min_deg = sensor.vertical_min_deg;
-      v.vertical_max_deg = sensor.vertical_max_deg;
-      v.range = sensor.max_range;
-      v.slack = std::max(1.0, 2.0 * scenario.robot_radius);
-      v.below = defaults.sensor_view_below;
+      planner::SensorView v = nodes::sensorViewOf(scenario, defaults);
       v.origin = states.front().position;
       v.exempt_center = scenario.goal;
       v.exempt_radius = scenario.goal_radius + scenario.robot_radius;

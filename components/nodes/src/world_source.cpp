@@ -104,6 +104,26 @@ std::optional<std::int64_t> firstMapWaitStart(std::optional<std::int64_t> starte
   return std::nullopt;
 }
 
+planner::SensorView sensorViewOf(const planner::Scenario& scenario, const WorldParameters& world) {
+  sim::RangeSensorConfig sensor = sim::RangeSensorConfig::lidar3d();
+  try {
+    sensor = sim::chooseSensor(scenario).config;
+  } catch (const std::exception& e) {  // the simulator would refuse this scenario; the planner still plans on it
+    spdlog::warn("sensor view: no default sensor for this scenario ({}); assuming a lidar of {:.0f}..{:.0f} deg and {:.0f} m", e.what(),
+                 sensor.vertical_min_deg, sensor.vertical_max_deg, sensor.max_range);
+  }
+  planner::SensorView view;
+  view.vertical_min_deg = world.sensor_vertical_min_deg.value_or(sensor.vertical_min_deg);
+  view.vertical_max_deg = world.sensor_vertical_max_deg.value_or(sensor.vertical_max_deg);
+  view.range = world.sensor_view_range_m.value_or(sensor.max_range);
+  // The vehicle is a robot radius wide and follows its trajectory within a few decimetres vertically.
+  view.slack = std::max(1.0, 2.0 * scenario.robot_radius);
+  view.below = world.sensor_view_below;
+  if (!(view.vertical_min_deg < view.vertical_max_deg))
+    throw runtime::ParameterError("parameters sensor_vertical_min_deg / sensor_vertical_max_deg: the lower edge must lie below the upper one");
+  return view;
+}
+
 WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, const planner::Scenario& scenario,
                          double preferred_unknown_margin_m, bool preferred_on_demand, double preferred_surface_margin_m)
     : kind_(world.kind),
@@ -126,22 +146,7 @@ WorldSource::WorldSource(runtime::Context& ctx, const WorldParameters& world, co
       (kind_ == WorldKind::Map || kind_ == WorldKind::Fused) && unknown_ == planner::UnknownSpace::Optimistic)
     preferred_surface_margin_m_ = preferred_surface_margin_m;
   if (world.sensor_view && scenario.dimensions == 3 && (kind_ == WorldKind::Map || kind_ == WorldKind::Fused)) {
-    sim::RangeSensorConfig sensor = sim::RangeSensorConfig::lidar3d();
-    try {
-      sensor = sim::chooseSensor(scenario).config;
-    } catch (const std::exception& e) {  // the simulator would refuse this scenario; the planner still plans on it
-      spdlog::warn("sensor view: no default sensor for this scenario ({}); assuming a lidar of {:.0f}..{:.0f} deg and {:.0f} m", e.what(),
-                   sensor.vertical_min_deg, sensor.vertical_max_deg, sensor.max_range);
-    }
-    planner::SensorView view;
-    view.vertical_min_deg = world.sensor_vertical_min_deg.value_or(sensor.vertical_min_deg);
-    view.vertical_max_deg = world.sensor_vertical_max_deg.value_or(sensor.vertical_max_deg);
-    view.range = world.sensor_view_range_m.value_or(sensor.max_range);
-    // The vehicle is a robot radius wide and follows its trajectory within a few decimetres vertically.
-    view.slack = std::max(1.0, 2.0 * scenario.robot_radius);
-    view.below = world.sensor_view_below;
-    if (!(view.vertical_min_deg < view.vertical_max_deg))
-      throw runtime::ParameterError("parameters sensor_vertical_min_deg / sensor_vertical_max_deg: the lower edge must lie below the upper one");
+    const planner::SensorView view = sensorViewOf(scenario, world);
     view_ = view;
     if (view.below)
       spdlog::info("sensor view: space above {:.1f} deg and below {:.1f} deg is blocked within {:.1f} m of the vehicle", view.vertical_max_deg,

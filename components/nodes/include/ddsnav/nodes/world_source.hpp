@@ -65,6 +65,11 @@ bool fusedWorldReady(bool has_obstacles, bool has_map, planner::UnknownSpace unk
 // that arrive with the clock running.
 std::optional<std::int64_t> firstMapWaitStart(std::optional<std::int64_t> started_ns, std::int64_t now_ns);
 
+// The 3-D sensor view a WorldSource with `world` blocks near the vehicle (its origin and goal exemption unset): the
+// fan's edges and reach from `world` or else the simulator's default sensor for `scenario`. Throws
+// runtime::ParameterError for a lower edge not below the upper one.
+planner::SensorView sensorViewOf(const planner::Scenario& scenario, const WorldParameters& world);
+
 class WorldSource {
  public:
   // Subscribes through ctx (its executor, its topic names). `world.unknown`: how the map's never-observed
