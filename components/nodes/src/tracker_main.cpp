@@ -245,6 +245,14 @@ class TrackerComponent : public runtime::Component {
 
   void shutdown() override { stop(); }
 
+  // A replan check and a smoothing run on their own threads with `this`: they are waited for before any member goes.
+  // Left to the futures' own destructors, the wait came after the members declared later were gone (the check read
+  // scan_view_ after it was freed: UndefinedBehaviorSanitizer, the composed demo in CI, 2026-12-07).
+  ~TrackerComponent() override {
+    if (checking_.valid()) checking_.wait();
+    if (smoothing_.valid()) smoothing_.wait();
+  }
+
  private:
   static planner::VehicleLimits vehicleOf(const planner::Scenario& scenario) {
     if (!scenario.vehicle) throw std::invalid_argument(scenario.source + ": the tracker needs a 'vehicle' block");
