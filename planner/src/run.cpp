@@ -65,6 +65,10 @@ bool PlannerRun::nextIteration(bool stop_at_first) {
     result.stopped = true;
     return false;
   }
+  if (problem.abandon_unsolved && !solved() && s.iterations > 0 && (s.iterations & 1023) == 0 && problem.abandon_unsolved()) {
+    result.abandoned = true;
+    return false;
+  }
   ++s.iterations;
   if (problem.on_progress && (s.iterations & 1023) == 0) problem.on_progress(s.iterations);
   return true;

@@ -295,6 +295,58 @@ TEST(Planners, UnsolvableProblemEndsUnsolvedAtTheLimit) {
   }
 }
 
+
+// abandon_unsolved ends a search that has found nothing, every 1024 iterations when asked, and is never asked once
+// there is a solution (an anytime search keeps improving its path).
+TEST(Planners, AbandonUnsolvedEndsOnlyASearchWithoutASolution) {
+  Scenario s = shipped("demo_2d");
+  for (const auto& [c, size] : {std::pair{Vec3(36, 38.5, 0), Vec3(8, 1, 0)}, std::pair{Vec3(36, 31.5, 0), Vec3(8, 1, 0)},
+                                std::pair{Vec3(32.5, 35, 0), Vec3(1, 8, 0)}, std::pair{Vec3(39.5, 35, 0), Vec3(1, 8, 0)}}) {
+    Obstacle o;
+    o.center = c;
+    o.size = size;
+    s.obstacles.push_back(o);
+  }
+  const auto walled = makeScenarioWorld(s);
+  for (const std::string name : {"rrt", "gart-lazy", "lirrt"}) {
+    PlanProblem p = problemFor(s, *walled, 1);
+    p.max_iterations = 100000;
+    int asked = 0;
+    p.abandon_unsolved = [&asked] { return ++asked == 3; };
+    const PlanResult r = makePlanner(name)->solve(p);
+    EXPECT_TRUE(r.abandoned) << name;
+    EXPECT_FALSE(r.solved) << name;
+    EXPECT_FALSE(r.stopped) << name;
+    EXPECT_EQ(asked, 3) << name;
+    EXPECT_EQ(r.stats.iterations, 3u * 1024u) << name;
+  }
+  const Scenario trap = shipped("bugtrap_1.0");
+  const auto world = makeScenarioWorld(trap);
+  PlanProblem p = problemFor(trap, *world, 2);
+  p.kinodynamic = true;
+  p.anytime = true;
+  p.improve_for_s = 0.2;
+  p.time_limit_s = 30.0;
+  const PlanResult first = makePlanner("gart-lazy")->solve(p);
+  ASSERT_TRUE(first.solved);
+  const std::int64_t k = first.stats.iterations_to_first_solution;
+  ASSERT_GT(k, 2048) << "a first solution this early asks too seldom to tell anything";
+  int asked = 0;
+  p.abandon_unsolved = [&asked] {
+    ++asked;
+    return false;
+  };
+  const PlanResult r = makePlanner("gart-lazy")->solve(p);
+  ASSERT_TRUE(r.solved);
+  EXPECT_FALSE(r.abandoned);
+  EXPECT_EQ(r.stats.iterations_to_first_solution, k);  // asking changes nothing in the search
+  // Asked before each 1024th iteration up to the first solution, never after it.
+  EXPECT_EQ(static_cast<std::int64_t>(asked), (k - 1) / 1024);
+  p.abandon_unsolved = [] { return true; };
+  const PlanResult at_once = makePlanner("gart-lazy")->solve(p);
+  EXPECT_EQ(at_once.solved, k <= 1024);
+  EXPECT_EQ(at_once.abandoned, k > 1024);
+}
 TEST(Planners, BadProblemsAreRejected) {
   const Scenario s = shipped("demo_2d");
   const auto world = makeScenarioWorld(s);

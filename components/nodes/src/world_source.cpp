@@ -248,6 +248,11 @@ bool WorldSource::buildMap(const msg::OccupancyMap& m, std::uint64_t number) {
   return true;
 }
 
+std::uint64_t WorldSource::plainMapNumber() const {
+  std::lock_guard lock(mutex_);
+  return plain_map_number_;
+}
+
 bool WorldSource::preferredIsStale() const {
   std::lock_guard lock(mutex_);
   return !preferred_on_demand_ && preferred_map_world_ && preferred_map_number_ != plain_map_number_;

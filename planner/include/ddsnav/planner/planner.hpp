@@ -52,6 +52,11 @@ struct PlanProblem {
   // a component cancels a plan that a newer request superseded. Checked once per iteration (one atomic
   // load), so the same problem gives the same plan whether a token is given or not.
   std::stop_token stop;
+  // Asked every 1024 iterations while there is no solution yet: true ends the search there, unsolved, with the
+  // result's `abandoned` set. The planner component abandons a search on a map older than one built since it began,
+  // so that it can search again on the newer one (docs/world-model.md, "A search that fails on an older map").
+  // Empty: never. Not asked once a solution is found.
+  std::function<bool()> abandon_unsolved;
 };
 
 // One tree edge, for pictures.
@@ -85,6 +90,7 @@ struct PlanResult {
   bool exact = false;        // last state within goal_radius of the goal
   bool kinodynamic = false;  // every edge respects the forward extending region
   bool stopped = false;      // the search ended on problem.stop, not on a limit or a solution
+  bool abandoned = false;    // the search ended unsolved on problem.abandon_unsolved
   std::vector<State> path;   // start to goal, joined by straight edges
   double cost = std::numeric_limits<double>::infinity();  // path length, m
   PlanStats stats;

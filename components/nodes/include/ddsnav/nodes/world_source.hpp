@@ -135,6 +135,9 @@ class WorldSource {
   double waitForMapsReceived(std::chrono::milliseconds max_wait) const;
   // Whether the preferred world is still an older map's than the plain one (built after it: buildMap).
   bool preferredIsStale() const;
+  // The number (as received, from 1) of the map the plain world was last built from; 0 before any. A search that began
+  // on a smaller number is on an older map than the newest built.
+  std::uint64_t plainMapNumber() const;
   // Messages dropped as malformed so far, per topic.
   std::size_t droppedObstacleArrays() const;
   std::size_t droppedMaps() const;
