@@ -103,7 +103,7 @@ MissionDecision Mission::update(std::int64_t now_ns, const std::optional<Vehicle
   return afterAnswer(now_ns, *state);
 }
 
-MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok) {
+MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok, bool retry_at_once) {
   if (optional_ && !ok) return dropOptional(now_ns, state, "");
   optional_ = false;
   if (!ok) {
@@ -111,7 +111,8 @@ MissionDecision Mission::pathSmoothed(std::int64_t now_ns, const VehicleState& s
     // for a collision on the tracker's world (a newer map than the planner's) is most often planned anew on that map,
     // and the retry delay held such replans for a second of the mission (bugtrap_0.4, 2026-12-06: 2 of a mission's 6
     // replans). Further refusals in a row wait plan_retry_delay_s, so that the attempts are not used up in a moment.
-    const double delay_s = ++refusals_in_a_row_ == 1 ? config_.refused_retry_delay_s : config_.plan_retry_delay_s;
+    // A path refused for the vehicle's speed at its start (retry_at_once) waits for no map: asked again at once.
+    const double delay_s = ++refusals_in_a_row_ == 1 ? (retry_at_once ? 0.0 : config_.refused_retry_delay_s) : config_.plan_retry_delay_s;
     return retryLater(now_ns, "no drivable trajectory after " + std::to_string(attempts_) + " attempts", "", delay_s);
   }
   refusals_in_a_row_ = 0;

@@ -205,6 +205,31 @@ TEST(Mission, TheFirstRefusedPathInARowIsAskedAgainAtOnce) {
   EXPECT_EQ(m.update(2 * kSecond + 1, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
 }
 
+// With a refused-retry delay (the component's 0.2 s, for the planner to build the tracker's newer map), a path refused
+// for the vehicle's speed at its start is still asked again at once; a second refusal in a row waits plan_retry_delay_s.
+TEST(Mission, APathRefusedForTheVehiclesSpeedIsAskedAgainWithoutTheMapsDelay) {
+  MissionConfig c = config();
+  c.refused_retry_delay_s = 0.2;
+  Mission m = started(c);
+  ASSERT_EQ(m.update(0, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(0, at(0), false, /*retry_at_once=*/true).action, MissionAction::Wait);
+  EXPECT_TRUE(m.retryDue(1));
+  ASSERT_EQ(m.update(1, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  ASSERT_EQ(m.update(2, at(0), true, answer(2, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(2, at(0), false, /*retry_at_once=*/true).action, MissionAction::Wait);
+  EXPECT_FALSE(m.retryDue(kSecond / 2));
+  EXPECT_TRUE(m.retryDue(kSecond + 2));
+  ASSERT_EQ(m.update(kSecond + 2, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
+  ASSERT_EQ(m.update(kSecond + 3, at(0), true, answer(3, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(kSecond + 3, at(0), true).action, MissionAction::Drive);
+  // A refusal no speed explains (a collision on the tracker's newer map) waits the delay.
+  ASSERT_EQ(m.replan(2 * kSecond, at(0), "trajectory_blocked").action, MissionAction::RequestPlan);
+  ASSERT_EQ(m.update(2 * kSecond, at(0), true, answer(4, true)).action, MissionAction::SmoothPath);
+  ASSERT_EQ(m.pathSmoothed(2 * kSecond, at(0), false).action, MissionAction::Wait);
+  EXPECT_FALSE(m.retryDue(2 * kSecond + kSecond / 10));
+  EXPECT_TRUE(m.retryDue(2 * kSecond + kSecond / 5 + 1));
+}
+
 TEST(Mission, DrivableTrajectoryResetsTheAttempts) {
   Mission m = started();
   ASSERT_EQ(m.update(0, at(0), true, answer(1, false)).action, MissionAction::Wait);

@@ -349,7 +349,7 @@ class PlannerComponent : public runtime::Component {
       plain->thread = std::jthread([this, &request, plain_algorithm = makeAlgorithm(request.planner()), budget, out = &*plain](std::stop_token own) {
         lowerThisThreadsPriority(kBesideNice);
         try {
-          out->result = attemptOnNewestMap(request, *plain_algorithm, own, budget, &out->failure);
+          out->result = attemptWithRestarts(request, *plain_algorithm, own, budget, &out->failure);
         } catch (const std::exception& e) {
           out->result.reset();
           out->failure = e.what();
@@ -397,7 +397,7 @@ class PlannerComponent : public runtime::Component {
       }
       result = std::move(plain->result);
     } else {
-      result = attemptOnNewestMap(request, algorithm, stop, budget - spent);
+      result = attemptWithRestarts(request, algorithm, stop, budget - spent);
       if (!result) return std::nullopt;  // answered (failed)
     }
     if (stop.stop_requested() || !result || result->stopped) return answeredStopped();
@@ -427,12 +427,15 @@ class PlannerComponent : public runtime::Component {
   // already, or, with `failure` given, not answered and *failure says why. On a world tried before the plain map
   // (`skipped` given) a start that is not free there, or a goal the lattice route search finds closed off, is not
   // searched for: unsolved, with *skipped saying why.
-  // With `may_abandon`, a search that has found nothing for kAbandonAfterS while a newer map has been built ends there,
-  // unsolved and `abandoned` (attemptOnNewestMap searches again).
+  // With `restart`, the search draws its samples from the request's seed + restart->round, and one that has found
+  // nothing for restart->after_s (with as long again left) ends there, unsolved and `abandoned` (attemptWithRestarts).
+  struct Restart {
+    double after_s;
+    std::uint64_t round;
+  };
   std::optional<planner::PlanResult> attempt(const msg::PlanRequest& request, planner::Planner& algorithm, std::stop_token stop,
                                              bool preferred, double continuation_m, double time_limit_s, Skipped* skipped = nullptr,
-                                             std::string* failure = nullptr, bool may_abandon = false) {
-    const std::uint64_t map_number = world_source_.plainMapNumber();  // before the snapshot: it is of this map or a newer
+                                             std::string* failure = nullptr, std::optional<Restart> restart = std::nullopt) {
     auto noWorld = [&](std::string why) -> std::optional<planner::PlanResult> {
       if (failure)
         *failure = std::move(why);
@@ -543,7 +546,7 @@ class PlannerComponent : public runtime::Component {
     }
     problem.vehicle = scenario_.vehicle;
     problem.kinodynamic = kinodynamic_;
-    problem.seed = request.seed();
+    problem.seed = request.seed() + (restart ? restart->round * kRestartSeedStride : 0);
     problem.time_limit_s = time_limit_s;
     // A request may ask for improvement itself: the tracker does when no change waits on the answer (its first plan, a
     // shorter route while it flies on), never for a blocked trajectory, whose answer's latency counts.
@@ -551,11 +554,11 @@ class PlannerComponent : public runtime::Component {
     problem.anytime = improve_for_s > 0.0;
     problem.improve_for_s = improve_for_s;
     problem.stop = stop;
-    if (may_abandon) {
+    if (restart) {
       const auto search_began = std::chrono::steady_clock::now();
-      problem.abandon_unsolved = [this, map_number, search_began, time_limit_s] {
+      problem.abandon_unsolved = [search_began, time_limit_s, after_s = restart->after_s] {
         const double searched_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - search_began).count();
-        return searched_s >= kAbandonAfterS && time_limit_s - searched_s >= kAbandonAfterS && world_source_.plainMapNumber() > map_number;
+        return searched_s >= after_s && time_limit_s - searched_s >= after_s;
       };
     }
     planner::PlanResult sampled = algorithm.solve(problem);
@@ -570,25 +573,26 @@ class PlannerComponent : public runtime::Component {
   // Shortest time the sampler gets beside a route found in less (attempt).
   static constexpr double kRouteSamplerFloorS = 0.005;
 
-  // How long a search on the plain map finds nothing before a newer map ends it (attemptOnNewestMap). The searches that
-  // succeed in 3-D mostly take 5-150 ms, on an indoor floor with doors up to 0.5 s, and a restart loses the tree grown
-  // so far (at 0.5 s one such search restarted and took 1.04 s in all); one that failed for its whole 5 s budget on
-  // that floor (2026-12-07: door jambs widened by the surface margin before they were seen free) was solved in 0.14 s
-  // on a map 0.3 s newer.
-  static constexpr double kAbandonAfterS = 1.0;
+  // The plain map's search (attempt) is begun again from scratch, with other samples and on the newest map, when it has
+  // found nothing for kFirstRestartS, then for twice as long each time, within `time_limit_s` in all
+  // (attemptWithRestarts). A sampler's time to a first solution has a long tail: on an indoor floor with doors
+  // (2026-12-07) two requests failed after their whole 5 s budget (1.05 million iterations, one of them after a restart
+  // on the same seed) and their retries 0.3 s later were solved in 0.14 s; the searches that succeed take 5-150 ms on
+  // terrain and up to 0.5 s on that floor. A restart loses the tree grown so far (one at 0.5 s took 1.04 s in all);
+  // doubling bounds what that costs a search that needed the time.
+  static constexpr double kFirstRestartS = 1.0;
+  static constexpr std::uint64_t kRestartSeedStride = 0x9E3779B9u;  // a restart's seed: far from the requests' own
 
-  // The plain map's search (attempt), searched again on the newest map whenever one was built since the search began
-  // and it has found nothing for kAbandonAfterS, within `time_limit_s` in all: a search that fails on the map it began
-  // on no longer keeps the request for its whole budget while the map that opens the way is already in. The result
-  // counts the time and iterations of every search.
-  std::optional<planner::PlanResult> attemptOnNewestMap(const msg::PlanRequest& request, planner::Planner& algorithm, std::stop_token stop,
-                                                        double time_limit_s, std::string* failure = nullptr) {
+  // The plain map's search with restarts (kFirstRestartS); the result counts the time and iterations of every round.
+  std::optional<planner::PlanResult> attemptWithRestarts(const msg::PlanRequest& request, planner::Planner& algorithm, std::stop_token stop,
+                                                         double time_limit_s, std::string* failure = nullptr) {
     const auto began = std::chrono::steady_clock::now();
     std::uint64_t earlier_iterations = 0;
+    Restart restart{kFirstRestartS, 0};
     for (;;) {
       const double left_s = time_limit_s - std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
-      const std::uint64_t map_number = world_source_.plainMapNumber();  // what attempt() compares with, read again there
-      auto result = attempt(request, algorithm, stop, /*preferred=*/false, 0.0, std::max(left_s, 1e-3), nullptr, failure, /*may_abandon=*/true);
+      const std::uint64_t map_number = world_source_.plainMapNumber();  // the snapshot's, or an older one
+      auto result = attempt(request, algorithm, stop, /*preferred=*/false, 0.0, std::max(left_s, 1e-3), nullptr, failure, restart);
       if (!result) return result;
       result->stats.iterations += earlier_iterations;
       if (!result->abandoned) {
@@ -596,8 +600,12 @@ class PlannerComponent : public runtime::Component {
         return result;
       }
       earlier_iterations = result->stats.iterations;
-      spdlog::info("request {}: no path after {:.2f} s on map {}; map {} is built since: searching again on it", request.request_id(),
-                   result->stats.time_s, map_number, world_source_.plainMapNumber());
+      const std::uint64_t newest = world_source_.plainMapNumber();
+      spdlog::info("request {}: no path after {:.2f} s{}: searching again from scratch with other samples{}", request.request_id(),
+                   result->stats.time_s, map_number > 0 ? fmt::format(" on map {}", map_number) : std::string(),
+                   newest > map_number ? fmt::format(", on map {}", newest) : std::string());
+      restart.after_s *= 2;
+      ++restart.round;
     }
   }
 

@@ -675,6 +675,7 @@ class TrackerComponent : public runtime::Component {
   // The smoothed answer becomes the trajectory to follow (now, or at its predicted start); false when it
   // could not be smoothed.
   bool adoptSmoothed(Smoothed smoothed, const tracker::VehicleState& state) {
+    refused_for_speed_ = false;
     if (!smoothed.trajectory) return false;
     auto& trajectory = *smoothed.trajectory;
     if (mission_.improving() && !shorterRouteTaken(trajectory, smoothed)) return false;
@@ -688,6 +689,7 @@ class TrackerComponent : public runtime::Component {
         spdlog::warn("trajectory {} starts at rest, but the vehicle reaches its start at {:.1f} m/s: not flown (no lead-in along its heading: {})",
                      smoothed.request_id, request_speed_, trajectory.report.lead_in_failure);
       } else {
+        refused_for_speed_ = true;
         spdlog::warn("trajectory {} starts at {:.1f} m/s, but the vehicle reaches its start at {:.1f} m/s: not flown ({}{}{})",
                      smoothed.request_id, trajectory.samples.front().speed, request_speed_, refusal,
                      trajectory.report.lead_in_failure.empty() ? "" : "; ", trajectory.report.lead_in_failure);
@@ -1108,7 +1110,7 @@ class TrackerComponent : public runtime::Component {
     // A refusal that stopped the vehicle has asked the next plan already (requestWhileBraking): this answer's outcome
     // is no attempt of that one.
     if (request_id != mission_.requestId()) return std::nullopt;
-    return mission_.pathSmoothed(clock().nowNs(), state, flown);
+    return mission_.pathSmoothed(clock().nowNs(), state, flown, refused_for_speed_);
   }
 
   // Between control steps, when a path, a smoothed trajectory or a replan check has just come in: what the
@@ -1323,6 +1325,11 @@ class TrackerComponent : public runtime::Component {
   std::optional<std::int64_t> held_since_ns_;  // stop_within_observed: since when the vehicle is held at rest
   std::int64_t last_observed_log_ns_ = 0;
   unsigned rest_start_refusals_ = 0;  // plans refused in a row for starting at rest or too slowly while the vehicle is moving
+  // The last smoothed answer was refused for starting too slowly for the vehicle (a curve it cannot brake for): asked
+  // again at once, not after refused_retry_delay_s, which waits for the planner to build the map the tracker refused a
+  // path on. Such a wait held a replan 85-105 ms of wall time at speed 4 (gart_terrain_3d, terrain_ridge_3d, city_3d,
+  // 2026-12-07), most of what it took over 150 ms.
+  bool refused_for_speed_ = false;
   std::optional<std::string> stopping_for_;  // a stop-and-replan's reason, until the vehicle is at rest
   std::int64_t stopping_since_ns_ = 0;
   std::int64_t speed_window_clock_ns_ = 0;

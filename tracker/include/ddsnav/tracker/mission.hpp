@@ -88,9 +88,10 @@ class Mission {
                          const std::optional<PlanAnswer>& answer);
 
   // After SmoothPath: whether the path became a trajectory (which the caller now follows). Success resets the
-  // attempt count and continues as update() would (normally Drive); failure retries at once the first time in a row
-  // and after the delay the next times, or gives up after max_plan_attempts.
-  MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok);
+  // attempt count and continues as update() would (normally Drive); failure retries after refused_retry_delay_s the
+  // first time in a row (at once with `retry_at_once`: a refusal that no newer map explains) and after the delay the
+  // next times, or gives up after max_plan_attempts.
+  MissionDecision pathSmoothed(std::int64_t now_ns, const VehicleState& state, bool ok, bool retry_at_once = false);
 
   // After Drive, with the tracker's status after the step of `dt` seconds: Finished when the vehicle is in
   // the goal region (checkGoal) at the trajectory's end (the controller finished, or progress > 0.95).
