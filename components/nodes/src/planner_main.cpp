@@ -274,8 +274,8 @@ class PlannerComponent : public runtime::Component {
       std::optional<Beside> plain;
       std::optional<planner::PlanResult> result = solveInTurn(request, algorithm, tiers, budget, stop, plain);
       if (!result) return;  // answered
-      spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, cost {:.2f} m", request.request_id(), result->planner,
-                   result->solved ? "solved" : "failed", result->stats.time_s, result->stats.iterations, result->cost);
+      spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, {} vertices, cost {:.2f} m", request.request_id(), result->planner,
+                   result->solved ? "solved" : "failed", result->stats.time_s, result->stats.iterations, result->stats.vertices, result->cost);
       msg::Path path = nodes::toMsg(*result, request.request_id(), clock().nowNs());
       if (!result->solved)
         path.failure(fmt::format("no path within the time budget ({:.2f} s, {} iterations)", budget, result->stats.iterations));
@@ -428,7 +428,8 @@ class PlannerComponent : public runtime::Component {
   // (`skipped` given) a start that is not free there, or a goal the lattice route search finds closed off, is not
   // searched for: unsolved, with *skipped saying why.
   // With `restart`, the search draws its samples from the request's seed + restart->round, and one that has found
-  // nothing for restart->after_s (with as long again left) ends there, unsolved and `abandoned` (attemptWithRestarts).
+  // nothing for restart->after_s (with kFirstRestartS or more left) ends there, unsolved and `abandoned`
+  // (attemptWithRestarts).
   struct Restart {
     double after_s;
     std::uint64_t round;
@@ -558,7 +559,7 @@ class PlannerComponent : public runtime::Component {
       const auto search_began = std::chrono::steady_clock::now();
       problem.abandon_unsolved = [search_began, time_limit_s, after_s = restart->after_s] {
         const double searched_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - search_began).count();
-        return searched_s >= after_s && time_limit_s - searched_s >= after_s;
+        return searched_s >= after_s && time_limit_s - searched_s >= kFirstRestartS;
       };
     }
     planner::PlanResult sampled = algorithm.solve(problem);
@@ -575,11 +576,12 @@ class PlannerComponent : public runtime::Component {
 
   // The plain map's search (attempt) is begun again from scratch, with other samples and on the newest map, when it has
   // found nothing for kFirstRestartS, then for twice as long each time, within `time_limit_s` in all
-  // (attemptWithRestarts). A sampler's time to a first solution has a long tail: on an indoor floor with doors
-  // (2026-12-07) two requests failed after their whole 5 s budget (1.05 million iterations, one of them after a restart
-  // on the same seed) and their retries 0.3 s later were solved in 0.14 s; the searches that succeed take 5-150 ms on
-  // terrain and up to 0.5 s on that floor. A restart loses the tree grown so far (one at 0.5 s took 1.04 s in all);
-  // doubling bounds what that costs a search that needed the time.
+  // (attemptWithRestarts), while a second or more of the budget is left: in a 5 s budget at 1 s and 3 s. A sampler's
+  // time to a first solution has a long tail, and the map under it changes: on an indoor floor with doors (2026-12-07)
+  // requests failed after their whole 5 s budget (0.9-1.1 million iterations; one after a round of 1 s and one of 4 s)
+  // and their retries 0.25-0.3 s later, from a start a little farther on and on a newer map, were solved in 0.11-0.14 s;
+  // the searches that succeed take 5-150 ms on terrain and up to 0.5 s on that floor. A restart loses the tree grown so
+  // far (one at 0.5 s took 1.04 s in all); doubling bounds what that costs a search that needed the time.
   static constexpr double kFirstRestartS = 1.0;
   static constexpr std::uint64_t kRestartSeedStride = 0x9E3779B9u;  // a restart's seed: far from the requests' own
 
@@ -599,10 +601,12 @@ class PlannerComponent : public runtime::Component {
         result->stats.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
         return result;
       }
+      const std::uint64_t round_iterations = result->stats.iterations - earlier_iterations;
       earlier_iterations = result->stats.iterations;
       const std::uint64_t newest = world_source_.plainMapNumber();
-      spdlog::info("request {}: no path after {:.2f} s{}: searching again from scratch with other samples{}", request.request_id(),
-                   result->stats.time_s, map_number > 0 ? fmt::format(" on map {}", map_number) : std::string(),
+      spdlog::info("request {}: no path after {:.2f} s ({} iterations, {} vertices){}: searching again from scratch with other samples{}",
+                   request.request_id(), result->stats.time_s, round_iterations, result->stats.vertices,
+                   map_number > 0 ? fmt::format(" on map {}", map_number) : std::string(),
                    newest > map_number ? fmt::format(", on map {}", newest) : std::string());
       restart.after_s *= 2;
       ++restart.round;
