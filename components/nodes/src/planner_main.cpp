@@ -581,7 +581,9 @@ class PlannerComponent : public runtime::Component {
   // requests failed after their whole 5 s budget (0.9-1.1 million iterations; one after a round of 1 s and one of 4 s)
   // and their retries 0.25-0.3 s later, from a start a little farther on and on a newer map, were solved in 0.11-0.14 s;
   // the searches that succeed take 5-150 ms on terrain and up to 0.5 s on that floor. A restart loses the tree grown so
-  // far (one at 0.5 s took 1.04 s in all); doubling bounds what that costs a search that needed the time.
+  // far (one at 0.5 s took 1.04 s in all); doubling bounds what that costs a search that needed the time. In the
+  // simulator the clock is held while the planner lags (pacing), so the rounds there search the same map: they did not
+  // prevent those failures (docs/world-model.md, "A search that finds nothing: begun again").
   static constexpr double kFirstRestartS = 1.0;
   static constexpr std::uint64_t kRestartSeedStride = 0x9E3779B9u;  // a restart's seed: far from the requests' own
 
