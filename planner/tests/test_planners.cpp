@@ -272,9 +272,9 @@ TEST(Planners, ImproveForEndsTheAnytimeSearchAfterTheFirstSolution) {
   EXPECT_THROW(makePlanner("gart-lazy")->solve(p), std::invalid_argument);
 }
 
-TEST(Planners, UnsolvableProblemEndsUnsolvedAtTheLimit) {
+// The demo yard with four walls round its goal: no path exists.
+Scenario demoWithTheGoalWalledIn() {
   Scenario s = shipped("demo_2d");
-  // Wall the goal in.
   for (const auto& [c, size] : {std::pair{Vec3(36, 38.5, 0), Vec3(8, 1, 0)}, std::pair{Vec3(36, 31.5, 0), Vec3(8, 1, 0)},
                                 std::pair{Vec3(32.5, 35, 0), Vec3(1, 8, 0)}, std::pair{Vec3(39.5, 35, 0), Vec3(1, 8, 0)}}) {
     Obstacle o;
@@ -282,6 +282,11 @@ TEST(Planners, UnsolvableProblemEndsUnsolvedAtTheLimit) {
     o.size = size;
     s.obstacles.push_back(o);
   }
+  return s;
+}
+
+TEST(Planners, UnsolvableProblemEndsUnsolvedAtTheLimit) {
+  const Scenario s = demoWithTheGoalWalledIn();
   const auto world = makeScenarioWorld(s);
   for (const std::string name : {"rrt", "rrtstar", "apgd-rrtstar", "rrrt", "ddrrt"}) {
     PlanProblem p = problemFor(s, *world, 1);
@@ -299,14 +304,7 @@ TEST(Planners, UnsolvableProblemEndsUnsolvedAtTheLimit) {
 // abandon_unsolved ends a search that has found nothing, every 1024 iterations when asked, and is never asked once
 // there is a solution (an anytime search keeps improving its path).
 TEST(Planners, AbandonUnsolvedEndsOnlyASearchWithoutASolution) {
-  Scenario s = shipped("demo_2d");
-  for (const auto& [c, size] : {std::pair{Vec3(36, 38.5, 0), Vec3(8, 1, 0)}, std::pair{Vec3(36, 31.5, 0), Vec3(8, 1, 0)},
-                                std::pair{Vec3(32.5, 35, 0), Vec3(1, 8, 0)}, std::pair{Vec3(39.5, 35, 0), Vec3(1, 8, 0)}}) {
-    Obstacle o;
-    o.center = c;
-    o.size = size;
-    s.obstacles.push_back(o);
-  }
+  const Scenario s = demoWithTheGoalWalledIn();
   const auto walled = makeScenarioWorld(s);
   for (const std::string name : {"rrt", "gart-lazy", "lirrt"}) {
     PlanProblem p = problemFor(s, *walled, 1);
