@@ -181,18 +181,16 @@ TEST(Mission, UnsmoothablePathsAreRetriedAndEndTheMissionAfterMaxAttempts) {
   EXPECT_FALSE(m.driving());
 }
 
-// A refused path (a collision on the tracker's newer world) is asked again at once the first time; a second refusal in
-// a row waits the retry delay; a drivable trajectory starts the count again.
-TEST(Mission, TheFirstRefusedPathInARowIsAskedAgainAtOnce) {
-  Mission m = started();
+// Plan 1 refused (the retry due at once), its retry refused too (due after plan_retry_delay_s, 1 s), plan 3 flown.
+void refusedTwiceThenFlown(Mission& m, bool retry_at_once) {
   ASSERT_EQ(m.update(0, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(0, at(0), false).action, MissionAction::Wait);
+  ASSERT_EQ(m.pathSmoothed(0, at(0), false, retry_at_once).action, MissionAction::Wait);
   EXPECT_TRUE(m.retryDue(1));  // what a tracker braking to its rest point asks before it calls update()
   const auto again = m.update(1, at(0), true, std::nullopt);
   ASSERT_EQ(again.action, MissionAction::RequestPlan);
   EXPECT_EQ(again.reason, "retrying");
   ASSERT_EQ(m.update(2, at(0), true, answer(2, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(2, at(0), false).action, MissionAction::Wait);
+  ASSERT_EQ(m.pathSmoothed(2, at(0), false, retry_at_once).action, MissionAction::Wait);
   EXPECT_FALSE(m.retryDue(kSecond / 2));
   EXPECT_TRUE(m.retryDue(kSecond + 2));
   EXPECT_EQ(m.update(kSecond / 2, at(0), true, std::nullopt).action, MissionAction::Wait);
@@ -202,6 +200,13 @@ TEST(Mission, TheFirstRefusedPathInARowIsAskedAgainAtOnce) {
   ASSERT_EQ(m.replan(2 * kSecond, at(0), "trajectory_blocked").action, MissionAction::RequestPlan);
   ASSERT_EQ(m.update(2 * kSecond, at(0), true, answer(4, true)).action, MissionAction::SmoothPath);
   ASSERT_EQ(m.pathSmoothed(2 * kSecond, at(0), false).action, MissionAction::Wait);
+}
+
+// A refused path (a collision on the tracker's newer world) is asked again at once the first time; a second refusal in
+// a row waits the retry delay; a drivable trajectory starts the count again.
+TEST(Mission, TheFirstRefusedPathInARowIsAskedAgainAtOnce) {
+  Mission m = started();
+  ASSERT_NO_FATAL_FAILURE(refusedTwiceThenFlown(m, /*retry_at_once=*/false));
   EXPECT_EQ(m.update(2 * kSecond + 1, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
 }
 
@@ -211,21 +216,8 @@ TEST(Mission, APathRefusedForTheVehiclesSpeedIsAskedAgainWithoutTheMapsDelay) {
   MissionConfig c = config();
   c.refused_retry_delay_s = 0.2;
   Mission m = started(c);
-  ASSERT_EQ(m.update(0, at(0), true, answer(1, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(0, at(0), false, /*retry_at_once=*/true).action, MissionAction::Wait);
-  EXPECT_TRUE(m.retryDue(1));
-  ASSERT_EQ(m.update(1, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
-  ASSERT_EQ(m.update(2, at(0), true, answer(2, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(2, at(0), false, /*retry_at_once=*/true).action, MissionAction::Wait);
-  EXPECT_FALSE(m.retryDue(kSecond / 2));
-  EXPECT_TRUE(m.retryDue(kSecond + 2));
-  ASSERT_EQ(m.update(kSecond + 2, at(0), true, std::nullopt).action, MissionAction::RequestPlan);
-  ASSERT_EQ(m.update(kSecond + 3, at(0), true, answer(3, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(kSecond + 3, at(0), true).action, MissionAction::Drive);
-  // A refusal no speed explains (a collision on the tracker's newer map) waits the delay.
-  ASSERT_EQ(m.replan(2 * kSecond, at(0), "trajectory_blocked").action, MissionAction::RequestPlan);
-  ASSERT_EQ(m.update(2 * kSecond, at(0), true, answer(4, true)).action, MissionAction::SmoothPath);
-  ASSERT_EQ(m.pathSmoothed(2 * kSecond, at(0), false).action, MissionAction::Wait);
+  ASSERT_NO_FATAL_FAILURE(refusedTwiceThenFlown(m, /*retry_at_once=*/true));
+  // The last refusal, which no speed explains (a collision on the tracker's newer map), waits the delay.
   EXPECT_FALSE(m.retryDue(2 * kSecond + kSecond / 10));
   EXPECT_TRUE(m.retryDue(2 * kSecond + kSecond / 5 + 1));
 }

@@ -1327,7 +1327,7 @@ class TrackerComponent : public runtime::Component {
   unsigned rest_start_refusals_ = 0;  // plans refused in a row for starting at rest or too slowly while the vehicle is moving
   // The last smoothed answer was refused for starting too slowly for the vehicle (a curve it cannot brake for): asked
   // again at once, not after refused_retry_delay_s, which waits for the planner to build the map the tracker refused a
-  // path on. Such a wait held a replan 85-105 ms of wall time at speed 4 (gart_terrain_3d, terrain_ridge_3d, city_3d,
+  // path on. Such a wait held a replan 84-104 ms of wall time at speed 4 (gart_terrain_3d, terrain_ridge_3d, city_3d,
   // 2026-12-07), most of what it took over 150 ms.
   bool refused_for_speed_ = false;
   std::optional<std::string> stopping_for_;  // a stop-and-replan's reason, until the vehicle is at rest
