@@ -1,7 +1,7 @@
 // The recorder's and player's controls: split by size and duration, snapshot mode (in-process and by
 // SIGUSR1 / control topic), play --start/--end/--remap, a looped one-message file, damaged chunks skipped
 // on play, and bad input to `ddsnav record` (folder missing, --max-file-mb 0, disk full mid-split).
-// DDS domains 224..229 (tests/record also owns 190..199).
+// DDS domains come from the allocator (ddsnav::testing::DomainLease), never fixed ids.
 #include "child.hpp"
 #include "recorder_waits.hpp"
 #include "scratch_cleanup.hpp"
@@ -224,9 +224,10 @@ TEST(RecordCommandLine, BadFolderAndZeroLimitsAreRefusedWithAClearMessage) {
       {{"-o", scratch("zero.mcap").string(), "--snapshot", "--snapshot-mb", "0"}, 2, "--snapshot-mb 0: expected a positive"},
       {{"-o", scratch("zero.mcap").string(), "--snapshot-s", "3"}, 2, "need --snapshot"},
   };
+  const ddsnav::testing::DomainLease domain_lease;  // a recorder that does start must not join another test's domain
   int n = 0;
   for (const Case& c : cases) {
-    std::vector<std::string> argv = {DDSNAV_RECORD_BIN, "--dds", "cyclonedds", "--domain", "227", "--duration", "1"};
+    std::vector<std::string> argv = {DDSNAV_RECORD_BIN, "--dds", "cyclonedds", "--domain", domain_lease.str(), "--duration", "1"};
     argv.insert(argv.end(), c.args.begin(), c.args.end());
     record_test::Child child(argv, scratch("badinput_" + std::to_string(n++) + ".log").string());
     ASSERT_TRUE(child.wait(std::chrono::seconds(20))) << child.log();
@@ -323,7 +324,8 @@ record::PlayerOptions quickStart() {
 TEST(Player, LoopOfOneMessageKeepsAMinimumPeriod) {
   // Used to republish a one-message file as fast as the CPU allowed (64,000/s).
   const fs::path file = stateRecording("one.mcap", 1, 10);
-  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = 199, .name = "loop-play"});
+  const ddsnav::testing::DomainLease domain_lease;
+  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = domain_lease.id(), .name = "loop-play"});
   record::McapReader reader(file.string());
   record::PlayerOptions options = quickStart();
   options.loop = true;
@@ -341,7 +343,8 @@ TEST(Player, LoopOfOneMessageKeepsAMinimumPeriod) {
 TEST(Player, LoopKeepsTheRecordedRhythmAcrossPasses) {
   // 5 messages 50 ms apart: one pass spans 200 ms, the next starts one interval (50 ms) after the last.
   const fs::path file = stateRecording("five.mcap", 5, 50);
-  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = 199, .name = "loop-play2"});
+  const ddsnav::testing::DomainLease domain_lease;
+  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = domain_lease.id(), .name = "loop-play2"});
   record::McapReader reader(file.string());
   record::PlayerOptions options = quickStart();
   options.loop = true;
@@ -372,7 +375,8 @@ TEST(Player, DamagedChunkIsSkippedWithAWarningAndPlayContinues) {
     total = r.summary().message_count;
     r.forEachMessage([&](const record::MessageView& m) { return in_chunk += m.log_time >= c.message_start_time && m.log_time <= c.message_end_time, true; });
   }
-  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = 199, .name = "dmg-play"});
+  const ddsnav::testing::DomainLease domain_lease;
+  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = domain_lease.id(), .name = "dmg-play"});
   record::McapReader reader(file.string());
   std::atomic<bool> stop{false};
   record::PlayerOptions options = quickStart();

@@ -250,13 +250,14 @@ TEST(Recorder, KilledRecorderLeavesAReadableFile) {
   EXPECT_FALSE(info["topic_counts_recorded"].get<bool>());
 }
 
-// Domain 199: the recorder asked for topics nobody publishes, and the player given nothing to play.
-constexpr int kNothingDomain = 199;
+// The recorder asked for topics nobody publishes, and the player given nothing to play: each on a domain of
+// its own from the allocator, where nothing else runs.
 
 TEST(Recorder, RequestedTopicsNeverDiscoveredAreNamed) {
   const fs::path file = tempFile("partly.mcap");
-  bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kNothingDomain, .name = "nd-pub"});
-  bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = kNothingDomain, .name = "nd-rec"});
+  const ddsnav::testing::DomainLease nothing_domain;
+  bus::Participant pub_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = nothing_domain.id(), .name = "nd-pub"});
+  bus::Participant rec_side({.vendor = bus::Vendor::CycloneDDS, .domain_id = nothing_domain.id(), .name = "nd-rec"});
   auto pub = pub_side.publisher<msg::Clock>("test/present", bus::Qos::commands());
   record::RecorderOptions options;
   options.output = file.string();
@@ -276,7 +277,8 @@ TEST(Recorder, RequestedTopicsNeverDiscoveredAreNamed) {
 
 TEST(Recorder, RecordingNothingExitsNonZeroNamingTheMissingTopics) {
   const fs::path file = tempFile("nothing.mcap");
-  record_test::Child recorder({DDSNAV_RECORD_BIN, "--dds", "cyclonedds", "--domain", std::to_string(kNothingDomain), "--topics",
+  const ddsnav::testing::DomainLease nothing_domain;
+  record_test::Child recorder({DDSNAV_RECORD_BIN, "--dds", "cyclonedds", "--domain", nothing_domain.str(), "--topics",
                                "no/such_topic,control/cmd_vle", "--duration", "0.5", "-o", file.string()},
                               tempFile("nothing.log").string());
   ASSERT_TRUE(recorder.wait(std::chrono::seconds(30))) << recorder.log();
@@ -325,7 +327,8 @@ void writeSparseRecording(const fs::path& path, int count) {
 
 // play() with --loop on a file where nothing passes the filters: must end with an error, not spin.
 std::string loopError(const fs::path& file, record::PlayerOptions options) {
-  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = kNothingDomain, .name = "nd-play"});
+  const ddsnav::testing::DomainLease nothing_domain;
+  bus::Participant participant({.vendor = bus::Vendor::CycloneDDS, .domain_id = nothing_domain.id(), .name = "nd-play"});
   record::McapReader reader(file.string());
   options.loop = true;
   options.wait_subscribers = std::chrono::milliseconds(0);
@@ -371,7 +374,8 @@ TEST(Player, LoopOverNothingPlayableFailsWithTheReason) {
 TEST(Player, PlayExitsNonZeroWhenNothingIsPlayable) {
   const fs::path sparse = tempFile("sparse_cli.mcap");
   writeSparseRecording(sparse, 3);
-  record_test::Child player({DDSNAV_PLAY_BIN, sparse.string(), "--dds", "cyclonedds", "--domain", std::to_string(kNothingDomain),
+  const ddsnav::testing::DomainLease nothing_domain;
+  record_test::Child player({DDSNAV_PLAY_BIN, sparse.string(), "--dds", "cyclonedds", "--domain", nothing_domain.str(),
                              "--loop", "--start", "60", "--wait-subscribers", "0", "--settle", "0", "--linger", "0"},
                             tempFile("sparse_cli.log").string());
   ASSERT_TRUE(player.wait(std::chrono::seconds(30))) << "still looping:\n" << player.log();
