@@ -172,4 +172,32 @@ double restStartHeading(const planner::CollisionWorld& world, const Vec3& positi
   return best;
 }
 
+void StallPolicy::validate() const {
+  auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("stall policy: ") + what);
+  };
+  require(std::isfinite(stall_s) && stall_s >= 0, "stall_s must be a finite number of seconds >= 0");
+  require(std::isfinite(radius_m) && radius_m > 0, "radius_m must be a finite number of metres > 0");
+  require(std::isfinite(turn_rad) && turn_rad > 0, "turn_rad must be a finite angle > 0");
+}
+
+StallWatch::StallWatch(const StallPolicy& policy) : policy_(policy) { policy_.validate(); }
+
+bool StallWatch::update(double now_s, const Vec3& position, double heading, bool meant_to_fly) {
+  const bool moved = since_s_ && ((position - anchor_).norm() >= policy_.radius_m ||
+                                  std::abs(wrapAngle(heading - anchor_heading_)) >= policy_.turn_rad);
+  if (!meant_to_fly || policy_.stall_s <= 0 || !position.allFinite() || !std::isfinite(heading) || !since_s_ || moved) {
+    since_s_.reset();
+    if (meant_to_fly && policy_.stall_s > 0 && position.allFinite() && std::isfinite(heading)) {
+      since_s_ = now_s;
+      anchor_ = position;
+      anchor_heading_ = heading;
+    }
+    return false;
+  }
+  if (now_s - *since_s_ < policy_.stall_s) return false;
+  since_s_ = now_s;  // afresh: a stop and a plan from rest follow, and a stall after them is a new one
+  return true;
+}
+
 }  // namespace ddsnav::tracker

@@ -317,6 +317,50 @@ TEST(ImprovementGate, AsksOnlyWhereARouteCouldBeShorterAndBacksOffWhenNoneIs) {
   EXPECT_TRUE(gate.due(24.0, 24.0, 100.0, 50.0));
 }
 
+// A vehicle meant to fly that stands still for stall_s fires once; moving, turning in place, or not being meant to fly
+// (a stop, a plan awaited) starts the stretch over.
+TEST(StallWatch, FiresOnlyAfterStandingStillForItsWholeTimeWhileMeantToFly) {
+  StallPolicy policy;
+  policy.stall_s = 6.0;
+  StallWatch watch(policy);
+  const Vec3 here(10, 5, 0);
+  double t = 0.0;
+  auto standFor = [&](double seconds, const Vec3& p, double heading, bool meant) {
+    int fired = 0;
+    for (const double end = t + seconds; t < end - 1e-9; t += 0.05) fired += watch.update(t, p, heading, meant);
+    return fired;
+  };
+  EXPECT_EQ(standFor(5.9, here, 0.0, true), 0);
+  EXPECT_EQ(standFor(0.2, here, 0.0, true), 1);  // 6 s in all
+  EXPECT_EQ(standFor(5.8, here, 0.0, true), 0);  // watched afresh after it fired
+  // Creeping within the radius (0.15 m over 5 s) is standing still; leaving it is moving.
+  StallWatch creeping(policy);
+  int fired = 0;
+  for (int i = 0; i <= 140; ++i) fired += creeping.update(0.05 * i, here + Vec3(0.15 * i / 140.0, 0, 0), 0.0, true);
+  EXPECT_EQ(fired, 1);
+  StallWatch moving(policy);
+  fired = 0;
+  for (int i = 0; i <= 400; ++i) fired += moving.update(0.05 * i, here + Vec3(0.05 * i, 0, 0), 0.0, true);  // 1 m/s
+  EXPECT_EQ(fired, 0);
+  // Turning in place at 0.15 rad/s (an AUV's limit) is moving: 0.35 rad every 2.3 s.
+  StallWatch turning(policy);
+  fired = 0;
+  for (int i = 0; i <= 400; ++i) fired += turning.update(0.05 * i, here, 0.0075 * i, true);
+  EXPECT_EQ(fired, 0);
+  // Not meant to fly for a step (braking to a stop, a required plan awaited): the stretch starts over.
+  StallWatch interrupted(policy);
+  fired = 0;
+  for (int i = 0; i <= 400; ++i) fired += interrupted.update(0.05 * i, here, 0.0, i % 100 != 99);
+  EXPECT_EQ(fired, 0);
+  policy.stall_s = 0.0;  // off
+  StallWatch off(policy);
+  fired = 0;
+  for (int i = 0; i <= 400; ++i) fired += off.update(0.05 * i, here, 0.0, true);
+  EXPECT_EQ(fired, 0);
+  policy.radius_m = 0.0;
+  EXPECT_THROW(StallWatch{policy}, std::invalid_argument);
+}
+
 // On a sped-up clock the asks are bounded in wall time too: an ask that took 0.5 s of wall time is followed by
 // another after 2 s of wall time at the least (wall_duty 0.25), however much mission time passed.
 TEST(ImprovementGate, TheAsksWallTimeStaysUnderItsShare) {

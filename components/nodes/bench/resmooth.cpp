@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
   std::uint32_t request_id = 0;
   std::optional<double> speed;
   double preferred_margin = 3.0;
-  bool no_view = false, print_path = false;
+  bool no_view = false, print_path = false, print_slow = false;
   app.add_option("--recording", recording, "the mission's MCAP recording (bench-mission --keep-recordings)")->required();
   app.add_option("--scenario", scenario_file, "its scenario file")->required();
   app.add_option("--request", request_id, "the request id whose answer is smoothed")->required();
@@ -110,6 +110,7 @@ int main(int argc, char** argv) {
   app.add_option("--preferred-surface-margin", preferred_margin, "the preferred world's wider margin, m (0: none)")->check(CLI::Range(0.0, 100.0));
   app.add_flag("--no-view", no_view, "leave out the sensor view (3-D)");
   app.add_flag("--print-path", print_path, "print the path's states and which of them the world blocks");
+  app.add_flag("--print-slow", print_slow, "print the smoothed trajectory's stretches below a quarter of its top speed");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -184,6 +185,25 @@ int main(int argc, char** argv) {
         const auto t = tracker::smoothPath(states, world, *scenario.vehicle, config);
         std::printf("%s: smoothed: %.1f m, %.1f s, min clearance %.2f m, %d rounds of corner tightening, %.1f s slow, max curvature %.2f 1/m%s%s\n", name, t.report.length, t.report.duration,
                     t.report.min_clearance, t.report.fallback_iterations, t.report.slow_s, t.report.max_curvature, t.report.lead_in_failure.empty() ? "" : "; lead-in: ", t.report.lead_in_failure.c_str());
+        if (print_slow) {
+          // Each stretch below a quarter of the top speed: where, how long, and the sharpest curvature in it (a speed
+          // capped by omega_max / curvature, or a start or stop).
+          const double slow = 0.25 * scenario.vehicle->v_max;
+          for (std::size_t i = 0; i < t.samples.size();) {
+            if (t.samples[i].speed >= slow) { ++i; continue; }
+            std::size_t j = i, sharpest = i;
+            for (; j < t.samples.size() && t.samples[j].speed < slow; ++j)
+              if (std::abs(t.samples[j].curvature) > std::abs(t.samples[sharpest].curvature)) sharpest = j;
+            const auto& a = t.samples[i];
+            const auto& b = t.samples[j - 1];
+            std::printf("  slow %.1f-%.1f s (%.1f m), %s to %s, least %.2f m/s, sharpest curvature %.2f 1/m at %s
+", a.time, b.time,
+                        b.arc_length - a.arc_length, point(a.position).c_str(), point(b.position).c_str(),
+                        std::min_element(t.samples.begin() + i, t.samples.begin() + j, [](const auto& x, const auto& y) { return x.speed < y.speed; })->speed,
+                        t.samples[sharpest].curvature, point(t.samples[sharpest].position).c_str());
+            i = j;
+          }
+        }
         return true;
       } catch (const std::exception& e) {
         std::printf("%s: refused: %s\n", name, e.what());

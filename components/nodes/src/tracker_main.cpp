@@ -61,6 +61,7 @@ class TrackerComponent : public runtime::Component {
     std::optional<double> observed_crawl_speed;  // default: a stop from it takes a quarter of the robot radius
     std::optional<double> improve_for_s;         // default: 0.25 s in 3-D, 0 (off) in 2-D
     tracker::ImprovementPolicy improvement;
+    tracker::StallPolicy stall;
     std::optional<double> repair_distance;       // default: the robot radius
     std::optional<double> catch_up_decel;   // default: the smoother's max_accel in 2-D, off in 3-D
     std::optional<double> short_braking_m;  // default: the robot's diameter
@@ -135,6 +136,11 @@ class TrackerComponent : public runtime::Component {
           {.above = 0, .max = 1e4, .unit = "s",
            .doc = "a vehicle held at rest this long by stop_within_observed (observed_crawl_speed 0) stops waiting and plans again "
                   "from where it is"});
+      stall.stall_s = p.declare<double>(
+          "stall_s", stall.stall_s,
+          {.min = 0, .max = 1e4, .unit = "s",
+           .doc = "a vehicle meant to fly a trajectory that moved less than 0.2 m and turned less than 20 degrees for this long "
+                  "(mission time) stops and plans again from where it is (reason stalled); 0: never"});
       observed_crawl_speed = p.declareOptional<double>(
           "observed_crawl_speed", {.min = 0, .max = 1000, .unit = "m/s",
                                    .doc = "stop_within_observed slows the vehicle to no less than this (a passage is seen into only "
@@ -206,6 +212,7 @@ class TrackerComponent : public runtime::Component {
         mission_(missionConfig()),
         improve_for_s_(params_.improve_for_s.value_or(scenario_.dimensions == 3 ? 0.25 : 0.0)),
         improvement_gate_(params_.improvement),
+        stall_watch_(params_.stall),
         replan_gate_(params_.replan),
         tracker_config_(trackerConfig()),
         // Twice the horizon: half a piece, when the next is smoothed, still reaches as far as the replan check looks. The
@@ -1026,6 +1033,15 @@ class TrackerComponent : public runtime::Component {
     measureClockSpeed();
     repeatUntilAPlannerAnswers();
     settleImprovement();
+    if (state && stall_watch_.update(nowS(), state->position, state->heading,
+                                     !stopping_for_ && follower_ && mission_.driving() && !mission_.awaitingRequiredPlan())) {
+      stopToPlanAtRest(*state, fmt::format("stalled: the vehicle moved less than {:.1f} m and turned less than {:.0f} degrees in {:.1f} s "
+                                           "with a trajectory to fly ({:.1f} of its {:.1f} s flown{})",
+                                           stall_watch_.policy().radius_m, stall_watch_.policy().turn_rad * 180.0 / std::numbers::pi,
+                                           stall_watch_.policy().stall_s, follower_->status().reference_time,
+                                           follower_->trajectory().duration(), rest_of_path_.empty() ? "" : ", more of the path after it"));
+      return;
+    }
     if (stopping_for_ && state) {
       if (braking_) commands_.publish(nodes::toMsg(braking_->update(*state, dt), clock().nowNs()));
       else stop();
@@ -1294,6 +1310,7 @@ class TrackerComponent : public runtime::Component {
   tracker::Mission mission_;
   const double improve_for_s_;  // the parameter, or its default for the scenario
   tracker::ImprovementGate improvement_gate_;
+  tracker::StallWatch stall_watch_;
   std::uint32_t flown_request_id_ = 0;  // the request whose trajectory is flown (the mission's may be a newer one)
   std::uint32_t next_request_id_ = 0;   // the request next_trajectory_ comes from
   bool improvement_open_ = false;         // a shorter route asked and not settled (settleImprovement)

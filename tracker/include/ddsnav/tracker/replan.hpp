@@ -26,6 +26,7 @@
 #include "ddsnav/tracker/trajectory.hpp"
 
 #include <deque>
+#include <optional>
 #include <string>
 
 namespace ddsnav::tracker {
@@ -137,5 +138,37 @@ double restStartHeading(const planner::CollisionWorld& world, const Vec3& positi
 // below a wall and 3.4 m short of another, kept its heading (2.9 m of room ahead) and failed three plans in a row,
 // 0.8 million iterations each, until the mission gave up.
 double restStartRoom(double robot_radius, std::int64_t failed_plans);
+
+// A vehicle meant to be flying that does not move: the net under states no other rule foresaw. It stalled when, for
+// `stall_s` of mission time in a row, it was meant to fly (a trajectory to follow, no stop under way, no required plan
+// awaited), stayed within `radius_m` of where that stretch began and turned by less than `turn_rad` (turning in place
+// is moving). The tracker then stops and plans from rest (reason `stalled`). Why: a bugtrap_0.4 run with an
+// experimental 2-D rule (not kept, 2026-12-07) stood 120 s at a trajectory's end with the rest of its path never
+// smoothed, asking only optional plans, until the monitor's timeout: a mission ends by reaching its goal or with a
+// reason, never by standing still.
+struct StallPolicy {
+  double stall_s = 6.0;     // mission seconds; 0: never (the longest legitimate rest while flying is a turn in place,
+                            // which counts as moving, or a next trajectory's switch wait, a few tenths of a second)
+  double radius_m = 0.2;    // moved less than this
+  double turn_rad = 0.35;   // and turned less than this (20 degrees)
+
+  void validate() const;  // std::invalid_argument naming the field
+};
+
+class StallWatch {
+ public:
+  explicit StallWatch(const StallPolicy& policy = {});
+  // Every control step. `meant_to_fly`: see StallPolicy. True once when the vehicle has stalled; it then watches
+  // afresh from this step. A step not meant to fly ends the stretch.
+  bool update(double now_s, const Vec3& position, double heading, bool meant_to_fly);
+  void reset() { since_s_.reset(); }
+  const StallPolicy& policy() const { return policy_; }
+
+ private:
+  StallPolicy policy_;
+  std::optional<double> since_s_;
+  Vec3 anchor_ = Vec3::Zero();
+  double anchor_heading_ = 0.0;
+};
 
 }  // namespace ddsnav::tracker
