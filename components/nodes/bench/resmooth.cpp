@@ -196,8 +196,7 @@ int main(int argc, char** argv) {
               if (std::abs(t.samples[j].curvature) > std::abs(t.samples[sharpest].curvature)) sharpest = j;
             const auto& a = t.samples[i];
             const auto& b = t.samples[j - 1];
-            std::printf("  slow %.1f-%.1f s (%.1f m), %s to %s, least %.2f m/s, sharpest curvature %.2f 1/m at %s
-", a.time, b.time,
+            std::printf("  slow %.1f-%.1f s (%.1f m), %s to %s, least %.2f m/s, sharpest curvature %.2f 1/m at %s\n", a.time, b.time,
                         b.arc_length - a.arc_length, point(a.position).c_str(), point(b.position).c_str(),
                         std::min_element(t.samples.begin() + i, t.samples.begin() + j, [](const auto& x, const auto& y) { return x.speed < y.speed; })->speed,
                         t.samples[sharpest].curvature, point(t.samples[sharpest].position).c_str());
