@@ -103,6 +103,7 @@ int main(int argc, char** argv) {
   std::optional<double> speed;
   double preferred_margin = 3.0;
   bool no_view = false, print_path = false, print_slow = false;
+  double clearance_target = 1.0;
   app.add_option("--recording", recording, "the mission's MCAP recording (bench-mission --keep-recordings)")->required();
   app.add_option("--scenario", scenario_file, "its scenario file")->required();
   app.add_option("--request", request_id, "the request id whose answer is smoothed")->required();
@@ -110,6 +111,7 @@ int main(int argc, char** argv) {
   app.add_option("--preferred-surface-margin", preferred_margin, "the preferred world's wider margin, m (0: none)")->check(CLI::Range(0.0, 100.0));
   app.add_flag("--no-view", no_view, "leave out the sensor view (3-D)");
   app.add_flag("--print-path", print_path, "print the path's states and which of them the world blocks");
+  app.add_option("--clearance-target", clearance_target, "the tracker's clearance_target, m")->capture_default_str()->check(CLI::Range(0.0, 100.0));
   app.add_flag("--print-slow", print_slow, "print the smoothed trajectory's stretches below a quarter of its top speed");
   CLI11_PARSE(app, argc, argv);
 
@@ -163,6 +165,7 @@ int main(int argc, char** argv) {
     };
 
     tracker::SmootherConfig config;
+    config.clearance_target = clearance_target;  // the tracker's parameter (its default, 1 m, not the library's 0.2 m)
     config.repair_distance = scenario.robot_radius;
     config.short_braking_m = 2.0 * scenario.robot_radius;
     config.initial_heading = in.request->start().heading();
@@ -188,6 +191,8 @@ int main(int argc, char** argv) {
         if (print_slow) {
           // Each stretch below a quarter of the top speed: where, how long, and the sharpest curvature in it (a speed
           // capped by omega_max / curvature, or a start or stop).
+          std::printf("  waypoints: %zu in, %zu repaired, %zu corners after shortcutting\n", t.report.input_waypoints,
+                      t.report.repaired_waypoints, t.report.shortcut_waypoints);
           const double slow = 0.25 * scenario.vehicle->v_max;
           for (std::size_t i = 0; i < t.samples.size();) {
             if (t.samples[i].speed >= slow) { ++i; continue; }
