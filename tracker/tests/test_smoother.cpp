@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 
 using namespace ddsnav::tracker;
 using ddsnav::planner::Vec3;
@@ -273,6 +274,39 @@ TEST(Smoother, APathMovedOffARoughWallIsStraightenedNotKinked) {
   EXPECT_LT(max_curvature, 0.05);
   EXPECT_GT(min_inside, 0.9 * cfg.clearance_target);
   expectDrivable(t, *world, limits(), cfg);
+}
+
+// The farthest-in-sight search stops at a boundary of a predicate that is not monotone; every corner it leaves whose
+// neighbours see each other is dropped afterwards. Random free walks among discs: no kept interior corner may have
+// mutually visible neighbours (under the same test), and every kept edge stays free.
+TEST(Smoother, ACornerTheSearchLeftIsDroppedWhenItsNeighboursSeeEachOther) {
+  auto sc = scenario2d(40, 0.3,
+                       "  - {type: sphere, center: [10, 10], radius: 2.5}\n  - {type: sphere, center: [22, 14], radius: 3}\n"
+                       "  - {type: sphere, center: [30, 28], radius: 2}\n  - {type: sphere, center: [14, 28], radius: 3.5}\n"
+                       "  - {type: box, min: [25, 2], max: [27, 10]}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  std::mt19937 rng(20261207);
+  std::uniform_real_distribution<double> step(-4.0, 4.0);
+  for (int walk = 0; walk < 200; ++walk) {
+    std::vector<Vec3> points{Vec3(2, 2, 0)};
+    while (points.size() < 40) {
+      const Vec3 next = points.back() + Vec3(step(rng), step(rng), 0);
+      if (world->isFree(next) && world->isSegmentFree(points.back(), next)) points.push_back(next);
+    }
+    for (const double min_clearance : {0.0, 0.5}) {
+      const auto out = shortcutPolyline(points, *world, min_clearance, 0.05);
+      ASSERT_GE(out.size(), 2u);
+      EXPECT_EQ(out.front(), points.front());
+      EXPECT_EQ(out.back(), points.back());
+      for (std::size_t k = 1; k < out.size(); ++k) EXPECT_TRUE(world->isSegmentFree(out[k - 1], out[k]));
+      for (std::size_t k = 1; k + 1 < out.size(); ++k) {
+        const double need = std::min({min_clearance, world->clearance(out[k - 1]), world->clearance(out[k + 1])}) - 0.05;
+        const bool neighbours_see_each_other = world->isSegmentFree(out[k - 1], out[k + 1]) &&
+                                               ddsnav::planner::segmentClearanceAtLeast(*world, out[k - 1], out[k + 1], need);
+        EXPECT_FALSE(neighbours_see_each_other) << "walk " << walk << ", corner " << k << " of " << out.size();
+      }
+    }
+  }
 }
 
 TEST(Smoother, ReportedMinimumClearanceIsTheLeastOfEverySample) {
