@@ -35,6 +35,21 @@ int parseBound(const std::string& text, const std::string& whole) {
   return value;
 }
 
+// An id released less than this long ago is taken only when every other id is busy or as recent: a test's processes
+// may outlive its lease by a few seconds (a launcher's children shutting down), and a test that took the id at once
+// heard them. A CI run, 2026-12-07: a planner on domain 153 answered a test that only listens on planning/request,
+// 3 s into it. The release time is kept in the lock file (8 bytes, seconds since the epoch).
+constexpr double kCooldownS = 30.0;
+
+double nowS() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
+
+bool releasedRecently(int fd) {
+  double released = 0.0;
+  if (::pread(fd, &released, sizeof released, 0) != static_cast<ssize_t>(sizeof released)) return false;  // never released
+  const double age = nowS() - released;
+  return age >= 0.0 && age < kCooldownS;
+}
+
 }  // namespace
 
 DomainPool domainPoolFromEnvironment() {
@@ -64,21 +79,25 @@ DomainLease::DomainLease(double timeout_s) {
   const int size = pool.high - pool.low + 1;
   const int first = static_cast<int>(leases++ % static_cast<unsigned>(size));
   for (;;) {
-    for (int step = 0; step < size; ++step) {
-      const int id = pool.low + (first + step) % size;
-      if (!pool.contains(id)) continue;
-      const std::string path = folder + "/domain-" + std::to_string(id) + ".lock";
-      const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
-      if (fd < 0) continue;
-      // flock locks belong to the open file description: a second lease in this process on the same id
-      // opens its own description and is refused like any other process.
-      if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {
-        id_ = id;
-        fd_ = fd;
-        return;
+    // First an id not released within kCooldownS, then any free one.
+    for (const bool cooled_only : {true, false})
+      for (int step = 0; step < size; ++step) {
+        const int id = pool.low + (first + step) % size;
+        if (!pool.contains(id)) continue;
+        const std::string path = folder + "/domain-" + std::to_string(id) + ".lock";
+        const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+        if (fd < 0) continue;
+        // flock locks belong to the open file description: a second lease in this process on the same id
+        // opens its own description and is refused like any other process.
+        if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {
+          if (!(cooled_only && releasedRecently(fd))) {
+            id_ = id;
+            fd_ = fd;
+            return;
+          }
+        }
+        ::close(fd);  // closing releases a lock taken above
       }
-      ::close(fd);
-    }
     if (std::chrono::steady_clock::now() > deadline)
       throw std::runtime_error("DomainLease: every test domain id in " + std::to_string(pool.low) + ".." +
                                std::to_string(pool.high) + " is taken (lock files in " + folder + ")");
@@ -92,7 +111,12 @@ DomainLease::DomainLease(DomainLease&& other) noexcept : id_(other.id_), fd_(oth
 }
 
 DomainLease::~DomainLease() {
-  if (fd_ >= 0) ::close(fd_);  // releases the lock
+  if (fd_ < 0) return;
+  const double released = nowS();
+  if (::pwrite(fd_, &released, sizeof released, 0) != static_cast<ssize_t>(sizeof released)) {
+    // Not stamped: the id may be taken again at once, as before the cooldown; nothing else depends on it.
+  }
+  ::close(fd_);  // releases the lock
 }
 
 }  // namespace ddsnav::testing

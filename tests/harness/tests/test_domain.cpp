@@ -5,8 +5,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iterator>
 #include <list>
 #include <set>
@@ -47,6 +49,26 @@ TEST_F(DomainAllocator, HeldLeasesAreDistinctAndAReleasedIdIsReused) {
   const int freed = third->id();
   leases.erase(third);
   EXPECT_EQ(DomainLease(0.0).id(), freed);
+}
+
+// An id released within the cooldown (by any process: the release time is in its lock file) is passed over while
+// another is free — a test's processes may outlive its lease — and taken when none other is.
+TEST_F(DomainAllocator, AnIdJustReleasedIsTakenAgainOnlyWhenNoOtherIsFree) {
+  ::setenv("DDSNAV_TEST_DOMAINS", "20-21", 1);
+  for (int round = 0; round < 4; ++round) {  // the scan starts at 20 in some rounds, at 21 in others
+    const fs::path folder = folder_ / ("round" + std::to_string(round));
+    fs::create_directories(folder);
+    ::setenv("DDSNAV_TEST_DOMAIN_LOCKS", folder.c_str(), 1);
+    {
+      // Another process released 20 a moment ago.
+      const double released = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+      std::ofstream((folder / "domain-20.lock").string(), std::ios::binary).write(reinterpret_cast<const char*>(&released), sizeof released);
+    }
+    DomainLease lease(0.0);
+    EXPECT_EQ(lease.id(), 21) << "round " << round;
+    DomainLease only_left(0.0);
+    EXPECT_EQ(only_left.id(), 20) << "round " << round;
+  }
 }
 
 TEST_F(DomainAllocator, NeverHandsOutTheReservedRange) {
