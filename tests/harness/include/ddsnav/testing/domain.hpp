@@ -24,7 +24,8 @@ inline constexpr int kFixedHigh = 142;
 
 class DomainLease {
  public:
-  // Takes a free id (not the one released last); waits up to `timeout_s` for one to free up, then throws std::runtime_error
+  // Takes a free id (not the one released last, and one released within the last 30 s only when no other is free:
+  // the processes of the test that held it may still be shutting down); waits up to `timeout_s` for one to free up, then throws std::runtime_error
   // naming the pool and the lock folder.
   explicit DomainLease(double timeout_s = 120.0);
   ~DomainLease();
