@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <fstream>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -59,6 +61,48 @@ TEST(BusErrors, DomainFromEnvironmentIsStrict) {
     }
   }
   unsetenv("DDSNAV_DOMAIN");
+}
+
+// Fast DDS shared-memory segments this process has mapped (/proc/self/maps names their /dev/shm files).
+std::size_t mappedFastSegments() {
+  std::ifstream maps("/proc/self/maps");
+  std::set<std::string> files;
+  for (std::string line; std::getline(maps, line);)
+    if (auto at = line.find("/dev/shm/fastrtps_"); at != std::string::npos) files.insert(line.substr(at));
+  return files.size();
+}
+
+TEST(BusErrors, FastSharedMemoryFollowsTheEnvironmentUnlessTheOptionSaysSo) {
+  unsetenv("DDSNAV_FAST_SHM");
+  EXPECT_TRUE(bus::fastSharedMemoryFromEnvironment());
+  for (const char* on : {"1", "true", "on", ""}) {
+    setenv("DDSNAV_FAST_SHM", on, 1);
+    EXPECT_TRUE(bus::fastSharedMemoryFromEnvironment()) << on;
+  }
+  for (const char* off : {"0", "false", "off"}) {
+    setenv("DDSNAV_FAST_SHM", off, 1);
+    EXPECT_FALSE(bus::fastSharedMemoryFromEnvironment()) << off;
+  }
+  setenv("DDSNAV_FAST_SHM", "no", 1);
+  expectBusError([] { bus::fastSharedMemoryFromEnvironment(); }, {"DDSNAV_FAST_SHM", "'no'"});
+  bus::ParticipantOptions o;
+  o.domain_id = testDomain(25);
+  o.name = "shm-env";
+  expectBusError([&] { bus::Participant p(o); }, {"DDSNAV_FAST_SHM"});
+
+  // Off: the participant maps no segment; the option set to true overrides the environment.
+  setenv("DDSNAV_FAST_SHM", "0", 1);
+  const std::size_t before = mappedFastSegments();
+  {
+    bus::Participant without(o);
+    EXPECT_EQ(mappedFastSegments(), before) << "DDSNAV_FAST_SHM=0 left the shared-memory transport on";
+  }
+  o.fast_shared_memory = true;
+  {
+    bus::Participant with(o);
+    EXPECT_GT(mappedFastSegments(), before) << "fast_shared_memory = true did not override DDSNAV_FAST_SHM=0";
+  }
+  unsetenv("DDSNAV_FAST_SHM");
 }
 
 TEST(BusErrors, DomainOutOfRange) {

@@ -68,6 +68,7 @@ struct Transport {
   std::string interface;              // its name; empty: loopback
   std::vector<std::string> peers;     // IPv4 addresses for unicast discovery, this host's included
   bool multicast = false;
+  bool fast_shared_memory = true;  // Fast DDS only
   std::optional<security::Credentials> security;
   bool loopback() const { return interface.empty(); }
 };

@@ -95,6 +95,15 @@ NetworkOptions networkFromEnvironment() {
   return network;
 }
 
+bool fastSharedMemoryFromEnvironment() {
+  const char* env = std::getenv("DDSNAV_FAST_SHM");
+  if (env == nullptr || *env == '\0') return true;
+  const std::string_view value = env;
+  if (value == "1" || value == "true" || value == "on") return true;
+  if (value == "0" || value == "false" || value == "off") return false;
+  throw BusError("environment variable DDSNAV_FAST_SHM='" + std::string(value) + "': expected 1, true, on, 0, false or off");
+}
+
 namespace detail {
 namespace {
 
@@ -168,6 +177,7 @@ std::string resolvePeer(const std::string& peer) {
 Transport resolveTransport(const ParticipantOptions& options) {
   Transport t;
   const NetworkOptions network = options.network ? *options.network : networkFromEnvironment();
+  t.fast_shared_memory = options.fast_shared_memory ? *options.fast_shared_memory : fastSharedMemoryFromEnvironment();
   if (network.interface.empty()) {
     if (!network.peers.empty() || network.multicast)
       throw BusError("network: peers or multicast given without an interface");

@@ -201,7 +201,7 @@ dds::DomainParticipantQos participantQos(const ParticipantOptions& options, cons
   qos.name(options.name);
   auto& transport = qos.transport();
   transport.use_builtin_transports = false;
-  if (options.fast_shared_memory) {
+  if (t.fast_shared_memory) {
     auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
     shm->segment_size(kShmSegmentSize);
     shm->port_queue_capacity(kShmPortQueueCapacity);

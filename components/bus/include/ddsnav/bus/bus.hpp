@@ -109,6 +109,11 @@ struct NetworkOptions {
 // (1/true/0/false); an empty interface (loopback) when DDSNAV_NETWORK is unset. Throws BusError on
 // peers or multicast given without an interface, or a multicast value that is not a boolean.
 NetworkOptions networkFromEnvironment();
+
+// DDSNAV_FAST_SHM: 0/false/off leaves Fast DDS participants without their shared-memory transport (UDP on the
+// same interface only), 1/true/on or unset keeps it. For hosts or containers whose /dev/shm is small or not
+// shared, and for ThreadSanitizer runs (docs/fuzzing.md). Anything else throws BusError naming the variable.
+bool fastSharedMemoryFromEnvironment();
 // "a,b , c" -> {"a","b","c"}; throws BusError on an empty entry.
 std::vector<std::string> parsePeers(std::string_view text);
 
@@ -116,8 +121,9 @@ struct ParticipantOptions {
   Vendor vendor = Vendor::FastDDS;
   int domain_id = 0;            // [0, kMaxDomainId]
   std::string name = "ddsnav";  // participant name, shown by DDS tools
-  // Fast DDS only: false leaves only UDPv4 (benchmarks compare SHM against UDP).
-  bool fast_shared_memory = true;
+  // Fast DDS only: false leaves only UDPv4 (benchmarks compare SHM against UDP). Unset:
+  // fastSharedMemoryFromEnvironment().
+  std::optional<bool> fast_shared_memory;
   // Unset: networkFromEnvironment(). An interface that does not exist (or has no IPv4 address) or a peer
   // that does not resolve throws BusError before any participant is created.
   std::optional<NetworkOptions> network;
