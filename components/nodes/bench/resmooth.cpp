@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
   std::optional<double> speed;
   double preferred_margin = 3.0;
   bool no_view = false, print_path = false, print_slow = false;
-  double clearance_target = 1.0;
+  double clearance_target = tracker::SmootherConfig::kTrackerClearanceTargetM;
   app.add_option("--recording", recording, "the mission's MCAP recording (bench-mission --keep-recordings)")->required();
   app.add_option("--scenario", scenario_file, "its scenario file")->required();
   app.add_option("--request", request_id, "the request id whose answer is smoothed")->required();
@@ -165,7 +165,7 @@ int main(int argc, char** argv) {
     };
 
     tracker::SmootherConfig config;
-    config.clearance_target = clearance_target;  // the tracker's parameter (its default, 1 m, not the library's 0.2 m)
+    config.clearance_target = clearance_target;  // the tracker's parameter (its default, not the library's)
     config.repair_distance = scenario.robot_radius;
     config.short_braking_m = 2.0 * scenario.robot_radius;
     config.initial_heading = in.request->start().heading();

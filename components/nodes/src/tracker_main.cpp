@@ -166,7 +166,7 @@ class TrackerComponent : public runtime::Component {
       // next to trajectories kept 0.16-0.2 m away, the vehicle touched them and then stood inside the
       // planner's world. 0.5 m covers that growth; narrower passages are still crossed in their middle.
       smoother.clearance_target = p.declare<double>(
-          "clearance_target", 1.0, {.min = 0, .max = 100, .unit = "m", .doc = "the smoother moves the path this far from obstacles where there is room (docs/tracking.md)"});
+          "clearance_target", tracker::SmootherConfig::kTrackerClearanceTargetM, {.min = 0, .max = 100, .unit = "m", .doc = "the smoother moves the path this far from obstacles where there is room (docs/tracking.md)"});
       // Off by default: measured against refusing such plans, it did not shorten the bug-trap missions (docs/tracking.md).
       smoother.lead_in_decel = p.declare<double>(
           "lead_in_decel", 0.0,

@@ -42,6 +42,9 @@ struct SmootherConfig {
   // are moved away, up to the middle of narrower passages, so that tracking errors stay off the walls.
   // 0 keeps the planner's geometry.
   double clearance_target = 0.2;
+  // The tracker component's default for it (parameter clearance_target), which tools that replay its smoothing
+  // (ddsnav-resmooth) take too: a vehicle flying a metre off the walls, where the library keeps 0.2 m.
+  static constexpr double kTrackerClearanceTargetM = 1.0;
   // How far (m) the last point may be moved for clearance; e.g. the goal radius minus the end's distance
   // to the goal, so that it stays in the goal region. 0 keeps the end where the planner put it.
   double end_tolerance = 0.0;
