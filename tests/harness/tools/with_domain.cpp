@@ -3,7 +3,9 @@
 // tests that are not C++ (tests/bridge's node scripts). Exits with COMMAND's status.
 #include <ddsnav/testing/domain.hpp>
 
+#include <sys/prctl.h>
 #include <sys/wait.h>
+#include <csignal>
 #include <unistd.h>
 
 #include <cstdio>
@@ -27,9 +29,14 @@ int main(int argc, char** argv) {
     for (std::string& a : args) raw.push_back(a.data());
     raw.push_back(nullptr);
     ::setenv("DDSNAV_DOMAIN", domain.str().c_str(), 1);
+    const pid_t parent = ::getpid();
     const pid_t child = ::fork();
     if (child < 0) throw std::runtime_error("fork failed");
     if (child == 0) {
+      // The lease lives as long as this process: a command that outlived it (this process killed, as ctest does
+      // at a timeout) would keep using an id the next test may take.
+      ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+      if (::getppid() != parent) ::_exit(127);
       ::execvp(raw[0], raw.data());
       std::perror(raw[0]);
       ::_exit(127);
