@@ -114,6 +114,7 @@ NetworkOptions networkFromEnvironment();
 // same interface only), 1/true/on or unset keeps it. For hosts or containers whose /dev/shm is small or not
 // shared, and for ThreadSanitizer runs (docs/fuzzing.md). Anything else throws BusError naming the variable.
 bool fastSharedMemoryFromEnvironment();
+
 // "a,b , c" -> {"a","b","c"}; throws BusError on an empty entry.
 std::vector<std::string> parsePeers(std::string_view text);
 
