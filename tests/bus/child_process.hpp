@@ -4,9 +4,10 @@
 
 #include <poll.h>
 #include <signal.h>
-#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <ddsnav/testing/end_with_parent.hpp>
 
 #include <chrono>
 #include <optional>
@@ -26,11 +27,7 @@ class ChildProcess {
     pid_ = fork();
     if (pid_ < 0) throw std::runtime_error("fork failed");
     if (pid_ == 0) {
-      // Ended with the test process even when that one dies without its destructors (a sanitizer's report
-      // ends it at once): an orphaned peer kept its durable samples on a domain id the next test leased, and
-      // that test got them (2026-12-07).
-      prctl(PR_SET_PDEATHSIG, SIGTERM);
-      if (getppid() != parent) _exit(127);  // the test died between fork and prctl
+      testing::endWithParent(parent);
       dup2(fds[1], STDOUT_FILENO);
       close(fds[0]);
       close(fds[1]);

@@ -2,10 +2,9 @@
 // for as long as it runs; every argument "@DOMAIN@" becomes that id, and DDSNAV_DOMAIN is set to it. For
 // tests that are not C++ (tests/bridge's node scripts). Exits with COMMAND's status.
 #include <ddsnav/testing/domain.hpp>
+#include <ddsnav/testing/end_with_parent.hpp>
 
-#include <sys/prctl.h>
 #include <sys/wait.h>
-#include <csignal>
 #include <unistd.h>
 
 #include <cstdio>
@@ -35,8 +34,7 @@ int main(int argc, char** argv) {
     if (child == 0) {
       // The lease lives as long as this process: a command that outlived it (this process killed, as ctest does
       // at a timeout) would keep using an id the next test may take.
-      ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-      if (::getppid() != parent) ::_exit(127);
+      ddsnav::testing::endWithParent(parent);
       ::execvp(raw[0], raw.data());
       std::perror(raw[0]);
       ::_exit(127);
