@@ -651,8 +651,25 @@ class OctoMapWorld final : public CollisionWorld {
       region(radius_ + outside_margin_, occupied_lo, occupied_hi);
       region(radius_ + 2.0 * resolution_, free_lo, free_hi);
     };
+    // Most leaves are single voxels, and consecutive ones mostly share a brick: its hash probe is kept.
+    std::uint64_t last_key = ~std::uint64_t(0);
+    std::size_t last_brick = 0;
     auto leaf = [&](const std::uint16_t* corner, unsigned depth, bool occupied) {
       if (!occupied && !free_leaves) return;
+      if (depth == 16 && dims_ == 3) {
+        const Cell c{std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit, std::int64_t(corner[2]) - kCellLimit};
+        if (!inRange(c, occupied ? occupied_lo : free_lo, occupied ? occupied_hi : free_hi)) return;
+        const std::uint64_t key = pack(c.x >> 3, c.y >> 3, c.z >> 3);
+        if (key != last_key) {
+          last_brick = static_cast<std::size_t>(&brickFor(c.x >> 3, c.y >> 3, c.z >> 3) - bricks_.data());
+          last_key = key;
+        }
+        const std::uint32_t bit = bitOf(c);
+        const std::uint64_t mask = std::uint64_t(1) << (bit & 63);
+        bricks_[last_brick].known[bit >> 6] |= mask;
+        if (occupied) bricks_[last_brick].occupied[bit >> 6] |= mask;
+        return;
+      }
       const std::int64_t size = std::int64_t(1) << (16 - depth);
       Cell lo = {std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit, std::int64_t(corner[2]) - kCellLimit};
       Cell hi = {lo.x + size - 1, lo.y + size - 1, lo.z + size - 1};
@@ -1185,9 +1202,59 @@ class OctoMapWorld final : public CollisionWorld {
       return false;
     };
     BinaryOcTreeReader reader(bytes, /*free_leaves=*/true);
+    if (column_shift_ != 0) {  // merged columns (a map wider than kMaxColumnCells): leaf by leaf
+      for (const auto& subtree : subtrees) {
+        if (stopped) break;
+        if (reachesUnderATop(subtree)) reader.readSubtree(subtree, kSubtreeDepth, free_leaf);
+      }
+      return;
+    }
+    // One column cell per voxel column: an indexed subtree is one brick (8 voxels a side), and is read brick at a time.
+    // Its voxels under their column's top inside the clip first, as masks (most subtrees have none and are not read);
+    // then its free leaves into a mask of its own, and the two meet in one AND: the leaf by leaf checks above cost
+    // 40 % of a planner's 3-D build (r3d_167's 3.4 MB map: 86 ms against 6x ms; ddsnav-bench-mapper --world-map).
+    static_assert(16 - kSubtreeDepth == 3, "an indexed subtree is one brick");
+    const Cell clip_lo{std::max(free_lo.x, column_lo_.x), std::max(free_lo.y, column_lo_.y), free_lo.z};
+    const Cell clip_hi{std::min(free_hi.x, column_hi_.x), std::min(free_hi.y, column_hi_.y), free_hi.z};
+    if (stopped) return;
+    std::array<std::uint64_t, 8> under{}, seen{};
+    auto underTops = [&](const Cell& corner) {
+      under.fill(0);
+      bool any = false;
+      const std::int64_t z_lo = std::max(corner.z, clip_lo.z);
+      for (int y = 0; y < 8; ++y) {
+        const std::int64_t cy = corner.y + y;
+        if (cy < clip_lo.y || cy > clip_hi.y) continue;
+        for (int x = 0; x < 8; ++x) {
+          const std::int64_t cx = corner.x + x;
+          if (cx < clip_lo.x || cx > clip_hi.x) continue;
+          const std::int64_t z_hi = std::min({corner.z + 7, clip_hi.z, std::int64_t(tops[columnIndex(cx, cy)])});
+          for (std::int64_t z = z_lo; z <= z_hi; ++z) under[z - corner.z] |= std::uint64_t(1) << (y * 8 + x);
+          any |= z_lo <= z_hi;
+        }
+      }
+      return any;
+    };
+    auto seenLeaf = [&](const std::uint16_t* corner, unsigned depth, bool occupied) {
+      if (occupied) return;
+      const int x0 = corner[0] & 7, y0 = corner[1] & 7, z0 = corner[2] & 7, size = 1 << (16 - depth);
+      const std::uint64_t row = ((std::uint64_t(1) << size) - 1) << x0;
+      std::uint64_t layer = 0;
+      for (int y = y0; y < y0 + size; ++y) layer |= row << (8 * y);
+      for (int z = z0; z < z0 + size; ++z) seen[z] |= layer;
+    };
     for (const auto& subtree : subtrees) {
-      if (stopped) break;
-      if (reachesUnderATop(subtree)) reader.readSubtree(subtree, kSubtreeDepth, free_leaf);
+      const Cell corner{std::int64_t(subtree.corner[0]) - kCellLimit, std::int64_t(subtree.corner[1]) - kCellLimit,
+                        std::int64_t(subtree.corner[2]) - kCellLimit};
+      if (corner.z > highest || !underTops(corner)) continue;
+      seen.fill(0);
+      reader.readSubtree(subtree, kSubtreeDepth, seenLeaf);
+      std::uint64_t any = 0;
+      for (int z = 0; z < 8; ++z) any |= (seen[z] &= under[z]);
+      if (any == 0) continue;
+      if (bricks_.size() >= brick_budget && findBrick(corner.x >> 3, corner.y >> 3, corner.z >> 3) == nullptr) return;
+      Brick& b = brickFor(corner.x >> 3, corner.y >> 3, corner.z >> 3);
+      for (int z = 0; z < 8; ++z) b.known[z] |= seen[z];
     }
   }
 
