@@ -292,6 +292,36 @@ void guideAlong(PlanProblem& problem, const CoarseRoute& route, double bias) {
   problem.guide_spread_m = std::max(problem.world->robotRadius(), route.cell_m);
 }
 
+void guideAlongPath(PlanProblem& problem, const std::vector<Vec3>& path, double bias) {
+  if (path.size() < 2 || problem.world == nullptr || !(bias > 0.0)) return;
+  const double radius = std::max(problem.world->robotRadius(), 0.05);
+  double length = 0.0;
+  for (std::size_t i = 1; i < path.size(); ++i) length += (path[i] - path[i - 1]).norm();
+  if (!std::isfinite(length)) return;
+  // Each edge adds at most one point more than its length / step: the bound holds along the whole path up to
+  // kMaxPathGuidePoints / 2 edges (beyond, the points end early).
+  const std::size_t edges = std::min(path.size() - 1, kMaxPathGuidePoints / 2);
+  const double step = std::max(radius, length / static_cast<double>(kMaxPathGuidePoints - edges - 1));
+  std::vector<Vec3> points;
+  for (std::size_t i = 1; i < path.size() && points.size() < kMaxPathGuidePoints; ++i) {
+    const Vec3 edge = path[i] - path[i - 1];
+    const auto pieces = static_cast<std::size_t>(std::ceil(edge.norm() / step));
+    for (std::size_t k = 0; k < pieces && points.size() < kMaxPathGuidePoints; ++k)
+      points.push_back(path[i - 1] + edge * (static_cast<double>(k) / static_cast<double>(pieces)));
+  }
+  if (points.size() < kMaxPathGuidePoints) points.push_back(path.back());
+  const auto nearest = std::min_element(points.begin(), points.end(), [&](const Vec3& a, const Vec3& b) {
+    return (a - problem.start.position).squaredNorm() < (b - problem.start.position).squaredNorm();
+  });
+  std::vector<Vec3> guide;
+  for (auto it = nearest; it != points.end(); ++it)
+    if (problem.world->isFree(*it)) guide.push_back(*it);
+  if (guide.empty()) return;
+  problem.guide = std::move(guide);
+  problem.guide_bias = bias;
+  problem.guide_spread_m = 2.0 * radius;
+}
+
 namespace {
 
 bool bridgeClippedMoves(const CollisionWorld& world, std::vector<Vec3>& points, double cell_m) {

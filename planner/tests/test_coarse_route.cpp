@@ -348,5 +348,54 @@ TEST(GuidedSampling, ABadGuideIsRefused) {
   EXPECT_THROW(PlannerRun(problem, "test", false), std::invalid_argument);
 }
 
+// An earlier path through the gap, planned from (10, 5); the vehicle is now at (20, 15), and the wall was found to
+// reach over the gap's left half: the guide is the path ahead, a robot radius apart, without the blocked points.
+TEST(PathGuide, IsThePathAheadOfTheStartWhereItIsFree) {
+  const auto world = wallWorld(32, 33);  // the gap [30, 33] the path was planned through has narrowed to [32, 33]
+  PlanProblem problem = problemIn(*world);
+  problem.start.position = Vec3(20, 15, 0);
+  const std::vector<Vec3> earlier{Vec3(10, 5, 0), Vec3(30.5, 25, 0), Vec3(40, 45, 0)};
+  guideAlongPath(problem, earlier, 0.3);
+  ASSERT_FALSE(problem.guide.empty());
+  EXPECT_DOUBLE_EQ(problem.guide_bias, 0.3);
+  EXPECT_DOUBLE_EQ(problem.guide_spread_m, 1.0) << "two robot radii";
+  EXPECT_LT((problem.guide.front() - problem.start.position).norm(), 0.5) << "from the point nearest the start on";
+  EXPECT_EQ(problem.guide.back(), earlier.back());
+  for (const Vec3& p : problem.guide) {
+    EXPECT_TRUE(world->isFree(p)) << p.transpose();
+    EXPECT_GE(p.x(), 19.5) << "nothing behind the start";
+  }
+  // Points 0.5 m apart along the 38.6 m ahead, less those within the robot radius of the wall (y in 23.5..26.5 on the
+  // blocked stretch): about 77 - 7.
+  EXPECT_GT(problem.guide.size(), 60u);
+  EXPECT_LT(problem.guide.size(), 75u);
+}
+
+TEST(PathGuide, LeavesTheProblemAloneWithoutAUsablePath) {
+  const auto world = wallWorld(30, 33);
+  PlanProblem problem = problemIn(*world);
+  guideAlongPath(problem, {Vec3(10, 5, 0)}, 0.3);
+  EXPECT_TRUE(problem.guide.empty()) << "one corner is no path";
+  guideAlongPath(problem, {Vec3(10, 5, 0), Vec3(NAN, 5, 0)}, 0.3);
+  EXPECT_TRUE(problem.guide.empty()) << "not finite";
+  guideAlongPath(problem, {Vec3(0, 25, 0), Vec3(20, 25, 0)}, 0.3);
+  EXPECT_TRUE(problem.guide.empty()) << "every point inside the wall";
+  guideAlongPath(problem, {Vec3(10, 5, 0), Vec3(40, 45, 0)}, 0.0);
+  EXPECT_TRUE(problem.guide.empty()) << "no share of the samples";
+  EXPECT_DOUBLE_EQ(problem.guide_bias, 0.0);
+}
+
+TEST(PathGuide, AVeryLongPathIsThinnedToItsBound) {
+  const auto world = wallWorld(30, 33);
+  PlanProblem problem = problemIn(*world);
+  std::vector<Vec3> zigzag;  // 400 crossings of the 50 m field below the wall: 20 km
+  for (int i = 0; i <= 400; ++i) zigzag.emplace_back(i % 2 ? 49.0 : 1.0, 2.0 + 0.05 * i, 0.0);
+  problem.start.position = zigzag.front();
+  guideAlongPath(problem, zigzag, 0.3);
+  EXPECT_LE(problem.guide.size(), kMaxPathGuidePoints);
+  EXPECT_GT(problem.guide.size(), kMaxPathGuidePoints / 2) << "spread along the whole path, not its first 2 km";
+  EXPECT_EQ(problem.guide.back(), zigzag.back()) << "to its end";
+}
+
 }  // namespace
 }  // namespace ddsnav::planner

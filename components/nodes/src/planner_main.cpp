@@ -30,9 +30,11 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <stop_token>
 #include <thread>
+#include <vector>
 
 using namespace ddsnav;
 
@@ -52,6 +54,7 @@ class PlannerComponent : public runtime::Component {
     double preferred_worlds_s;
     std::optional<double> route_lattice_s;  // default: 0.03 s in 2-D, 0 (off) in 3-D
     double guide_bias;
+    std::optional<double> previous_path_bias;  // default: 0.3 in 3-D, 0 (off) in 2-D
     bool route_path;
     bool plain_beside_preferred;
     double map_wait_s;
@@ -114,6 +117,16 @@ class PlannerComponent : public runtime::Component {
                                        {.min = 0, .max = 1,
                                         .doc = "share of the samples drawn near the lattice route (route_lattice_s) instead of anywhere "
                                                "in the bounds; 0: uniform sampling"})),
+          // A replan for a blocked trajectory mostly needs a way round the block and then the rest of the path it had: the
+          // waypoints of the last path answered are what execution-extended RRT (Bruce and Veloso, 2002) samples near.
+          // In 3-D, where no lattice route guides the samples, the replans' searches were the largest part of their latency
+          // (wall_gap_3d_2m in real time: 0.14-0.30 s, 2 400-7 500 iterations; docs/planners.md, "The last path as a guide").
+          previous_path_bias(p.declareOptional<double>(
+              "previous_path_bias",
+              {.min = 0, .max = 1,
+               .doc = "for a request that asks for no improvement (a replan for a blocked trajectory) with no lattice route to guide it: "
+                      "share of the samples drawn near the free waypoints of the last path answered for the same goal (not to a shorter "
+                      "route's request), from the one nearest the new start on (docs/planners.md, \"The last path as a guide\"); 0: off; default 0.3 in 3-D, 0 in 2-D"})),
           // On by default since from inside bugtrap_0.4 no preferred world's guided search finished in its share (0.05-0.1 s)
           // in any of a mission's requests, and the plain map's answers were 190-330 m long where the route was 120-150 m
           // (docs/planners.md, "The route as the answer").
@@ -147,6 +160,7 @@ class PlannerComponent : public runtime::Component {
         unknown_margin_m_(params_.unknown_margin_m.value_or(nodes::defaultUnknownMargin(scenario_))),
         hidden_continuation_m_(params_.hidden_continuation_m.value_or(nodes::defaultHiddenContinuation(scenario_))),
         route_lattice_s_(params_.route_lattice_s.value_or(scenario_.dimensions == 2 ? 0.03 : 0.0)),
+        previous_path_bias_(params_.previous_path_bias.value_or(scenario_.dimensions == 3 ? 0.3 : 0.0)),
         world_source_(ctx, params_.world, scenario_, unknown_margin_m_, /*preferred_on_demand=*/false, params_.preferred_surface_margin_m),
         paths_(publisher(runtime::topics::path)) {
     if (kinodynamic_ && !scenario_.vehicle) throw runtime::ParameterError("parameter kinodynamic: the scenario has no vehicle block");
@@ -277,6 +291,7 @@ class PlannerComponent : public runtime::Component {
       spdlog::info("request {}: {} {} in {:.3f} s, {} iterations, {} vertices, cost {:.2f} m", request.request_id(), result->planner,
                    result->solved ? "solved" : "failed", result->stats.time_s, result->stats.iterations, result->stats.vertices, result->cost);
       msg::Path path = nodes::toMsg(*result, request.request_id(), clock().nowNs());
+      if (result->solved && !nodes::asksForAShorterRoute(request)) rememberPath(*result, request);
       if (!result->solved)
         path.failure(fmt::format("no path within the time budget ({:.2f} s, {} iterations)", budget, result->stats.iterations));
       paths_.publish(path);
@@ -545,6 +560,7 @@ class PlannerComponent : public runtime::Component {
       }
       planner::guideAlong(problem, route, params_.guide_bias);
     }
+    if (problem.guide.empty() && previous_path_bias_ > 0.0 && request.improve_for_s() <= 0.0) previousPathGuide(problem);
     problem.vehicle = scenario_.vehicle;
     problem.kinodynamic = kinodynamic_;
     problem.seed = request.seed() + (restart ? restart->round * kRestartSeedStride : 0);
@@ -569,6 +585,26 @@ class PlannerComponent : public runtime::Component {
       spdlog::info("request {}: {} found no shorter path in {} iterations; answering with the lattice route, {:.1f} m", request.request_id(),
                    algorithm.name(), answer.stats.iterations, answer.cost);
     return answer;
+  }
+
+  void rememberPath(const planner::PlanResult& result, const msg::PlanRequest& request) {
+    std::vector<planner::Vec3> positions;
+    positions.reserve(result.path.size());
+    for (const auto& state : result.path) positions.push_back(state.position);
+    std::lock_guard lock(previous_path_mutex_);
+    previous_path_ = std::move(positions);
+    previous_goal_ = nodes::fromMsg(request.goal()).position;
+  }
+
+  // The last path answered as the samples' guide (planner::guideAlongPath), when it was for this goal.
+  void previousPathGuide(planner::PlanProblem& problem) const {
+    std::vector<planner::Vec3> path;
+    {
+      std::lock_guard lock(previous_path_mutex_);
+      if ((previous_goal_ - problem.goal).norm() > std::max(problem.goal_radius, 1e-6)) return;
+      path = previous_path_;
+    }
+    planner::guideAlongPath(problem, path, previous_path_bias_);
   }
 
   // Shortest time the sampler gets beside a route found in less (attempt).
@@ -621,6 +657,12 @@ class PlannerComponent : public runtime::Component {
   const bool kinodynamic_;
   const std::map<std::string, std::vector<std::string>> planner_options_;
   const double unknown_margin_m_, hidden_continuation_m_, route_lattice_s_;  // the parameters, or their defaults for the scenario
+  const double previous_path_bias_;
+  // The last path answered (its states' positions) and its goal: previousPathGuide. Written by the worker, read by the
+  // searches beside it.
+  mutable std::mutex previous_path_mutex_;
+  std::vector<planner::Vec3> previous_path_;
+  planner::Vec3 previous_goal_ = planner::Vec3::Zero();
   nodes::WorldSource world_source_;
   bus::Publisher<msg::Path> paths_;
   std::map<std::uint64_t, std::uint32_t> last_request_;  // requester (publication handle) -> its last request id

@@ -186,4 +186,6 @@ bool isPlanarCloud(const std::vector<Eigen::Vector3f>& points) {
   return true;
 }
 
+bool asksForAShorterRoute(const msg::PlanRequest& request) { return request.reason().rfind("shorter_route", 0) == 0; }
+
 }  // namespace ddsnav::nodes

@@ -71,6 +71,14 @@ CoarseRoute findCoarseRoute(const CollisionWorld& world, const Vec3& start, cons
 // it). Leaves the problem as it is unless the route was found.
 void guideAlong(PlanProblem& problem, const CoarseRoute& route, double bias);
 
+// Guides problem's sampling along an earlier path (its corners, start to end), as execution-extended RRT samples near
+// the waypoints of the last plan: points a robot radius apart along it (at most kMaxPathGuidePoints, thinned evenly on
+// a longer path), from the one nearest problem.start on, those free in problem.world only (a blocked one is what the
+// new path must leave), a share `bias` of the samples spread by two robot radii. Leaves the problem as it is when no
+// such point is left, the path has fewer than two corners or is not finite.
+inline constexpr std::size_t kMaxPathGuidePoints = 4096;
+void guideAlongPath(PlanProblem& problem, const std::vector<Vec3>& path, double bias);
+
 // A found route as a path to answer with, for a sampler that needs far longer than the lattice did (from inside a bug
 // trap a guided gart-lazy took 1 300-2 500 iterations and 0.08-0.15 s for paths of 190-330 m where the route was
 // 120-150 m long in 12-44 ms: docs/planners.md, "The route as the answer"). The path is the start, then the route's

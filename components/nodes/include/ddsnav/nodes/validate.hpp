@@ -58,6 +58,11 @@ std::string checkTrackingStatus(const msg::TrackingStatus& status);
 // "goal.z = 1e+300 is outside the planning bounds [0, 0] (a 2-D world)".
 std::string checkPlanRequest(const msg::PlanRequest& request, const planner::Scenario& scenario, const std::string& frame);
 
+// A request for a shorter route while the vehicle flies on (the tracker's reason "shorter_route: ..."): its answer is
+// flown only when it reaches the goal sooner, so it is not taken for the path being flown (the planner's
+// previous_path_bias guide).
+bool asksForAShorterRoute(const msg::PlanRequest& request);
+
 // The samples one component drops on one topic: counted, and logged as warnings that name the topic and
 // what was wrong — the first one, then at most one per second carrying the running count, so a stream of
 // bad samples at 50 Hz neither floods the log nor goes unnoticed. Thread-safe.
