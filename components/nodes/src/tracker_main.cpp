@@ -1142,6 +1142,9 @@ class TrackerComponent : public runtime::Component {
     const tracker::VehicleState state = missionState(*vehicle_);
     if (auto decision = takeSmoothed(state)) {
       act(*decision);
+      // A refusal asked again at once (one for the vehicle's speed) is asked now, not at the next control step: that
+      // step held such a retry 43 ms of a real-time gart_terrain_3d replan's 165 (2026-12-07).
+      if (!smoothing_.valid() && mission_.retryDue(clock().nowNs())) act(missionUpdate(state));
     } else if (new_path_ && !smoothing_.valid()) {
       act(missionUpdate(state));
     }
