@@ -15,6 +15,7 @@
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include "ddsnav/nodes/world_source.hpp"
+#include "recorded_sample.hpp"
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/coarse_route.hpp>
@@ -36,13 +37,6 @@ using namespace ddsnav;
 
 namespace {
 
-template <class T>
-std::optional<T> decode(const record::MessageView& view) {
-  T sample;
-  if (!msg::type_support<T>().deserialize(view.data.data(), view.data.size(), &sample)) return std::nullopt;
-  return sample;
-}
-
 // One request as the planner met it: the newest map and obstacles before it, and the path answered last before it.
 struct Replayed {
   msg::PlanRequest request;
@@ -63,17 +57,17 @@ std::vector<Replayed> findRequests(const std::string& file, const std::string& r
       [&](const record::MessageView& v) {
         const std::string& topic = v.channel->topic;
         if (topic == "map/octomap") {
-          if (auto m = decode<msg::OccupancyMap>(v)) map = std::move(*m);
+          if (auto m = bench::decodeRecorded<msg::OccupancyMap>(v)) map = std::move(*m);
         } else if (topic == "perception/obstacles") {
-          if (auto m = decode<msg::ObstacleArray>(v)) obstacles = std::move(*m);
+          if (auto m = bench::decodeRecorded<msg::ObstacleArray>(v)) obstacles = std::move(*m);
         } else if (topic == "planning/path") {
           // As the planner remembers its answers (previous_path_bias): not those to a shorter route's request.
-          if (auto m = decode<msg::Path>(v); m && m->solved() && !shorter_route[m->request_id()] && nodes::checkPath(*m).empty()) {
+          if (auto m = bench::decodeRecorded<msg::Path>(v); m && m->solved() && !shorter_route[m->request_id()] && nodes::checkPath(*m).empty()) {
             last_path.clear();
             for (const auto& s : nodes::statesOf(*m)) last_path.push_back(s.position);
           }
         } else if (topic == "planning/request") {
-          auto m = decode<msg::PlanRequest>(v);
+          auto m = bench::decodeRecorded<msg::PlanRequest>(v);
           if (!m || seen[m->request_id()]) return true;
           seen[m->request_id()] = true;
           shorter_route[m->request_id()] = nodes::asksForAShorterRoute(*m);

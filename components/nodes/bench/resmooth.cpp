@@ -13,6 +13,7 @@
 #include "ddsnav/nodes/convert.hpp"
 #include "ddsnav/nodes/validate.hpp"
 #include "ddsnav/nodes/world_source.hpp"
+#include "recorded_sample.hpp"
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/planner/collision_world.hpp>
@@ -33,13 +34,6 @@ using namespace ddsnav;
 
 namespace {
 
-template <class T>
-std::optional<T> decode(const record::MessageView& view) {
-  T sample;
-  if (!msg::type_support<T>().deserialize(view.data.data(), view.data.size(), &sample)) return std::nullopt;
-  return sample;
-}
-
 struct Recorded {
   std::optional<msg::PlanRequest> request;
   std::optional<msg::Path> path;
@@ -56,15 +50,15 @@ Recorded findInputs(const std::string& file, std::uint32_t request_id) {
       [&](const record::MessageView& v) {
         const std::string& topic = v.channel->topic;
         if (topic == "map/octomap") {
-          if (auto m = decode<msg::OccupancyMap>(v)) r.map = std::move(*m);
+          if (auto m = bench::decodeRecorded<msg::OccupancyMap>(v)) r.map = std::move(*m);
         } else if (topic == "perception/obstacles") {
-          if (auto m = decode<msg::ObstacleArray>(v)) r.obstacles = std::move(*m);
+          if (auto m = bench::decodeRecorded<msg::ObstacleArray>(v)) r.obstacles = std::move(*m);
         } else if (topic == "vehicle/state") {
-          if (auto m = decode<msg::VehicleState>(v)) r.vehicle = std::move(*m);
+          if (auto m = bench::decodeRecorded<msg::VehicleState>(v)) r.vehicle = std::move(*m);
         } else if (topic == "planning/request") {
-          if (auto m = decode<msg::PlanRequest>(v); m && m->request_id() == request_id) r.request = std::move(*m);
+          if (auto m = bench::decodeRecorded<msg::PlanRequest>(v); m && m->request_id() == request_id) r.request = std::move(*m);
         } else if (topic == "planning/path") {
-          if (auto m = decode<msg::Path>(v); m && m->request_id() == request_id) {
+          if (auto m = bench::decodeRecorded<msg::Path>(v); m && m->request_id() == request_id) {
             r.path = std::move(*m);
             return false;
           }

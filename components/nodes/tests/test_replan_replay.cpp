@@ -1,13 +1,13 @@
 // ddsnav-replan-replay on a small recording written here: the first plan, a shorter route's answer and a replan for a
 // blocked trajectory on a 2-D world with nothing mapped. Runs the binary (no DDS).
 #include "ddsnav/nodes/convert.hpp"
+#include "run_tool.hpp"
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/record/mcap.hpp>
 
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -20,30 +20,6 @@ namespace {
 
 using namespace ddsnav;
 namespace fs = std::filesystem;
-
-struct Run {
-  int status = -1;
-  std::string out;
-};
-
-Run run(const std::string& command) {
-  Run r;
-  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) return r;
-  char buffer[4096];
-  while (std::size_t n = std::fread(buffer, 1, sizeof buffer, pipe)) r.out.append(buffer, n);
-  const int status = ::pclose(pipe);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-template <class T>
-std::vector<std::uint8_t> bytesOf(const T& sample) {
-  const auto& ts = msg::type_support<T>();
-  std::vector<std::uint8_t> b(ts.serialized_size(&sample));
-  b.resize(ts.serialize(&sample, b.data(), b.size()));
-  return b;
-}
 
 class ReplanReplay : public ::testing::Test {
  protected:
@@ -68,7 +44,7 @@ class ReplanReplay : public ::testing::Test {
       request.planner("gart-lazy");
       request.time_budget_s(1.0);
       request.reason(reason);
-      w.write(requests, t, t, bytesOf(request));
+      w.write(requests, t, t, ddsnav::testing::cdrBytesOf(request));
       t += 1000;
     };
     auto answer = [&](std::uint32_t id, const std::vector<planner::Vec3>& points) {
@@ -77,7 +53,7 @@ class ReplanReplay : public ::testing::Test {
       path.request_id(id);
       path.solved(true);
       for (const auto& p : points) path.states().push_back(nodes::toMsg(planner::State{p, 0.0}));
-      w.write(paths, t, t, bytesOf(path));
+      w.write(paths, t, t, ddsnav::testing::cdrBytesOf(path));
       t += 1000;
     };
     ask(1, {2, 2, 0}, "start");
@@ -100,7 +76,7 @@ class ReplanReplay : public ::testing::Test {
 };
 
 TEST_F(ReplanReplay, SearchesTheBlockedReplanAgainGuidedByTheFlownPath) {
-  const auto r = run(command());
+  const auto r = ddsnav::testing::runTool(command());
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("1 request(s) with reason 'trajectory_blocked'"), std::string::npos) << r.out;
   // The first plan's path (3 corners), from (10, 3.3) on: 10 m of its first edge and its 29.2 m second one, 0.5 m apart.
@@ -110,13 +86,13 @@ TEST_F(ReplanReplay, SearchesTheBlockedReplanAgainGuidedByTheFlownPath) {
 }
 
 TEST_F(ReplanReplay, ReplaysEveryReasonWhenAskedTo) {
-  const auto r = run(command("--reason ''"));
+  const auto r = ddsnav::testing::runTool(command("--reason ''"));
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("3 request(s)"), std::string::npos) << r.out;
 }
 
 TEST_F(ReplanReplay, NamesAMissingRecording) {
-  const auto r = run(std::string(DDSNAV_BIN_DIR) + "/ddsnav-replan-replay --recording " + (dir_ / "none.mcap").string() + " --scenario " +
+  const auto r = ddsnav::testing::runTool(std::string(DDSNAV_BIN_DIR) + "/ddsnav-replan-replay --recording " + (dir_ / "none.mcap").string() + " --scenario " +
                      (dir_ / "world.yaml").string());
   EXPECT_NE(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("none.mcap"), std::string::npos) << r.out;

@@ -1,6 +1,7 @@
 // ddsnav resmooth on a small recording written here: a request and its answer on a 2-D world with nothing mapped
 // yet. Runs the binary (no DDS).
 #include "ddsnav/nodes/convert.hpp"
+#include "run_tool.hpp"
 
 #include <ddsnav/msg/messages.hpp>
 #include <ddsnav/record/mcap.hpp>
@@ -17,30 +18,6 @@ namespace {
 
 using namespace ddsnav;
 namespace fs = std::filesystem;
-
-struct Run {
-  int status = -1;
-  std::string out;
-};
-
-Run run(const std::string& command) {
-  Run r;
-  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
-  if (!pipe) return r;
-  char buffer[4096];
-  while (std::size_t n = std::fread(buffer, 1, sizeof buffer, pipe)) r.out.append(buffer, n);
-  const int status = ::pclose(pipe);
-  r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-template <class T>
-std::vector<std::uint8_t> bytesOf(const T& sample) {
-  const auto& ts = msg::type_support<T>();
-  std::vector<std::uint8_t> b(ts.serialized_size(&sample));
-  b.resize(ts.serialize(&sample, b.data(), b.size()));
-  return b;
-}
 
 class Resmooth : public ::testing::Test {
  protected:
@@ -63,12 +40,12 @@ class Resmooth : public ::testing::Test {
     request.request_id(4);
     request.start(nodes::toMsg(planner::State{points.front(), 0.0}));
     request.reason("start");
-    w.write(request_channel, 1000, 1000, bytesOf(request));
+    w.write(request_channel, 1000, 1000, ddsnav::testing::cdrBytesOf(request));
     msg::Path path;
     path.request_id(4);
     path.solved(true);
     for (const auto& p : points) path.states().push_back(nodes::toMsg(planner::State{p, 0.0}));
-    w.write(path_channel, 2000, 2000, bytesOf(path));
+    w.write(path_channel, 2000, 2000, ddsnav::testing::cdrBytesOf(path));
     w.close();
     return file;
   }
@@ -82,20 +59,20 @@ class Resmooth : public ::testing::Test {
 };
 
 TEST_F(Resmooth, SmoothsTheRecordedAnswerAgain) {
-  const auto r = run(command(record({{2, 2, 0}, {20, 5, 0}, {35, 30, 0}}), 4));
+  const auto r = ddsnav::testing::runTool(command(record({{2, 2, 0}, {20, 5, 0}, {35, 30, 0}}), 4));
   EXPECT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("no map before the answer"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("plain world: smoothed"), std::string::npos) << r.out;
 }
 
 TEST_F(Resmooth, SaysWhyTheSmootherRefusedIt) {
-  const auto r = run(command(record({{2, 2, 0}, {20, 5, 0}, {45, 30, 0}}), 4));  // the last state lies outside the bounds
+  const auto r = ddsnav::testing::runTool(command(record({{2, 2, 0}, {20, 5, 0}, {45, 30, 0}}), 4));  // the last state lies outside the bounds
   EXPECT_EQ(r.status, 1) << r.out;
   EXPECT_NE(r.out.find("plain world: refused: smoother: path state 2 (45, 30) is in collision or out of bounds"), std::string::npos) << r.out;
 }
 
 TEST_F(Resmooth, NamesARequestTheRecordingDoesNotAnswer) {
-  const auto r = run(command(record({{2, 2, 0}, {35, 30, 0}}), 9));
+  const auto r = ddsnav::testing::runTool(command(record({{2, 2, 0}, {35, 30, 0}}), 9));
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("no planning/path answers request 9"), std::string::npos) << r.out;
 }
