@@ -524,7 +524,9 @@ void checkColumnRuleAgainstABruteForceScan(long wider_cells, bool through_wider_
     yielded += below && !expect_blocked;
     blocked += expect_blocked;
     ASSERT_EQ(world->isFree(p), !expect_blocked) << p.transpose() << " below " << below << " free " << observed_free;
-    if (!through_wider_view) ASSERT_EQ(map->isFree(p), plain->isFree(p)) << p.transpose();
+    if (!through_wider_view) {
+      ASSERT_EQ(map->isFree(p), plain->isFree(p)) << p.transpose();
+    }
   }
   EXPECT_GE(undersides, 20);  // most of the 30 hits with space observed free under them
   EXPECT_GT(yielded, 200);    // every case was exercised
