@@ -157,12 +157,9 @@ int main(int argc, char** argv) {
       planner::PlanProblem problem;
       problem.world = world.get();
       problem.start = start;
-      // The planner's own move of a start in the map's voxels (planner_main.cpp, attempt).
-      const double reach = scenario.robot_radius + options.surface_margin_m;
-      if (!world->isFree(start.position))
-        if (const auto moved = planner::nearestFreePosition(*world, start.position, reach, reach / 6.0, std::min(0.5 * scenario.robot_radius, 0.3),
-                                                            options.surface_margin_m > 0.0 ? reach : 0.0))
-          problem.start.position = *moved;
+      // Moved out of the map's voxels as the planner moves it.
+      if (const auto moved = nodes::plannerStartOutOfCollision(*world, start.position, scenario.robot_radius, options.surface_margin_m))
+        problem.start.position = *moved;
       problem.goal = nodes::fromMsg(r.request.goal()).position;
       problem.goal_radius = r.request.goal_radius();
       problem.vehicle = scenario.vehicle;

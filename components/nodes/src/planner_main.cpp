@@ -482,23 +482,20 @@ class PlannerComponent : public runtime::Component {
     // plus the surface margin, by which a map widens observed terrain), and on to half the robot radius of
     // clearance when that is near: a barely free start grazes the voxels with the first edge (nearestFreePosition).
     // Where the map widens terrain, the state must also lead out of it by a free straight segment as long as the reach:
-    // the widening leaves free pockets of a few centimetres beside a buried start, with no free edge out of them.
-    const double reach = scenario_.robot_radius + world_source_.surfaceMargin();
+    // the widening leaves free pockets of a few centimetres beside a buried start, with no free edge out of them
+    // (nodes::plannerStartOutOfCollision, shared with ddsnav-replan-replay).
     // Not on the 3-D preferred world: a start its wider margin blocks (a vehicle within 3 m of a higher flank, over ground
     // never observed) is the plain map's to move, by the plain margin's reach. Moved here (0.6 and 0.97 m), the paths of
     // two r3d_69 replans from a rest point beside a flank were refused by the smoother at their start ("no local
     // detour", 2026-12-07), and the retries held that replan 0.94 s.
     const bool may_move_start = !(tier && scenario_.dimensions == 3);
-    if (may_move_start && reach > 0.0 && !world->isFree(problem.start.position)) {
-      const double wanted_clearance = std::min(0.5 * scenario_.robot_radius, 0.3);
-      const double escape_length = world_source_.surfaceMargin() > 0.0 ? reach : 0.0;
-      if (const auto moved = planner::nearestFreePosition(*world, problem.start.position, reach, reach / 6.0, wanted_clearance, escape_length)) {
+    if (may_move_start)
+      if (const auto moved = nodes::plannerStartOutOfCollision(*world, problem.start.position, scenario_.robot_radius, world_source_.surfaceMargin())) {
         spdlog::info("request {}: the start ({:.2f}, {:.2f}, {:.2f}) is in collision in the planner's world; planning from the nearest "
                      "free state, {:.2f} m away", request.request_id(), problem.start.position.x(), problem.start.position.y(),
                      problem.start.position.z(), (*moved - problem.start.position).norm());
         problem.start.position = *moved;
       }
-    }
     // The preferred world blocks unseen space next to seen surfaces (unknown_margin_m): a vehicle rounding the seen
     // corner of a wall stands in it, deeper than the reach (bugtrap_0.6: the request failed "start ... is in
     // collision" ten times and the mission ended). Not solved there, so the plain map is tried.

@@ -104,6 +104,15 @@ std::optional<std::int64_t> firstMapWaitStart(std::optional<std::int64_t> starte
   return std::nullopt;
 }
 
+std::optional<planner::Vec3> plannerStartOutOfCollision(const planner::CollisionWorld& world, const planner::Vec3& start,
+                                                        double robot_radius, double surface_margin_m) {
+  const double reach = robot_radius + surface_margin_m;
+  if (!(reach > 0.0) || world.isFree(start)) return std::nullopt;
+  const double wanted_clearance = std::min(0.5 * robot_radius, 0.3);
+  const double escape_length = surface_margin_m > 0.0 ? reach : 0.0;
+  return planner::nearestFreePosition(world, start, reach, reach / 6.0, wanted_clearance, escape_length);
+}
+
 planner::SensorView sensorViewOf(const planner::Scenario& scenario, const WorldParameters& world) {
   sim::RangeSensorConfig sensor = sim::RangeSensorConfig::lidar3d();
   try {

@@ -70,6 +70,13 @@ std::optional<std::int64_t> firstMapWaitStart(std::optional<std::int64_t> starte
 // runtime::ParameterError for a lower edge not below the upper one.
 planner::SensorView sensorViewOf(const planner::Scenario& scenario, const WorldParameters& world);
 
+// Where the planner plans from when `start` is not free in its world: the nearest free state within the robot radius
+// plus `surface_margin_m` (by which a 3-D map widens observed terrain), on to half the robot radius of clearance (at
+// most 0.3 m) when that is near, and — with a margin — one that leads out by a free straight segment as long as that
+// reach (planner::nearestFreePosition). nullopt when `start` is free, nothing is in reach, or the reach is 0.
+std::optional<planner::Vec3> plannerStartOutOfCollision(const planner::CollisionWorld& world, const planner::Vec3& start,
+                                                        double robot_radius, double surface_margin_m);
+
 class WorldSource {
  public:
   // Subscribes through ctx (its executor, its topic names). `world.unknown`: how the map's never-observed
