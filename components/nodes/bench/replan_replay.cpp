@@ -142,18 +142,10 @@ int main(int argc, char** argv) {
       }
       auto ellipses = r.obstacles ? nodes::toEllipsoidObstacles(*r.obstacles) : std::vector<planner::EllipsoidObstacle>{};
       nodes::clearFootprint(ellipses, start.position, scenario.robot_radius, scenario.dimensions);
-      std::unique_ptr<planner::CollisionWorld> world =
-          planner::makeEllipsoidWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius, ellipses);
-      if (map_world) {
-        world = planner::makeFusedWorld(map_world, std::move(world));
-        if (scenario.dimensions == 3 && defaults.sensor_view) {
-          planner::SensorView view = nodes::sensorViewOf(scenario, defaults);
-          view.origin = start.position;
-          view.exempt_center = nodes::fromMsg(r.request.goal()).position;
-          view.exempt_radius = r.request.goal_radius() + scenario.robot_radius;
-          world = planner::makeSensorViewWorld(std::move(world), view);
-        }
-      }
+      std::optional<planner::SensorView> view;
+      if (map_world && scenario.dimensions == 3 && defaults.sensor_view)
+        view = bench::recordedSensorView(scenario, start.position, nodes::fromMsg(r.request.goal()).position, r.request.goal_radius());
+      const auto world = bench::recordedFusedWorld(scenario, map_world, ellipses, view);
       planner::PlanProblem problem;
       problem.world = world.get();
       problem.start = start;

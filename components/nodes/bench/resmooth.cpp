@@ -145,18 +145,9 @@ int main(int argc, char** argv) {
       return planner::makeEllipsoidWorld(scenario.dimensions, scenario.bounds_min, scenario.bounds_max, scenario.robot_radius, ellipses);
     };
     std::optional<planner::SensorView> view;
-    if (scenario.dimensions == 3 && !no_view && map_world) {
-      planner::SensorView v = nodes::sensorViewOf(scenario, defaults);
-      v.origin = states.front().position;
-      v.exempt_center = scenario.goal;
-      v.exempt_radius = scenario.goal_radius + scenario.robot_radius;
-      view = v;
-    }
-    auto worldOn = [&](std::shared_ptr<const planner::CollisionWorld> map) -> std::unique_ptr<planner::CollisionWorld> {
-      if (!map) return ellipse_world();
-      auto fused = planner::makeFusedWorld(std::move(map), ellipse_world());
-      return view ? planner::makeSensorViewWorld(std::move(fused), *view) : std::move(fused);
-    };
+    if (scenario.dimensions == 3 && !no_view && map_world)
+      view = bench::recordedSensorView(scenario, states.front().position, scenario.goal, scenario.goal_radius);
+    auto worldOn = [&](std::shared_ptr<const planner::CollisionWorld> map) { return bench::recordedFusedWorld(scenario, std::move(map), ellipses, view); };
 
     tracker::SmootherConfig config;
     config.clearance_target = clearance_target;  // the tracker's parameter (its default, not the library's)
