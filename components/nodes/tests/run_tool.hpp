@@ -1,5 +1,5 @@
 // For the tests that run a tool binary on a recording they write (ddsnav resmooth, ddsnav-replan-replay): the
-// command's exit status and output, and a sample's CDR bytes for the recording.
+// command's exit status and output, a sample's CDR bytes for the recording, and the scenario they replay it in.
 #pragma once
 
 #include <ddsnav/msg/messages.hpp>
@@ -12,6 +12,12 @@
 #include <vector>
 
 namespace ddsnav::testing {
+
+// An empty 40 x 40 m 2-D yard with a unicycle vehicle, from (2, 2) to (35, 30).
+inline constexpr const char* kOpenYard2d =
+    "name: open\ndimensions: 2\nbounds: {min: [0, 0], max: [40, 40]}\nrobot_radius: 0.5\n"
+    "start: [2, 2]\ngoal: [35, 30]\ngoal_radius: 1\n"
+    "vehicle: {model: unicycle, v_max: 2.0, omega_max: 1.0, dt: 0.1}\nobstacles: []\n";
 
 struct ToolRun {
   int status = -1;  // the exit status; -1 when it did not exit normally or could not be started

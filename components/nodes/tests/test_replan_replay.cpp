@@ -26,9 +26,7 @@ class ReplanReplay : public ::testing::Test {
   void SetUp() override {
     dir_ = fs::temp_directory_path() / ("ddsnav-replan-replay-" + std::to_string(::getpid()));
     fs::create_directories(dir_);
-    std::ofstream(dir_ / "world.yaml") << "name: open\ndimensions: 2\nbounds: {min: [0, 0], max: [40, 40]}\nrobot_radius: 0.5\n"
-                                          "start: [2, 2]\ngoal: [35, 30]\ngoal_radius: 1\n"
-                                          "vehicle: {model: unicycle, v_max: 2.0, omega_max: 1.0, dt: 0.1}\nobstacles: []\n";
+    std::ofstream(dir_ / "world.yaml") << ddsnav::testing::kOpenYard2d;
     const std::string file = (dir_ / "run.mcap").string();
     record::McapWriter w(file);
     const auto requests = w.addChannel(w.addSchema("ddsnav::msg::PlanRequest", "omgidl", ""), "planning/request", "cdr");

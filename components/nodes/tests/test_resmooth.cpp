@@ -24,9 +24,7 @@ class Resmooth : public ::testing::Test {
   void SetUp() override {
     dir_ = fs::temp_directory_path() / ("ddsnav-resmooth-" + std::to_string(::getpid()));
     fs::create_directories(dir_);
-    std::ofstream(dir_ / "world.yaml") << "name: open\ndimensions: 2\nbounds: {min: [0, 0], max: [40, 40]}\nrobot_radius: 0.5\n"
-                                          "start: [2, 2]\ngoal: [35, 30]\ngoal_radius: 1\n"
-                                          "vehicle: {model: unicycle, v_max: 2.0, omega_max: 1.0, dt: 0.1}\nobstacles: []\n";
+    std::ofstream(dir_ / "world.yaml") << ddsnav::testing::kOpenYard2d;
   }
   void TearDown() override { fs::remove_all(dir_); }
 
