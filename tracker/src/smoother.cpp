@@ -117,7 +117,7 @@ std::vector<Vec3> latticeDetour(const CollisionWorld& world, const Vec3& a, cons
   return between;
 }
 
-// SmootherConfig::repair_distance: the states after the start that the world finds in collision are moved to the
+// SmootherConfig::repair_distance: the states (the start too) that the world finds in collision are moved to the
 // nearest free position within max_move (with a quarter of it of clearance where that is as near), or, deeper in, left
 // out (but the last), then an edge blocked
 // between two free points gets the nearest free position to the middle of its stretch in collision in between, when
@@ -129,6 +129,15 @@ std::size_t repairPath(std::vector<Vec3>& points, const CollisionWorld& world, d
   const double step = max_move / 6.0;
   const auto nearestFree = [&](const Vec3& p) { return planner::nearestFreePosition(world, p, max_move, step, 0.25 * max_move); };
   std::size_t repaired = 0;
+  // The start too, when it lies just inside (the planner moves a start it finds in collision by the same rule,
+  // nodes::plannerStartOutOfCollision, on its own world): a 2-D mission's vehicle stood at rest 0.08 m from a wall,
+  // the planner moved its start off the wall by 0.08 m, and the tracker's world — built later, seen from that start —
+  // still found it in collision, ten plans in a row ("no drivable trajectory after 10 attempts", CI, 2026-12-07).
+  if (!world.isFree(points.front()))
+    if (const auto moved = nearestFree(points.front())) {
+      points.front() = *moved;
+      ++repaired;
+    }
   std::vector<Vec3> kept{points.front()};
   for (std::size_t i = 1; i < points.size(); ++i) {
     if (world.isFree(points[i])) {

@@ -775,3 +775,28 @@ TEST(Smoother, StatesAndEdgesJustInCollisionAreRepairedWithinTheDistance) {
   bad.repair_distance = -1.0;
   EXPECT_THROW(smoothPath(into_face, *world, limits(), bad), SmoothingError);
 }
+
+// The start too: a vehicle at rest 8 cm inside a wall's inflated face (the planner moved it off its own world's face,
+// the tracker's world is a little wider there) starts its trajectory at the nearest free position; a start deeper than
+// the distance is refused, naming the start.
+TEST(Smoother, AStartJustInCollisionIsMovedWithinTheDistance) {
+  auto sc = scenario2d(20, 0.3, "  - {type: box, min: [5, 0], max: [6, 10]}\n");
+  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto from_face = pathOf({{4.78, 5, 0}, {2, 5, 0}, {2, 9, 0}});
+  ASSERT_FALSE(world->isFree(Vec3(4.78, 5, 0)));
+  SmootherConfig refuse;
+  EXPECT_THROW(smoothPath(from_face, *world, limits(), refuse), SmoothingError);
+  SmootherConfig repair;
+  repair.repair_distance = 0.3;
+  const Trajectory moved = smoothPath(from_face, *world, limits(), repair);
+  EXPECT_GE(moved.report.repaired_waypoints, 1u);
+  ASSERT_FALSE(moved.samples.empty());
+  EXPECT_LT((moved.samples.front().position - Vec3(4.78, 5, 0)).norm(), 0.3) << moved.samples.front().position.transpose();
+  expectDrivable(moved, *world, limits(), repair);
+  try {
+    smoothPath(pathOf({{5.5, 5, 0}, {2, 5, 0}, {2, 9, 0}}), *world, limits(), repair);
+    ADD_FAILURE() << "a start 0.8 m inside the inflated box was moved";
+  } catch (const SmoothingError& e) {
+    EXPECT_NE(std::string(e.what()).find("path start"), std::string::npos) << e.what();
+  }
+}
