@@ -130,12 +130,20 @@ GoalFeasibility checkGoalFeasible(const planner::Scenario& scenario, std::size_t
 }
 
 std::optional<ClosestApproach> closestApproach(const planner::Scenario& scenario, const std::vector<planner::Vec3>& track) {
-  if (track.empty() || scenario.obstacles.empty()) return std::nullopt;
-  const auto world = planner::makeScenarioWorld(scenario);
-  ClosestApproach best{std::numeric_limits<double>::infinity(), 0};
+  if (track.empty()) return std::nullopt;
+  const auto world = scenario.obstacles.empty() ? nullptr : planner::makeScenarioWorld(scenario);
+  const int dims = scenario.dimensions == 3 ? 3 : 2;
+  ClosestApproach best{std::numeric_limits<double>::infinity(), 0, false};
   for (std::size_t i = 0; i < track.size(); ++i) {
-    const double c = world->clearance(track[i]);
-    if (c < best.clearance_m) best = {c, i};
+    if (world) {
+      const double c = world->clearance(track[i]);
+      if (c < best.clearance_m) best = {c, i, false};
+    }
+    // The bounds' faces, as the scenario format's validity rule has them: the robot lies inside the bounds.
+    for (int a = 0; a < dims; ++a) {
+      const double c = std::min(track[i][a] - scenario.bounds_min[a], scenario.bounds_max[a] - track[i][a]) - scenario.robot_radius;
+      if (c < best.clearance_m) best = {c, i, true};
+    }
   }
   if (!std::isfinite(best.clearance_m)) return std::nullopt;
   return best;

@@ -208,6 +208,7 @@ class MonitorComponent : public runtime::Component {
     if (const auto closest = nodes::closestApproach(scenario_, seen_.track)) {
       run.min_true_clearance_m = closest->clearance_m;
       run.min_true_clearance_at = seen_.track[closest->index];
+      run.min_true_clearance_to = closest->to_bounds ? "bounds" : "obstacle";
     }
     nodes::judgeGoal(run, scenario_, seen_.status && seen_.status->goal_reached(), seen_.goal_entered_at ? seen_.goal_entered_at : seen_.vehicle,
                      timed_out_ ? std::optional<double>(params_.timeout_s) : std::nullopt);

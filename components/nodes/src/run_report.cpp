@@ -100,6 +100,7 @@ nlohmann::json summaryJson(const RunObservations& run) {
   if (run.min_true_clearance_m) summary["min_true_clearance_m"] = *run.min_true_clearance_m;
   if (run.min_true_clearance_at)
     summary["min_true_clearance_at"] = {run.min_true_clearance_at->x(), run.min_true_clearance_at->y(), run.min_true_clearance_at->z()};
+  if (!run.min_true_clearance_to.empty()) summary["min_true_clearance_to"] = run.min_true_clearance_to;
   if (!run.infeasible_why.empty()) summary["infeasible"] = run.infeasible_why;
   summary["tracked_obstacles_max"] = run.tracked_obstacles_max;
   // Every request after the first is a replan; each with its reason, and the count per kind of reason.

@@ -83,15 +83,35 @@ TEST(GroundTruth, ShippedScenariosAreFeasible) {
 TEST(GroundTruth, MinClearanceOfATrackSubtractsTheRobotRadius) {
   const auto s = yard();
   // Closest point 1.5 m from the wall's face at x = 9.5: clearance 1.5 - 0.4.
-  EXPECT_NEAR(*nodes::minTrueClearance(s, {{2, 5, 0}, {8, 5, 0}, {8, 9, 0}}), 1.1, 1e-9);
+  EXPECT_NEAR(*nodes::minTrueClearance(s, {{2, 5, 0}, {8, 5, 0}, {8, 8.4, 0}}), 1.1, 1e-9);
   // A track through the wall: negative.
   EXPECT_LT(*nodes::minTrueClearance(s, {{9.8, 5, 0}}), 0.0);
   EXPECT_FALSE(nodes::minTrueClearance(s, {}).has_value());
-  // Where: (8, 5), 1.5 m from the face; (8, 9) is 1.8 m from the corner (9.5, 8).
-  const auto closest = nodes::closestApproach(s, {{2, 5, 0}, {8, 5, 0}, {8, 9, 0}, {3, 9, 0}});
+  // Where: (8, 5), 1.5 m from the face; (8, 8.4) is 1.55 m from the corner (9.5, 8) and 1.6 m from the top bound.
+  const auto closest = nodes::closestApproach(s, {{2, 5, 0}, {8, 5, 0}, {8, 8.4, 0}, {3, 7, 0}});
   ASSERT_TRUE(closest.has_value());
   EXPECT_EQ(closest->index, 1u);
   EXPECT_NEAR(closest->clearance_m, 1.1, 1e-9);
+  EXPECT_FALSE(closest->to_bounds);
+}
+
+// The bounds' faces count as the scenario format's validity rule has them (the robot lies inside the bounds): a track
+// along the yard's top edge is nearest to it, one that leaves the bounds is negative, and a world without obstacles
+// has a clearance too (a run there used to report none).
+TEST(GroundTruth, MinClearanceCountsTheBoundsFaces) {
+  auto s = yard();
+  const auto along_top = nodes::closestApproach(s, {{2, 5, 0}, {4, 9.2, 0}});
+  ASSERT_TRUE(along_top.has_value());
+  EXPECT_EQ(along_top->index, 1u);
+  EXPECT_NEAR(along_top->clearance_m, 0.8 - 0.4, 1e-9);
+  EXPECT_TRUE(along_top->to_bounds);
+  EXPECT_LT(*nodes::minTrueClearance(s, {{2, 5, 0}, {-0.1, 5, 0}}), 0.0);
+  s.obstacles.clear();
+  EXPECT_NEAR(*nodes::minTrueClearance(s, {{2, 5, 0}, {15, 3, 0}}), 1.6, 1e-9);
+  // In 3-D the z faces count as well; in 2-D z does not.
+  s.dimensions = 3;
+  s.bounds_max = {20, 10, 6};
+  EXPECT_NEAR(*nodes::minTrueClearance(s, {{5, 5, 1.0}}), 0.6, 1e-9);
 }
 
 }  // namespace

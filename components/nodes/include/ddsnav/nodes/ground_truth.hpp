@@ -25,14 +25,16 @@ struct GoalFeasibility {
 GoalFeasibility checkGoalFeasible(const planner::Scenario& scenario, std::size_t max_cells = std::size_t{1} << 20);
 
 // The smallest clearance of the robot (robot radius subtracted, as CollisionWorld::clearance) along the
-// driven track to the scenario's true obstacles; negative when the track touched one; nullopt for an
-// empty track or a world without obstacles.
+// driven track to what makes a state invalid in the scenario format: its true obstacles and the faces of its
+// bounds (the robot lies inside them); negative when the track touched one or left the bounds; nullopt for an
+// empty track. A world without obstacles has the bounds' clearance: a run there has a number too.
 std::optional<double> minTrueClearance(const planner::Scenario& scenario, const std::vector<planner::Vec3>& track);
 
 // The same, with where along the track it happened (the report names the place, so a touch can be found).
 struct ClosestApproach {
   double clearance_m = 0.0;
   std::size_t index = 0;  // into the track
+  bool to_bounds = false;  // nearest to a face of the bounds, not to an obstacle
 };
 std::optional<ClosestApproach> closestApproach(const planner::Scenario& scenario, const std::vector<planner::Vec3>& track);
 

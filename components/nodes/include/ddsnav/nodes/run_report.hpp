@@ -78,6 +78,7 @@ struct RunObservations {
   // Ground truth (ground_truth.hpp): the driven track's smallest clearance to the true obstacles.
   std::optional<double> min_true_clearance_m;
   std::optional<planner::Vec3> min_true_clearance_at;  // the vehicle's true position there
+  std::string min_true_clearance_to;                   // "obstacle" or "bounds" (nodes::closestApproach)
   std::string infeasible_why;   // set when the scenario's truth says the goal cannot be reached at all
   std::vector<PlanRequestSeen> requests;
   std::size_t tracked_obstacles_max = 0;  // the largest perception/obstacles array heard
