@@ -738,10 +738,13 @@ TEST(Smoother, ACrawlIsFoundAndNamed) {
 
 // repair_distance: a state a few centimetres inside a wall's inflated face is moved off it, an edge that grazes a corner
 // gets a point around it; a state deep inside is still refused; 0 refuses as before; a bad distance is an error.
+// r = 0.3; a box x in [5, 6], y in [0, 10]: the robot is free from x = 4.7 on the left.
+std::unique_ptr<ddsnav::planner::CollisionWorld> wallAtFive() {
+  return ddsnav::planner::makeScenarioWorld(scenario2d(20, 0.3, "  - {type: box, min: [5, 0], max: [6, 10]}\n"));
+}
+
 TEST(Smoother, StatesAndEdgesJustInCollisionAreRepairedWithinTheDistance) {
-  // r = 0.3; a box x in [5, 6], y in [0, 10]: the robot is free from x = 4.7 on the left.
-  auto sc = scenario2d(20, 0.3, "  - {type: box, min: [5, 0], max: [6, 10]}\n");
-  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto world = wallAtFive();
   const auto into_face = pathOf({{2, 5, 0}, {4.8, 5, 0}, {2, 9, 0}});  // the middle state 0.1 m into the face
   SmootherConfig refuse;
   EXPECT_THROW(smoothPath(into_face, *world, limits(), refuse), SmoothingError);
@@ -780,12 +783,10 @@ TEST(Smoother, StatesAndEdgesJustInCollisionAreRepairedWithinTheDistance) {
 // the tracker's world is a little wider there) starts its trajectory at the nearest free position; a start deeper than
 // the distance is refused, naming the start.
 TEST(Smoother, AStartJustInCollisionIsMovedWithinTheDistance) {
-  auto sc = scenario2d(20, 0.3, "  - {type: box, min: [5, 0], max: [6, 10]}\n");
-  auto world = ddsnav::planner::makeScenarioWorld(sc);
+  const auto world = wallAtFive();
   const auto from_face = pathOf({{4.78, 5, 0}, {2, 5, 0}, {2, 9, 0}});
   ASSERT_FALSE(world->isFree(Vec3(4.78, 5, 0)));
-  SmootherConfig refuse;
-  EXPECT_THROW(smoothPath(from_face, *world, limits(), refuse), SmoothingError);
+  EXPECT_THROW(smoothPath(from_face, *world, limits(), SmootherConfig{}), SmoothingError);  // repair_distance 0: refused
   SmootherConfig repair;
   repair.repair_distance = 0.3;
   const Trajectory moved = smoothPath(from_face, *world, limits(), repair);
