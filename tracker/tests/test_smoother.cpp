@@ -736,13 +736,13 @@ TEST(Smoother, ACrawlIsFoundAndNamed) {
   EXPECT_NE(crawl->find("from t = 5.0 s at (0.10, 0.00, 0.00)"), std::string::npos) << *crawl;
 }
 
-// repair_distance: a state a few centimetres inside a wall's inflated face is moved off it, an edge that grazes a corner
-// gets a point around it; a state deep inside is still refused; 0 refuses as before; a bad distance is an error.
 // r = 0.3; a box x in [5, 6], y in [0, 10]: the robot is free from x = 4.7 on the left.
 std::unique_ptr<ddsnav::planner::CollisionWorld> wallAtFive() {
   return ddsnav::planner::makeScenarioWorld(scenario2d(20, 0.3, "  - {type: box, min: [5, 0], max: [6, 10]}\n"));
 }
 
+// repair_distance: a state a few centimetres inside a wall's inflated face is moved off it, an edge that grazes a corner
+// gets a point around it; a state deep inside is still refused; 0 refuses as before; a bad distance is an error.
 TEST(Smoother, StatesAndEdgesJustInCollisionAreRepairedWithinTheDistance) {
   const auto world = wallAtFive();
   const auto into_face = pathOf({{2, 5, 0}, {4.8, 5, 0}, {2, 9, 0}});  // the middle state 0.1 m into the face

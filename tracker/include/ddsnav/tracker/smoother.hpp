@@ -85,8 +85,8 @@ struct SmootherConfig {
   // mission's neck). Empty: straight lead-ins only.
   std::vector<Vec3> lead_in_path;
   // A path state the world finds in collision is moved to the nearest free position within this distance (m) (the start
-  // too: the trajectory then begins that far from the vehicle), or left out when it lies deeper (not the start, not the last), and an edge it finds blocked between free states is bridged through the
-  // nearest free position to the middle of its stretch in collision, or else goes the lattice route round (within 20 ms),
+  // too: the trajectory then begins that far from the vehicle), or left out when it lies deeper (not the start, not the
+  // last), and an edge it finds blocked between free states is bridged through the nearest free position to the middle of its stretch in collision, or else goes the lattice route round (within 20 ms),
   // instead of the path being refused: the smoother's world is not the planner's (it may be built from a newer map, and
   // it is seen from the path's start). What stays in collision is refused as before. 0: refuse at once.
   double repair_distance = 0.0;

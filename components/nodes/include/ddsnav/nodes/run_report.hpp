@@ -75,7 +75,7 @@ struct RunObservations {
   // Simulated time from the first plan request heard (else the first trajectory) to the first true position
   // inside the goal region; nullopt when the goal was not reached.
   std::optional<double> sim_time_to_goal_s;
-  // Ground truth (ground_truth.hpp): the driven track's smallest clearance to the true obstacles.
+  // Ground truth (ground_truth.hpp): the driven track's smallest clearance to the true obstacles and the bounds' faces.
   std::optional<double> min_true_clearance_m;
   std::optional<planner::Vec3> min_true_clearance_at;  // the vehicle's true position there
   std::string min_true_clearance_to;                   // "obstacle" or "bounds" (nodes::closestApproach)
