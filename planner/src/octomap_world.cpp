@@ -656,8 +656,9 @@ class OctoMapWorld final : public CollisionWorld {
     std::size_t last_brick = 0;
     auto leaf = [&](const std::uint16_t* corner, unsigned depth, bool occupied) {
       if (!occupied && !free_leaves) return;
-      if (depth == 16 && dims_ == 3) {
-        const Cell c{std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit, std::int64_t(corner[2]) - kCellLimit};
+      if (depth == 16) {  // a single voxel; in 2-D its column's one cell
+        const Cell c{std::int64_t(corner[0]) - kCellLimit, std::int64_t(corner[1]) - kCellLimit,
+                     dims_ == 2 ? 0 : std::int64_t(corner[2]) - kCellLimit};
         if (!inRange(c, occupied ? occupied_lo : free_lo, occupied ? occupied_hi : free_hi)) return;
         const std::uint64_t key = pack(c.x >> 3, c.y >> 3, c.z >> 3);
         if (key != last_key) {
