@@ -167,10 +167,11 @@ class TreeWalk {
  public:
   // `changed_regions` (may be null): where a voxel changes class, its region is appended (once per run of
   // voxels in one region, the walk's order keeps them together).
-  TreeWalk(const octomap::OcTree& tree, NodeOps& ops, std::vector<std::uint64_t>* changed_regions)
+  TreeWalk(const octomap::OcTree& tree, NodeOps& ops, std::vector<std::uint64_t>* changed_regions, const FreeDiscoveryRule& free_discovery)
       : tree_(tree),
         ops_(ops),
         changed_regions_(changed_regions),
+        free_discovery_(free_discovery),
         hit_(tree.getProbHitLog()),
         miss_(tree.getProbMissLog()),
         clamp_min_(tree.getClampingThresMinLog()),
@@ -236,12 +237,16 @@ class TreeWalk {
       fresh_[d] = created;
     }
     valid_ = d;
-    if (fresh_[d]) changed(morton);  // was unknown
-    if (fill != FillMode::none && !decideFill(fresh_[d] ? nullptr : node)) return;
+    if (fill != FillMode::none && !decideFill(fresh_[d] ? nullptr : node)) {
+      if (fresh_[d]) changed(morton, key, /*free_discovery=*/false);  // a new node (never so for a fill: it takes a hit)
+      return;
+    }
     if (!fresh_[d] && atClamp(node, delta)) return;
     const bool was_occupied = tree_.isNodeOccupied(node);
     tree_.updateNodeLogOdds(node, delta);
-    if (!fresh_[d] && tree_.isNodeOccupied(node) != was_occupied) changed(morton);
+    const bool occupied_now = tree_.isNodeOccupied(node);
+    if (fresh_[d]) changed(morton, key, /*free_discovery=*/!occupied_now);  // was unknown
+    else if (occupied_now != was_occupied) changed(morton, key, false);
   }
 
   // Whether the node of the brick holding `key` (depth kBrickDepth) exists and has children. Reads only
@@ -260,9 +265,13 @@ class TreeWalk {
   void finish() { settleDownTo(base_ - 1); }
 
  private:
-  void changed(std::uint64_t morton) {
+  void changed(std::uint64_t morton, const octomap::OcTreeKey& key, bool free_discovery) {
     if (changed_regions_ == nullptr) return;
-    const std::uint64_t region = changeRegionOf(morton);
+    if (free_discovery && free_discovery_.near_keys > 0) {
+      const auto off = [&](int a) { return std::abs(int(key[a]) - int(free_discovery_.origin[a])); };
+      if (std::max({off(0), off(1), off(2)}) <= free_discovery_.near_keys) free_discovery = false;
+    }
+    const std::uint64_t region = changeRegionOf(morton) | (free_discovery ? kFreeDiscoveryOnly : 0);
     if (changed_regions_->empty() || changed_regions_->back() != region) changed_regions_->push_back(region);
   }
 
@@ -282,6 +291,7 @@ class TreeWalk {
   const octomap::OcTree& tree_;
   NodeOps& ops_;
   std::vector<std::uint64_t>* changed_regions_;
+  const FreeDiscoveryRule free_discovery_;
   const float hit_, miss_, clamp_min_, clamp_max_;
   std::array<octomap::OcTreeNode*, kTreeDepth + 1> path_{};
   std::array<bool, kTreeDepth + 1> fresh_{};
@@ -344,7 +354,7 @@ struct Subtree {
 // Returns the number of threads that walked.
 int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& bricks,
                 const std::vector<std::uint64_t>& sorted, std::size_t cells, int threads,
-                std::vector<std::uint64_t>* changed_regions) {
+                std::vector<std::uint64_t>* changed_regions, const FreeDiscoveryRule& free_discovery) {
   octomap::OcTreeNode*& root = TreeAccess::rootOf(tree);
   NodeOps main_ops(tree);
   bool root_fresh = false;
@@ -420,7 +430,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
   }
 
   if (split_depth == 0) {
-    TreeWalk walk(tree, main_ops, changed_regions);
+    TreeWalk walk(tree, main_ops, changed_regions, free_discovery);
     walk.begin(root, 0, root_fresh);
     walkBricks(bricks, sorted.data(), sorted.data() + sorted.size(), walk);
     walk.finish();
@@ -435,7 +445,7 @@ int applyToTree(octomap::OcTree& tree, const std::vector<BrickMap::Brick>& brick
   std::vector<std::vector<std::uint64_t>> thread_changes(changed_regions != nullptr ? threads : 0);
   std::atomic<std::size_t> next{0};
   auto work = [&](int t) {
-    TreeWalk walk(tree, *ops[t], changed_regions != nullptr ? &thread_changes[t] : nullptr);
+    TreeWalk walk(tree, *ops[t], changed_regions != nullptr ? &thread_changes[t] : nullptr, free_discovery);
     for (std::size_t i = next.fetch_add(1); i < subtrees.size(); i = next.fetch_add(1)) {
       const Subtree& st = subtrees[i];
       walk.begin(st.node, split_depth, st.fresh);
@@ -575,6 +585,23 @@ void markRays(const octomap::OcTree& tree, const octomap::point3d* points, std::
 
 std::uint64_t mortonCode(const octomap::OcTreeKey& key) {
   return spread16(key[0]) | (spread16(key[1]) << 1) | (spread16(key[2]) << 2);
+}
+
+std::array<std::uint64_t, 6> faceNeighbourRegions(std::uint64_t region) {
+  // A region's name interleaves its coordinates (the keys' high bits) as a voxel's Morton code does the keys.
+  constexpr std::uint64_t kLast = (std::uint64_t(1) << (16 - kChangeRegionShift / 3)) - 1;
+  const std::uint64_t at[3] = {compact16(region), compact16(region >> 1), compact16(region >> 2)};
+  std::array<std::uint64_t, 6> out;
+  out.fill(region);
+  std::size_t n = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (const int side : {-1, 1}) {
+      if ((side < 0 && at[axis] == 0) || (side > 0 && at[axis] == kLast)) continue;
+      std::uint64_t c[3] = {at[0], at[1], at[2]};
+      c[axis] = side < 0 ? c[axis] - 1 : c[axis] + 1;
+      out[n++] = spread16(c[0]) | (spread16(c[1]) << 1) | (spread16(c[2]) << 2);
+    }
+  return out;
 }
 
 void BrickMap::clear() {
@@ -724,7 +751,8 @@ InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap:
 
 int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads, std::vector<std::uint64_t>* changed_regions) {
   if (keys.cells == 0) return 0;
-  return applyToTree(tree, keys.maps[0].bricks(), keys.sorted, keys.cells, std::clamp<int>(threads, 1, 64), changed_regions);
+  return applyToTree(tree, keys.maps[0].bricks(), keys.sorted, keys.cells, std::clamp<int>(threads, 1, 64), changed_regions,
+                     keys.free_discovery);
 }
 
 namespace {
@@ -743,11 +771,20 @@ std::size_t ScanKeys::memoryUsage() const {
 InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                                   const octomap::point3d& origin, double max_range, bool discretize, int threads,
                                   bool pipelined, const std::vector<octomap::point3d>* surface_cells,
-                                  const std::vector<octomap::point3d>* clear_rays) {
+                                  const std::vector<octomap::point3d>* clear_rays, double free_discovery_near_range) {
+  // The scan's origin (checked inside the map by the caller) and the near range in keys, capped at the map's half width.
+  const auto ruleFor = [&] {
+    FreeDiscoveryRule rule;
+    rule.origin = tree.coordToKey(origin);
+    if (free_discovery_near_range > 0.0)
+      rule.near_keys = static_cast<int>(std::min(std::ceil(free_discovery_near_range / tree.getResolution()), 32768.0));
+    return rule;
+  };
   if (!pipelined) {
     finish();  // a pipelined update may still be running
     ScanKeys& keys = keys_[0];
     InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells, clear_rays);
+    keys.free_discovery = ruleFor();
     const auto started = std::chrono::steady_clock::now();
     counts.walk_threads = applyKeys(tree, keys, threads, &changed_regions_);
     counts.seconds_tree = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -758,6 +795,7 @@ InsertCounts FastInserter::insert(octomap::OcTree& tree, const std::vector<octom
   // into the other buffer (key computation never reads a node).
   ScanKeys& keys = keys_[fill_];
   InsertCounts counts = computeKeys(tree, points, origin, max_range, discretize, threads, keys, surface_cells, clear_rays);
+  keys.free_discovery = ruleFor();
   const auto waited = std::chrono::steady_clock::now();
   finish();
   counts.seconds_wait = std::chrono::duration<double>(std::chrono::steady_clock::now() - waited).count();

@@ -21,6 +21,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <array>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -43,6 +44,12 @@ std::uint64_t mortonCode(const octomap::OcTreeKey& key);
 constexpr int kChangeRegionDepth = 12;
 constexpr unsigned kChangeRegionShift = 3u * (16u - kChangeRegionDepth);
 inline std::uint64_t changeRegionOf(std::uint64_t voxel_morton) { return voxel_morton >> kChangeRegionShift; }
+// A reported region with this bit set had only never-observed voxels observed free (a region name has at most 36
+// bits): the export may put its walk off (MapperConfig::free_discovery_delay_exports). A region with any other change
+// of class is reported without it, and may be reported both ways.
+constexpr std::uint64_t kFreeDiscoveryOnly = std::uint64_t(1) << 63;
+// The regions that share a face with `region`; at the edge of the key space `region` itself stands for a missing one.
+std::array<std::uint64_t, 6> faceNeighbourRegions(std::uint64_t region);
 
 // The voxels one scan updates, as bitmasks over 8x8x8 bricks.
 class BrickMap {
@@ -107,9 +114,17 @@ struct InsertCounts {
   int walk_threads = 0;        // threads that walked the tree (1 when the scan was small or not splittable)
 };
 
+// Which new free space the change report tags kFreeDiscoveryOnly: only voxels farther than `near_keys` keys (on any
+// axis) from the scan's origin; nearer ones are reported as any other change (0: none is nearer).
+struct FreeDiscoveryRule {
+  octomap::OcTreeKey origin{};
+  int near_keys = 0;
+};
+
 // The keys of one scan, ready to be applied: per-thread brick maps (maps[0] holds the union, with
 // occupied winning over free) and its bricks in Morton order.
 struct ScanKeys {
+  FreeDiscoveryRule free_discovery;  // the scan's, set by FastInserter::insert
   std::vector<BrickMap> maps;
   std::vector<octomap::point3d> discrete_points;
   std::vector<std::uint64_t> sorted;  // (brick Morton code << 24) | brick index, ascending
@@ -144,7 +159,8 @@ InsertCounts computeKeys(const octomap::OcTree& tree, const std::vector<octomap:
                          const std::vector<octomap::point3d>* surface_cells = nullptr,
                          const std::vector<octomap::point3d>* clear_rays = nullptr);
 // Stage 2: applies the keys to the tree; returns the number of threads that walked it. `changed_regions` (may be
-// null): the regions (changeRegionOf) where a voxel changed class are appended, some more than once.
+// null): the regions (changeRegionOf) where a voxel changed class are appended, some more than once, those where an
+// unknown voxel was only observed free tagged kFreeDiscoveryOnly.
 int applyKeys(octomap::OcTree& tree, const ScanKeys& keys, int threads,
               std::vector<std::uint64_t>* changed_regions = nullptr);
 
@@ -163,7 +179,7 @@ class FastInserter {
   InsertCounts insert(octomap::OcTree& tree, const std::vector<octomap::point3d>& points,
                       const octomap::point3d& origin, double max_range, bool discretize, int threads,
                       bool pipelined = false, const std::vector<octomap::point3d>* surface_cells = nullptr,
-                      const std::vector<octomap::point3d>* clear_rays = nullptr);
+                      const std::vector<octomap::point3d>* clear_rays = nullptr, double free_discovery_near_range = 0.0);
   // Waits until every handed-over tree update is applied; rethrows an exception it raised.
   void finish();
   // The regions (changeRegionOf) where a voxel changed class since the last call, sorted, each once; waits for

@@ -50,6 +50,7 @@ struct RegionExport {
   unsigned code = 0;  // as walk() returns it
   std::vector<std::uint8_t> bytes;
   std::size_t nodes = 0, leaves = 0;
+  std::size_t occupied_leaves = 0;
   std::array<int, 3> lo{}, hi{};
 };
 using RegionExports = std::unordered_map<std::uint64_t, RegionExport>;
@@ -84,6 +85,7 @@ class MaxLikelihoodExport {
   static constexpr std::array<int, 3> kNoHi{std::numeric_limits<int>::min(), std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
   std::vector<std::uint8_t> out;
   std::size_t nodes = 0, leaves = 0;
+  std::size_t occupied_leaves = 0;  // of them
   std::array<int, 3> lo = kNoLo;
   std::array<int, 3> hi = kNoHi;
 
@@ -100,16 +102,19 @@ class MaxLikelihoodExport {
     if (kept == regions_->end()) {
       const std::size_t at = out.size();
       const std::size_t nodes_before = std::exchange(nodes, 0), leaves_before = std::exchange(leaves, 0);
+      const std::size_t occupied_before = std::exchange(occupied_leaves, 0);
       const std::array<int, 3> lo_before = std::exchange(lo, kNoLo), hi_before = std::exchange(hi, kNoHi);
       RegionExport walked;
       walked.code = walkNode(node, key_lo, size, false);
       walked.bytes.assign(out.begin() + static_cast<std::ptrdiff_t>(at), out.end());
       walked.nodes = nodes;
       walked.leaves = leaves;
+      walked.occupied_leaves = occupied_leaves + (walked.code == 2u ? 1 : 0);  // 2: the region is one occupied leaf
       walked.lo = lo;
       walked.hi = hi;
       nodes = nodes_before;
       leaves = leaves_before;
+      occupied_leaves = occupied_before;
       lo = lo_before;
       hi = hi_before;
       out.resize(at);
@@ -119,6 +124,7 @@ class MaxLikelihoodExport {
     out.insert(out.end(), r.bytes.begin(), r.bytes.end());
     nodes += r.nodes;
     leaves += r.leaves;
+    occupied_leaves += r.occupied_leaves;
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::min(lo[a], r.lo[a]);
       hi[a] = std::max(hi[a], r.hi[a]);
@@ -148,6 +154,7 @@ class MaxLikelihoodExport {
     for (unsigned i = 0; i < 8; ++i) {
       bits[i / 4] |= static_cast<std::uint8_t>(codes[i] << (2 * (i % 4)));
       if (codes[i] == 1u || codes[i] == 2u) leaf(childKey(key_lo, i, half), half);
+      if (codes[i] == 2u) ++occupied_leaves;
     }
     out[at] = bits[0];
     out[at + 1] = bits[1];
@@ -198,6 +205,10 @@ std::string validateConfig(const MapperConfig& c) {
   if (c.threads < 1 || c.threads > 64)
     return "mapper parameter 'threads' must be in [1, 64], got " + std::to_string(c.threads);
   if (c.max_points < 1) return "mapper parameter 'max_points' must be at least 1";
+  if (!(c.free_discovery_near_range_m >= 0.0 && c.free_discovery_near_range_m <= 1e5))
+    return "mapper parameter 'free_discovery_near_range_m' must be in [0, 100000] m, got " + fmt(c.free_discovery_near_range_m);
+  if (c.free_discovery_delay_exports < 0 || c.free_discovery_delay_exports > 1000)
+    return "mapper parameter 'free_discovery_delay_exports' must be in [0, 1000] exports, got " + std::to_string(c.free_discovery_delay_exports);
   return {};
 }
 
@@ -239,8 +250,13 @@ struct OccupancyMapper::Impl {
   std::vector<octomap::point3d> gap_rays;  // the ends of clear_beam_gaps' rays
   std::vector<octomap::point3d> surface_fill;  // fill_surfaces_between_returns' points
   RegionExports region_exports;  // exportMap's kept walks (MaxLikelihoodExport)
+  // Regions whose kept walk lacks free space observed since (MapperConfig::free_discovery_delay_exports), with the
+  // number of the export that first left it out.
+  std::unordered_map<std::uint64_t, std::uint64_t> delayed_regions;
+  std::uint64_t exports = 0;
   std::size_t regionExportBytes() const {
-    std::size_t bytes = region_exports.size() * (sizeof(RegionExports::value_type) + 2 * sizeof(void*));
+    std::size_t bytes = region_exports.size() * (sizeof(RegionExports::value_type) + 2 * sizeof(void*)) +
+                        delayed_regions.size() * (sizeof(decltype(delayed_regions)::value_type) + 2 * sizeof(void*));
     for (const auto& [region, walked] : region_exports) bytes += walked.bytes.capacity();
     return bytes;
   }
@@ -504,7 +520,8 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   const std::vector<octomap::point3d>* clear_rays = impl_->gap_rays.empty() ? nullptr : &impl_->gap_rays;
   if (config_.method == InsertMethod::kFast) {
     const detail::InsertCounts counts = impl_->inserter.insert(tree, cleaned, origin, scan.max_range, config_.discretize,
-                                                               config_.threads, config_.pipeline, fill, clear_rays);
+                                                               config_.threads, config_.pipeline, fill, clear_rays,
+                                                               config_.free_discovery_delay_exports > 0 ? config_.free_discovery_near_range_m : 0.0);
     result.free_cells += counts.free_cells;
     result.occupied_cells += counts.occupied_cells;
     result.seconds_rays += counts.seconds_rays;
@@ -515,6 +532,7 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   } else {
     finish();
     impl_->region_exports.clear();  // this path reports no changed regions: nothing kept stays sure
+    impl_->delayed_regions.clear();
     // The fill's voxels as they were before the scan (detail::fillUpdate decides on that; search finds a pruned
     // parent leaf too).
     std::vector<std::pair<octomap::OcTreeKey, std::optional<float>>> fill_before;
@@ -564,13 +582,58 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
 
 void OccupancyMapper::finish() const { impl_->inserter.finish(); }
 
-ExportedMap OccupancyMapper::exportMap() {
+ExportedMap OccupancyMapper::exportMap(bool complete) {
   finish();
   ExportedMap map;
   const octomap::OcTree& tree = impl_->tree;
   // Kept walks are good only while their regions' classes stand; the OctoMap method reports no regions, so
-  // insert() dropped them all then.
-  for (std::uint64_t region : impl_->inserter.takeChangedRegions()) impl_->region_exports.erase(region);
+  // insert() dropped them all then. A region where unknown voxels were only observed free keeps its walk for up to
+  // free_discovery_delay_exports exports (a moving lidar's sparse far rays find new free voxels in most regions they
+  // cross on every scan: walking those again was over half of an export's time on a 3-D city block); every other
+  // change of class is exported at once.
+  auto& delayed = impl_->delayed_regions;
+  const std::uint64_t now = impl_->exports++;
+  const std::vector<std::uint64_t> changed = impl_->inserter.takeChangedRegions();
+  // A region with an occupied voxel, or beside one (a face neighbour) that has one or changed class otherwise now, is
+  // near a mapped surface: its new free space is what a window's inside, the space under an overhang or a wall's
+  // thickness seen through an opening are made of (the column rule yields to it: docs/world-model.md), and it goes out
+  // at once, and so does a put-off region once such a change comes beside it. What is put off is open air.
+  std::vector<std::uint64_t> other_change;
+  for (std::uint64_t region : changed)
+    if (!(region & detail::kFreeDiscoveryOnly)) other_change.push_back(region);  // sorted, as `changed` is
+  const auto changedOtherwise = [&](std::uint64_t region) { return std::binary_search(other_change.begin(), other_change.end(), region); };
+  const auto nearSurface = [&](std::uint64_t region, const RegionExport& kept) {
+    if (kept.occupied_leaves > 0) return true;
+    for (std::uint64_t neighbour : detail::faceNeighbourRegions(region)) {
+      if (changedOtherwise(neighbour)) return true;
+      const auto walked = impl_->region_exports.find(neighbour);
+      if (walked != impl_->region_exports.end() && walked->second.occupied_leaves > 0) return true;
+    }
+    return false;
+  };
+  for (std::uint64_t region : changed) {  // before the other changes' walks are dropped: their counts are read
+    if (!(region & detail::kFreeDiscoveryOnly)) continue;
+    region &= ~detail::kFreeDiscoveryOnly;
+    if (changedOtherwise(region)) continue;  // walked now
+    const auto kept = impl_->region_exports.find(region);
+    if (kept == impl_->region_exports.end()) continue;  // walked now anyway
+    if (config_.free_discovery_delay_exports == 0 || nearSurface(region, kept->second)) impl_->region_exports.erase(kept);
+    else delayed.emplace(region, now);  // keeps the first export that left it out
+  }
+  for (std::uint64_t region : other_change) {
+    impl_->region_exports.erase(region);
+    delayed.erase(region);
+    for (std::uint64_t neighbour : detail::faceNeighbourRegions(region))
+      if (delayed.erase(neighbour) > 0) impl_->region_exports.erase(neighbour);
+  }
+  for (auto it = delayed.begin(); it != delayed.end();) {
+    if (complete || now - it->second >= static_cast<std::uint64_t>(config_.free_discovery_delay_exports)) {
+      impl_->region_exports.erase(it->first);
+      it = delayed.erase(it);
+    } else {
+      ++it;
+    }
+  }
   MaxLikelihoodExport walk(tree, &impl_->region_exports);
   walk.out.reserve(2 * tree.size());
   map.resolution = tree.getResolution();
@@ -599,6 +662,8 @@ ExportedMap OccupancyMapper::exportMap() {
   changed_ = false;
   return map;
 }
+
+bool OccupancyMapper::changedSinceExport() const { return changed_ || !impl_->delayed_regions.empty(); }
 
 void OccupancyMapper::writeBt(const std::string& path) const {
   finish();

@@ -335,6 +335,102 @@ TEST(MapperExport, BinaryRoundTripAndChangedFlag) {
   EXPECT_THROW(mapper.writeBt("/nonexistent-dir/x.bt"), std::runtime_error);
 }
 
+// OctoMap's own stream of the live tree's maximum likelihood, and that stream read back.
+std::string exactExport(const OccupancyMapper& mapper) {
+  octomap::OcTree max_likelihood(mapper.octree());
+  std::ostringstream bytes;
+  max_likelihood.writeBinary(bytes);
+  return bytes.str();
+}
+std::unique_ptr<octomap::OcTree> readBack(const std::string& bytes) {
+  std::istringstream in(bytes);
+  auto tree = std::make_unique<octomap::OcTree>(0.1);
+  if (!tree->readBinary(in)) return nullptr;
+  return tree;
+}
+
+TEST(MapperExport, NewFreeSpaceIsExportedWithinTheDelayAndEveryOtherChangeAtOnce) {
+  // free_discovery_delay_exports: a region of open air (no occupied voxel in it or beside it) where never-observed
+  // voxels were only observed free keeps its last walk for up to that many exports. Every export still holds every
+  // occupied voxel of the live tree and no free voxel the live tree does not have; once the delay has passed with no
+  // new scan it is exactly OctoMap's stream again.
+  constexpr int kDelay = 2;
+  MapperConfig config;
+  config.resolution = 0.2;
+  config.free_discovery_delay_exports = kDelay;
+  OccupancyMapper mapper(config);
+  const CityBlock city = makeCityBlock(6);
+  int exports_behind = 0;
+  for (int i = 0; i < 8; ++i) {
+    Scan scan = simulateScan(city, lidar3d(16, 300), {1.5f * float(i), 0.2f * float(i % 2), 1.8f}, 300 + i);
+    scan.max_range = 14.0;
+    ASSERT_TRUE(mapper.insert(scan).inserted);
+    const ExportedMap map = mapper.exportMap();
+    const std::string bytes(map.octree_binary.begin(), map.octree_binary.end());
+    const auto exported = readBack(bytes);
+    ASSERT_NE(exported, nullptr) << "scan " << i;
+    octomap::OcTree live(mapper.octree());
+    live.toMaxLikelihood();
+    live.prune();
+    if (bytes != exactExport(mapper)) ++exports_behind;
+    for (auto it = live.begin_leafs(), end = live.end_leafs(); it != end; ++it) {
+      const octomap::OcTreeNode* in_export = exported->search(it.getCoordinate());
+      if (live.isNodeOccupied(*it)) {
+        ASSERT_NE(in_export, nullptr) << "scan " << i << ": an occupied voxel at " << it.getCoordinate() << " is missing";
+        EXPECT_TRUE(exported->isNodeOccupied(in_export)) << "scan " << i << " at " << it.getCoordinate();
+      }
+    }
+    for (auto it = exported->begin_leafs(), end = exported->end_leafs(); it != end; ++it) {
+      if (exported->isNodeOccupied(*it)) continue;
+      const octomap::OcTreeNode* in_live = live.search(it.getCoordinate());
+      ASSERT_NE(in_live, nullptr) << "scan " << i << ": free in the export, never observed at " << it.getCoordinate();
+      EXPECT_FALSE(live.isNodeOccupied(in_live)) << "scan " << i << ": free in the export, occupied at " << it.getCoordinate();
+    }
+  }
+  EXPECT_GT(exports_behind, 0);  // the delay was used: a moving lidar finds free space in regions it had mapped
+  // No new scan: within the delay the put-off regions are walked again, and the export is exact.
+  EXPECT_TRUE(mapper.changedSinceExport());  // regions are put off
+  for (int k = 0; k < kDelay && mapper.changedSinceExport(); ++k) mapper.exportMap();
+  EXPECT_FALSE(mapper.changedSinceExport());
+  const ExportedMap settled = mapper.exportMap();
+  EXPECT_EQ(std::string(settled.octree_binary.begin(), settled.octree_binary.end()), exactExport(mapper));
+
+  // exportMap(complete) is exact at once; the OctoMap insertion method (which reports no regions) keeps none back.
+  Scan more = simulateScan(city, lidar3d(16, 300), {13.0f, 0.0f, 1.8f}, 400);
+  more.max_range = 14.0;
+  ASSERT_TRUE(mapper.insert(more).inserted);
+  const ExportedMap complete = mapper.exportMap(/*complete=*/true);
+  EXPECT_EQ(std::string(complete.octree_binary.begin(), complete.octree_binary.end()), exactExport(mapper));
+  EXPECT_FALSE(mapper.changedSinceExport());
+
+  MapperConfig bad = config;
+  bad.free_discovery_delay_exports = -1;
+  EXPECT_NE(validateConfig(bad).find("free_discovery_delay_exports"), std::string::npos);
+}
+
+TEST(MapperExport, FreeSpaceFoundNearTheSensorIsExportedAtOnce) {
+  // free_discovery_near_range_m: free space found within it of the scan's origin is never put off. With the range
+  // past every ray (14 m), every export is exact despite the delay; with a third of it, some regions are put off.
+  const CityBlock city = makeCityBlock(6);
+  for (const double near : {100.0, 14.0 / 3.0}) {
+    MapperConfig config;
+    config.resolution = 0.2;
+    config.free_discovery_delay_exports = 3;
+    config.free_discovery_near_range_m = near;
+    OccupancyMapper mapper(config);
+    int exports_behind = 0;
+    for (int i = 0; i < 6; ++i) {
+      Scan scan = simulateScan(city, lidar3d(16, 300), {1.5f * float(i), 0.2f * float(i % 2), 1.8f}, 500 + i);
+      scan.max_range = 14.0;
+      ASSERT_TRUE(mapper.insert(scan).inserted);
+      const ExportedMap map = mapper.exportMap();
+      if (std::string(map.octree_binary.begin(), map.octree_binary.end()) != exactExport(mapper)) ++exports_behind;
+    }
+    if (near > 14.0) EXPECT_EQ(exports_behind, 0);
+    else EXPECT_GT(exports_behind, 0);
+  }
+}
+
 // A 2-D scan down a corridor that opens onto nothing within range: the beams along it return nothing. With
 // clear_beam_gaps the space they crossed is free (to max_range, no occupied end); without, it stays unknown. A gap
 // wider than max_clear_gap_rad (a blind sector behind the scanner) stays unknown either way.

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
+#include <optional>
 
 using namespace ddsnav;
 
@@ -28,6 +29,8 @@ class MapperComponent : public runtime::Component {
     double max_range;
     double publish_rate_hz;
     double export_share;
+    double free_space_delay_s;
+    std::optional<double> free_space_near_m;
     int cloud_queue;
     std::string save_path;
     std::string frame;
@@ -92,6 +95,19 @@ class MapperComponent : public runtime::Component {
           {.above = 0, .max = 1,
            .doc = "at most this share of wall time goes to exporting the map for publishing (a 3-D terrain map: 20-60 ms, only the regions that changed are walked again; "
                   "1: publish at publish_rate_hz whatever it costs)"});
+      free_space_delay_s = p.declare<double>(
+          "free_space_delay_s", 1.0,
+          {.min = 0, .max = 60, .unit = "s",
+           .doc = "3-D: free space newly observed in open air (no occupied voxel in its region of 16 voxels or beside it) reaches "
+                  "the published map up to this late (such regions are walked again at most this often: a moving lidar's far rays "
+                  "find new free voxels in most of them on every scan); anything that turns occupied, or free from occupied, and new "
+                  "free space near a mapped surface go out at once; 0: every export is exact. 2-D maps publish everything at once "
+                  "(docs/world-model.md)"});
+      free_space_near_m = p.declareOptional<double>(
+          "free_space_near_m",
+          {.min = 0, .max = 1e5, .unit = "m",
+           .doc = "with free_space_delay_s: free space found within this distance of the sensor (on each axis) goes out at once "
+                  "too; default: a third of max_range"});
       cloud_queue = static_cast<int>(p.declare<std::int64_t>(
           "cloud_queue", 1,
           {.min = 1, .max = 100,
@@ -144,6 +160,12 @@ class MapperComponent : public runtime::Component {
       // A planar scanner's clouds lie in z = 0 (its origin too): map them on one slab.
       mapper::MapperConfig first = params_.config;
       if (first.dimensions == 0) first.dimensions = scan.origin.z == 0.0f && nodes::isPlanarCloud(nodes::pointsOf(cloud)) ? 2 : 3;
+      // In exports: one goes out at most every publish period. 2-D worlds read the free space at once (the unknown
+      // margin, the ellipses clipped to what the scanner saw free), and a 2-D export costs little.
+      if (first.dimensions == 3) {
+        first.free_discovery_delay_exports = static_cast<int>(std::lround(std::min(params_.free_space_delay_s * params_.publish_rate_hz, 1000.0)));
+        first.free_discovery_near_range_m = params_.free_space_near_m.value_or(params_.max_range / 3.0);
+      }
       map_ = std::make_unique<mapper::OccupancyMapper>(first);
       spdlog::info("mapping in {}-D at {} m, beams cut at {} m", first.dimensions, first.resolution, params_.max_range);
     }
@@ -169,7 +191,7 @@ class MapperComponent : public runtime::Component {
     // export_share of the wall time goes to them: the next one waits for the last one's time / export_share.
     const auto started = std::chrono::steady_clock::now();
     if (limited && started < next_export_) return;
-    const auto exported = map_->exportMap();
+    const auto exported = map_->exportMap(/*complete=*/!limited);
     const auto took = std::chrono::steady_clock::now() - started;
     next_export_ = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(took / params_.export_share);
     spdlog::debug("map/octomap: exported {} bytes in {:.1f} ms", exported.octree_binary.size(), std::chrono::duration<double, std::milli>(took).count());

@@ -90,6 +90,19 @@ struct MapperConfig {
   // one does, its return breaks the line and the fill stops there. Off by default (OctoMap's insertPointCloud).
   bool fill_surfaces_between_returns = false;
   double max_surface_fill_m = 0.0;
+  // exportMap(): a region of open air (16 voxels a side, no occupied voxel in it or in a region beside it) whose only
+  // change since its last walk is never-observed voxels now observed free keeps its last walk for up to this many
+  // exports before it is walked again; any other change of class (a voxel that turns occupied, or free from
+  // occupied), and new free space near a mapped surface (a window's inside, under an overhang), is exported at once.
+  // The export is then the live tree's maximum likelihood with some newly observed free space in open air not yet in
+  // it (as unknown), for at most this many exports. Why: a moving lidar's sparse far rays find new free voxels in most
+  // regions they cross on every scan, and walking those again every time was most of the mapper's export
+  // (docs/benchmarks/mapper.md, 2026-12-08). 0 (the library's default): every export is exactly OctoMap's writeBinary
+  // of the live tree.
+  int free_discovery_delay_exports = 0;
+  // With a delay: free space found within this distance of the scan's origin (on each axis) is exported at once as
+  // well — rays are dense there, and what the vehicle is about to fly through (a window it looks into) is there.
+  double free_discovery_near_range_m = 0.0;
 };
 
 // Empty when the config is valid, else one message naming the parameter and what was expected.
@@ -136,9 +149,12 @@ class OccupancyMapper {
   // NaN, more than max_points) or cleans them (non-finite points dropped) and says so in the result.
   InsertResult insert(const Scan& scan);
 
-  // True when an insertion updated at least one voxel since the last exportMap().
-  bool changedSinceExport() const { return changed_; }
-  ExportedMap exportMap();  // clears the changed flag
+  // True when an insertion updated at least one voxel since the last exportMap(), or when free space observed
+  // before it is still left out of the export (free_discovery_delay_exports).
+  bool changedSinceExport() const;
+  // Clears the changed flag. `complete`: no region's walk is put off (free_discovery_delay_exports): the bytes are
+  // exactly OctoMap's writeBinary of the live tree's maximum likelihood (a last map, a saved one).
+  ExportedMap exportMap(bool complete = false);
 
   // Writes the map as a .bt file (OcTree::writeBinaryConst). Throws std::runtime_error naming the path.
   void writeBt(const std::string& path) const;
