@@ -117,7 +117,7 @@ struct InsertCounts {
 // Which new free space the change report tags kFreeDiscoveryOnly: only voxels farther than `near_keys` keys (on any
 // axis) from the scan's origin; nearer ones are reported as any other change (0: none is nearer).
 struct FreeDiscoveryRule {
-  octomap::OcTreeKey origin{};
+  octomap::OcTreeKey origin{0, 0, 0};  // OcTreeKey's default constructor leaves its keys uninitialised
   int near_keys = 0;
 };
 
