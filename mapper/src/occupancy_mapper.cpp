@@ -587,10 +587,10 @@ ExportedMap OccupancyMapper::exportMap(bool complete) {
   ExportedMap map;
   const octomap::OcTree& tree = impl_->tree;
   // Kept walks are good only while their regions' classes stand; the OctoMap method reports no regions, so
-  // insert() dropped them all then. A region where unknown voxels were only observed free keeps its walk for up to
-  // free_discovery_delay_exports exports (a moving lidar's sparse far rays find new free voxels in most regions they
-  // cross on every scan: walking those again was over half of an export's time on a 3-D city block); every other
-  // change of class is exported at once.
+  // insert() dropped them all then. A region of open air where unknown voxels were only observed free keeps its walk
+  // for up to free_discovery_delay_exports exports (a moving lidar's sparse far rays find new free voxels in most
+  // regions they cross on every scan, and each was walked again at every export); every other change of class is
+  // exported at once.
   auto& delayed = impl_->delayed_regions;
   const std::uint64_t now = impl_->exports++;
   const std::vector<std::uint64_t> changed = impl_->inserter.takeChangedRegions();

@@ -349,6 +349,13 @@ std::unique_ptr<octomap::OcTree> readBack(const std::string& bytes) {
   return tree;
 }
 
+// Scan `i` of a lidar driven down the city block's street, 1.5 m apart, cut at 14 m.
+Scan streetScan(const CityBlock& city, int i, unsigned seed) {
+  Scan scan = simulateScan(city, lidar3d(16, 300), {1.5f * float(i), 0.2f * float(i % 2), 1.8f}, seed);
+  scan.max_range = 14.0;
+  return scan;
+}
+
 TEST(MapperExport, NewFreeSpaceIsExportedWithinTheDelayAndEveryOtherChangeAtOnce) {
   // free_discovery_delay_exports: a region of open air (no occupied voxel in it or beside it) where never-observed
   // voxels were only observed free keeps its last walk for up to that many exports. Every export still holds every
@@ -362,9 +369,7 @@ TEST(MapperExport, NewFreeSpaceIsExportedWithinTheDelayAndEveryOtherChangeAtOnce
   const CityBlock city = makeCityBlock(6);
   int exports_behind = 0;
   for (int i = 0; i < 8; ++i) {
-    Scan scan = simulateScan(city, lidar3d(16, 300), {1.5f * float(i), 0.2f * float(i % 2), 1.8f}, 300 + i);
-    scan.max_range = 14.0;
-    ASSERT_TRUE(mapper.insert(scan).inserted);
+    ASSERT_TRUE(mapper.insert(streetScan(city, i, 300 + i)).inserted);
     const ExportedMap map = mapper.exportMap();
     const std::string bytes(map.octree_binary.begin(), map.octree_binary.end());
     const auto exported = readBack(bytes);
@@ -396,9 +401,7 @@ TEST(MapperExport, NewFreeSpaceIsExportedWithinTheDelayAndEveryOtherChangeAtOnce
   EXPECT_EQ(std::string(settled.octree_binary.begin(), settled.octree_binary.end()), exactExport(mapper));
 
   // exportMap(complete) is exact at once; the OctoMap insertion method (which reports no regions) keeps none back.
-  Scan more = simulateScan(city, lidar3d(16, 300), {13.0f, 0.0f, 1.8f}, 400);
-  more.max_range = 14.0;
-  ASSERT_TRUE(mapper.insert(more).inserted);
+  ASSERT_TRUE(mapper.insert(streetScan(city, 9, 400)).inserted);
   const ExportedMap complete = mapper.exportMap(/*complete=*/true);
   EXPECT_EQ(std::string(complete.octree_binary.begin(), complete.octree_binary.end()), exactExport(mapper));
   EXPECT_FALSE(mapper.changedSinceExport());
@@ -420,9 +423,7 @@ TEST(MapperExport, FreeSpaceFoundNearTheSensorIsExportedAtOnce) {
     OccupancyMapper mapper(config);
     int exports_behind = 0;
     for (int i = 0; i < 6; ++i) {
-      Scan scan = simulateScan(city, lidar3d(16, 300), {1.5f * float(i), 0.2f * float(i % 2), 1.8f}, 500 + i);
-      scan.max_range = 14.0;
-      ASSERT_TRUE(mapper.insert(scan).inserted);
+      ASSERT_TRUE(mapper.insert(streetScan(city, i, 500 + i)).inserted);
       const ExportedMap map = mapper.exportMap();
       if (std::string(map.octree_binary.begin(), map.octree_binary.end()) != exactExport(mapper)) ++exports_behind;
     }
