@@ -521,7 +521,7 @@ InsertResult OccupancyMapper::insert(const Scan& scan) {
   if (config_.method == InsertMethod::kFast) {
     const detail::InsertCounts counts = impl_->inserter.insert(tree, cleaned, origin, scan.max_range, config_.discretize,
                                                                config_.threads, config_.pipeline, fill, clear_rays,
-                                                               config_.free_discovery_delay_exports > 0 ? config_.free_discovery_near_range_m : 0.0);
+                                                               config_.free_discovery_near_range_m);
     result.free_cells += counts.free_cells;
     result.occupied_cells += counts.occupied_cells;
     result.seconds_rays += counts.seconds_rays;
